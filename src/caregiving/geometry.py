@@ -1,0 +1,185 @@
+"""Planar shapes and the distance queries the caregiving stack is built on.
+
+Every footprint in the room is either a :class:`Circle` or an oriented
+:class:`Box` on the floor plane. Queries are vectorised over many points at
+once, so a whole walk can be checked against a shape in one numpy call.
+Signed distances are negative inside a shape.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Circle:
+    """A disc of radius ``r`` centred at ``(x, y)``."""
+
+    x: float
+    y: float
+    r: float
+
+
+@dataclass(frozen=True)
+class Box:
+    """A rectangle centred at ``(x, y)`` with half extents ``hx``, ``hy``, rotated by ``theta`` rad."""
+
+    x: float
+    y: float
+    hx: float
+    hy: float
+    theta: float = 0.0
+
+
+Shape = Circle | Box
+
+
+def as_points(points: ArrayLike) -> FloatArray:
+    """Return ``points`` as an ``(N, 2)`` float array (a single point becomes ``(1, 2)``)."""
+    arr = np.asarray(points, dtype=np.float64)
+    return arr.reshape(-1, 2)
+
+
+def _to_local(box: Box, pts: FloatArray) -> FloatArray:
+    c, s = math.cos(box.theta), math.sin(box.theta)
+    d = pts - (box.x, box.y)
+    return np.stack((c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]), axis=1)
+
+
+def _to_world(box: Box, local: FloatArray) -> FloatArray:
+    c, s = math.cos(box.theta), math.sin(box.theta)
+    return np.stack(
+        (c * local[:, 0] - s * local[:, 1] + box.x, s * local[:, 0] + c * local[:, 1] + box.y), axis=1
+    )
+
+
+def signed_distance(shape: Shape, points: ArrayLike) -> FloatArray:
+    """Signed distance from each point to the shape's boundary (negative inside)."""
+    pts = as_points(points)
+    if isinstance(shape, Circle):
+        return np.hypot(pts[:, 0] - shape.x, pts[:, 1] - shape.y) - shape.r
+    local = np.abs(_to_local(shape, pts)) - (shape.hx, shape.hy)
+    outside = np.hypot(np.maximum(local[:, 0], 0.0), np.maximum(local[:, 1], 0.0))
+    inside = np.minimum(np.maximum(local[:, 0], local[:, 1]), 0.0)
+    return outside + inside
+
+
+def closest_boundary_point(shape: Shape, points: ArrayLike) -> FloatArray:
+    """The point of the shape's boundary nearest to each query point."""
+    pts = as_points(points)
+    if isinstance(shape, Circle):
+        d = pts - (shape.x, shape.y)
+        n = np.hypot(d[:, 0], d[:, 1])
+        safe = np.where(n > 0.0, n, 1.0)
+        unit = np.where(n[:, None] > 0.0, d / safe[:, None], np.array([1.0, 0.0]))
+        return (shape.x, shape.y) + unit * shape.r
+    local = _to_local(shape, pts)
+    half = np.array([shape.hx, shape.hy])
+    clamped = np.clip(local, -half, half)
+    inside = np.all(np.abs(local) < half, axis=1)
+    if np.any(inside):
+        # Push interior points out through the nearest face.
+        gap = half - np.abs(local[inside])
+        axis = np.argmin(gap, axis=1)
+        rows = np.arange(axis.size)
+        moved = clamped[inside].copy()
+        moved[rows, axis] = np.copysign(half[axis], local[inside][rows, axis])
+        clamped[inside] = moved
+    return _to_world(shape, clamped)
+
+
+def corners(box: Box) -> FloatArray:
+    """The four corners of a box, counter-clockwise, as a ``(4, 2)`` array."""
+    local = np.array([[box.hx, box.hy], [-box.hx, box.hy], [-box.hx, -box.hy], [box.hx, -box.hy]])
+    return _to_world(box, local)
+
+
+def bounding_radius(shape: Shape) -> float:
+    """Radius of the smallest circle about the shape's centre that contains it."""
+    return shape.r if isinstance(shape, Circle) else math.hypot(shape.hx, shape.hy)
+
+
+def aabb(shape: Shape) -> tuple[float, float, float, float]:
+    """Axis-aligned bounds ``(xmin, ymin, xmax, ymax)``."""
+    if isinstance(shape, Circle):
+        return (shape.x - shape.r, shape.y - shape.r, shape.x + shape.r, shape.y + shape.r)
+    pts = corners(shape)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+
+
+def moved(shape: Shape, x: float, y: float, theta: float | None = None) -> Shape:
+    """The same shape placed at a new centre (and, for a box, heading)."""
+    if isinstance(shape, Circle):
+        return Circle(x, y, shape.r)
+    return Box(x, y, shape.hx, shape.hy, shape.theta if theta is None else theta)
+
+
+def shapes_overlap(a: Shape, b: Shape, margin: float = 0.0) -> bool:
+    """True when the shapes come closer than ``margin`` (exact for circles, conservative-exact for boxes)."""
+    if isinstance(a, Circle):
+        return bool(signed_distance(b, (a.x, a.y))[0] < a.r + margin)
+    if isinstance(b, Circle):
+        return shapes_overlap(b, a, margin)
+    # Box-box: distance between convex polygons is reached at a vertex of one against the other.
+    da = signed_distance(b, corners(a)).min()
+    db = signed_distance(a, corners(b)).min()
+    if min(da, db) < margin:
+        return True
+    return _edges_cross(corners(a), corners(b))
+
+
+def _edges_cross(pa: FloatArray, pb: FloatArray) -> bool:
+    for i in range(4):
+        p, r = pa[i], pa[(i + 1) % 4] - pa[i]
+        for j in range(4):
+            q, s = pb[j], pb[(j + 1) % 4] - pb[j]
+            denom = r[0] * s[1] - r[1] * s[0]
+            if abs(denom) < 1e-12:
+                continue
+            qp = q - p
+            t = (qp[0] * s[1] - qp[1] * s[0]) / denom
+            u = (qp[0] * r[1] - qp[1] * r[0]) / denom
+            if 0.0 <= t <= 1.0 and 0.0 <= u <= 1.0:
+                return True
+    return False
+
+
+def polyline_length(path: ArrayLike) -> float:
+    """Total length of a polyline given as ``(N, 2)`` points."""
+    pts = as_points(path)
+    if len(pts) < 2:
+        return 0.0
+    return float(np.hypot(*np.diff(pts, axis=0).T).sum())
+
+
+def resample_by_distance(path: ArrayLike, distances: ArrayLike) -> FloatArray:
+    """Points at the given arc-length distances along a polyline (clamped to its ends)."""
+    pts = as_points(path)
+    s = np.asarray(distances, dtype=np.float64)
+    if len(pts) == 1:
+        return np.repeat(pts, s.size, axis=0)
+    seg = np.hypot(*np.diff(pts, axis=0).T)
+    cum = np.concatenate(([0.0], np.cumsum(seg)))
+    s = np.clip(s, 0.0, cum[-1])
+    return np.stack((np.interp(s, cum, pts[:, 0]), np.interp(s, cum, pts[:, 1])), axis=1)
+
+
+def swept_clearance(shape: Shape, path: ArrayLike, radius: float, step: float) -> tuple[float, FloatArray]:
+    """Minimum clearance of a disc of ``radius`` swept along ``path``, sampled every ``step`` metres.
+
+    Returns the clearance and the disc centre where it is reached.
+    """
+    pts = as_points(path)
+    length = polyline_length(pts)
+    n = max(2, int(math.ceil(length / step)) + 1)
+    samples = resample_by_distance(pts, np.linspace(0.0, length, n))
+    clear = signed_distance(shape, samples) - radius
+    k = int(np.argmin(clear))
+    return float(clear[k]), samples[k]
