@@ -1,0 +1,194 @@
+"""The layout of the graph inside one pycrdt document, and the raw changes it reports.
+
+Four root maps:
+
+``nodes``       node id -> Map{"@type", "@name", attr: value, ...}. Only the
+                creator writes a node's key, once (ids are unique per creator),
+                so nested maps never conflict; attributes are written one key
+                at a time, so concurrent writers of different attributes never
+                lose each other's writes.
+``edges``       "src>dst>type" -> True: edge presence. Concurrent inserts of the
+                same edge both survive as one edge (add wins over a concurrent delete).
+``edge_attrs``  "src>dst>type.attr" -> value: flat, so concurrent inserts of the
+                same edge merge attribute by attribute instead of one nested map
+                replacing the other.
+``deleted``     node id -> True: tombstones, so a deleted id is never re-created.
+
+This module knows nothing of the ontology, events or transport: it writes,
+and it records which keys a transaction touched so :mod:`wm.index` can turn
+them into events once the transaction is over.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from pycrdt import Doc, Map, TransactionEvent
+
+from .errors import DecodeError
+
+TYPE_KEY = "@type"
+NAME_KEY = "@name"
+
+
+@dataclass
+class RawChanges:
+    """The keys one or more transactions touched, in the order they were reported."""
+
+    origin: Any = None
+    nodes_added: list[str] = field(default_factory=list)
+    nodes_removed: list[str] = field(default_factory=list)
+    node_attrs: dict[str, set[str]] = field(default_factory=dict)
+    edges_added: list[str] = field(default_factory=list)
+    edges_removed: list[str] = field(default_factory=list)
+    edge_attrs: dict[str, set[str]] = field(default_factory=dict)
+
+    def __bool__(self) -> bool:
+        return bool(
+            self.nodes_added or self.nodes_removed or self.node_attrs or self.edges_added or self.edges_removed or self.edge_attrs
+        )
+
+
+def _is_panic(exc: BaseException) -> bool:
+    return type(exc).__name__ == "PanicException"
+
+
+class CrdtStore:
+    """One pycrdt document holding one graph."""
+
+    def __init__(self, doc: Doc | None = None) -> None:
+        self.doc = doc if doc is not None else Doc()
+        self.nodes: Map = self.doc.get("nodes", type=Map)
+        self.edges: Map = self.doc.get("edges", type=Map)
+        self.edge_attrs: Map = self.doc.get("edge_attrs", type=Map)
+        self.deleted: Map = self.doc.get("deleted", type=Map)
+        self.pending = RawChanges()
+        self._subscriptions = [
+            self.nodes.observe_deep(self._on_nodes),
+            self.edges.observe(self._on_edges),
+            self.edge_attrs.observe(self._on_edge_attrs),
+        ]
+
+    # -- change capture ------------------------------------------------------
+
+    def take_changes(self) -> RawChanges:
+        changes, self.pending = self.pending, RawChanges()
+        return changes
+
+    def _note_origin(self, event: Any) -> None:
+        self.pending.origin = event.transaction.origin
+
+    def _on_nodes(self, events: list[Any]) -> None:
+        for event in events:
+            self._note_origin(event)
+            path = event.path
+            if not path:
+                for key, change in event.keys.items():
+                    action = change["action"]
+                    if action in ("delete", "update"):
+                        self.pending.nodes_removed.append(key)
+                    if action in ("add", "update"):
+                        self.pending.nodes_added.append(key)
+            else:
+                self.pending.node_attrs.setdefault(str(path[0]), set()).update(event.keys)
+
+    def _on_edges(self, event: Any) -> None:
+        self._note_origin(event)
+        for key, change in event.keys.items():
+            if change["action"] == "delete":
+                self.pending.edges_removed.append(key)
+            elif change["action"] == "add":
+                self.pending.edges_added.append(key)
+
+    def _on_edge_attrs(self, event: Any) -> None:
+        self._note_origin(event)
+        for flat_key in event.keys:
+            key, attr = flat_key.rsplit(".", 1)
+            self.pending.edge_attrs.setdefault(key, set()).add(attr)
+
+    # -- reads ---------------------------------------------------------------
+
+    def node_map(self, key: str) -> Map | None:
+        value = self.nodes.get(key)
+        return value if isinstance(value, Map) else None
+
+    def is_deleted(self, key: str) -> bool:
+        return key in self.deleted
+
+    def edge_attr_values(self, key: str, attrs: set[str]) -> dict[str, Any]:
+        values = {}
+        for attr in attrs:
+            value = self.edge_attrs.get(f"{key}.{attr}")
+            if value is not None:
+                values[attr] = value
+        return values
+
+    # -- writes (call inside a transaction) ----------------------------------
+
+    def create_node(self, key: str, node_type: str, name: str, attrs: dict[str, Any]) -> None:
+        self.nodes[key] = Map({TYPE_KEY: node_type, NAME_KEY: name, **attrs})
+
+    def set_node_attrs(self, key: str, attrs: dict[str, Any]) -> None:
+        node = self.nodes[key]
+        for attr, value in attrs.items():
+            node[attr] = value
+
+    def delete_node_attr(self, key: str, attr: str) -> None:
+        node = self.nodes[key]
+        if attr in node:
+            del node[attr]
+
+    def delete_node(self, key: str) -> None:
+        del self.nodes[key]
+        self.deleted[key] = True
+
+    def set_edge(self, key: str, attrs: dict[str, Any]) -> None:
+        if key not in self.edges:
+            self.edges[key] = True
+        for attr, value in attrs.items():
+            self.edge_attrs[f"{key}.{attr}"] = value
+
+    def delete_edge_attrs(self, key: str, attrs: set[str]) -> None:
+        for attr in attrs:
+            flat = f"{key}.{attr}"
+            if flat in self.edge_attrs:
+                del self.edge_attrs[flat]
+
+    def delete_edge(self, key: str, attrs: set[str]) -> None:
+        if key in self.edges:
+            del self.edges[key]
+        self.delete_edge_attrs(key, attrs)
+
+    # -- sync ----------------------------------------------------------------
+
+    def state_vector(self) -> bytes:
+        return self.doc.get_state()
+
+    def diff(self, state_vector: bytes | None = None) -> bytes:
+        """The update that brings a replica with ``state_vector`` up to date (everything if None)."""
+        try:
+            return self.doc.get_update(state_vector) if state_vector else self.doc.get_update()
+        except BaseException as exc:
+            if isinstance(exc, Exception) or _is_panic(exc):
+                raise DecodeError(f"malformed state vector: {exc}") from None
+            raise
+
+    def apply(self, update: bytes, origin: Any) -> None:
+        """Apply a remote update; malformed bytes raise :class:`DecodeError` and change nothing."""
+        try:
+            with self.doc.transaction(origin=origin):
+                self.doc.apply_update(update)
+        except BaseException as exc:
+            if isinstance(exc, Exception) or _is_panic(exc):
+                raise DecodeError(f"malformed CRDT update: {exc}") from None
+            raise
+
+    def observe_updates(self, callback: Callable[[bytes, Any], None]) -> Any:
+        """Call ``callback(update, origin)`` after every transaction that changed the document."""
+
+        def on_transaction(event: TransactionEvent) -> None:
+            callback(event.update, event.transaction.origin)
+
+        return self.doc.observe(on_transaction)

@@ -1,0 +1,458 @@
+"""``wm.Graph``: the working-memory graph of one replica.
+
+This is the public face of the library. It validates every write against the
+ontology, writes durable attributes one key at a time into the CRDT document
+(:mod:`wm.crdt_store`) and volatile ones into last-writer-wins registers
+(:mod:`wm.volatile`), keeps the local index up to date (:mod:`wm.index`) and
+publishes typed events (:mod:`wm.events`). Reads return immutable snapshots.
+
+It knows nothing of the network: :mod:`wm.replication` moves its updates.
+A Graph is not thread-safe; use it from one thread (the asyncio loop).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import msgpack
+
+from . import scene_json
+from .crdt_store import NAME_KEY, CrdtStore
+from .errors import (
+    DecodeError,
+    EdgeNotFoundError,
+    NameExistsError,
+    NodeExistsError,
+    NodeNotFoundError,
+    ValidationError,
+)
+from .events import Event, EventFilter, EventHub, EventKind, EventStream, Subscription
+from .ids import IdAllocator
+from .index import GraphIndex
+from .model import Edge, Node, edge_key, freeze
+from .ontology import ElementType, Ontology, Value
+from .rt import RTApi
+from .volatile import Record, VolatileStore, edge_owner, node_owner
+
+NodeRef = int | str
+SNAPSHOT_VERSION = 1
+
+
+class Graph:
+    """A typed graph replica: nodes with unique names, edges keyed by (src, dst, type)."""
+
+    def __init__(self, ontology: Ontology | None = None, *, replica_id: str | None = None) -> None:
+        self.ontology = ontology if ontology is not None else Ontology.default()
+        self._ids = IdAllocator()
+        self.replica_id = replica_id or f"{self._ids.prefix:08x}"
+        self._store = CrdtStore()
+        self._index = GraphIndex()
+        self._volatile = VolatileStore(self.replica_id)
+        self._hub = EventHub()
+        self._depth = 0
+        self._pending: list[Event] = []
+        self.rt = RTApi(self)
+
+    # -- transactions and events --------------------------------------------
+
+    @contextmanager
+    def batch(self) -> Iterator[None]:
+        """Hold events back until the last write of the block, so consumers see the block at once.
+
+        Writes inside the block are visible to reads at once; their deltas leave
+        in one message, as do all writes made in one loop tick.
+        """
+        self._depth += 1
+        try:
+            yield
+        finally:
+            self._depth -= 1
+            if self._depth == 0:
+                self._flush_events()
+
+    @contextmanager
+    def _transaction(self, crdt: bool = True) -> Iterator[None]:
+        """One local write. ``crdt=False`` skips the CRDT transaction for volatile-only writes."""
+        if crdt:
+            with self._store.doc.transaction(origin=self.replica_id):
+                yield
+        else:
+            yield
+        self._settle(self.replica_id, local=True)
+
+    def _settle(self, writer: str, local: bool) -> None:
+        """Turn what the last transaction touched into index updates and events, then repair."""
+        changes = self._store.take_changes()
+        if changes:
+            result = self._index.apply(self._store, changes, writer, local, self._volatile_attr_names)
+            for node_id in result.removed_nodes:
+                self._volatile.drop_owner(node_owner(node_id))
+            for key in result.removed_edges:
+                self._volatile.drop_owner(edge_owner(key))
+            self._pending.extend(result.events)
+            if result.dangling_edges:
+                self._delete_dangling(result.dangling_edges)
+            if result.name_conflicts:
+                self._rename_losers(result.name_conflicts)
+        if self._depth == 0:
+            self._flush_events()
+
+    def _flush_events(self) -> None:
+        events, self._pending = self._pending, []
+        if events:
+            self._hub.publish(_coalesce(events))
+
+    def _volatile_attr_names(self, owner: str) -> Iterable[str]:
+        return self._volatile.values(owner).keys()
+
+    def events(
+        self,
+        kind: str | Iterable[str] | None = None,
+        type: str | Iterable[str] | None = None,  # noqa: A002 - the documented keyword
+        name: str | Iterable[str] | None = None,
+        maxsize: int = 4096,
+    ) -> EventStream:
+        """An async iterator of matching events; when ``maxsize`` are pending the oldest is dropped."""
+        return self._hub.stream(EventFilter.of(kind, type, name), maxsize)
+
+    def on(
+        self,
+        callback: Callable[[Event], object],
+        kind: str | Iterable[str] | None = None,
+        type: str | Iterable[str] | None = None,  # noqa: A002
+        name: str | Iterable[str] | None = None,
+    ) -> Subscription:
+        """Call ``callback(event)`` for every matching event, after the change is complete."""
+        return self._hub.subscribe(callback, EventFilter.of(kind, type, name))
+
+    def publish_event(self, event: Event) -> None:
+        """Deliver an event that does not come from the graph itself (membership, from replication)."""
+        self._hub.publish([event])
+
+    @property
+    def callback_errors(self) -> int:
+        return self._hub.callback_errors
+
+    # -- nodes ---------------------------------------------------------------
+
+    def insert_node(self, type: str, name: str | None = None, attrs: Mapping[str, Any] | None = None) -> int:  # noqa: A002
+        """Create a node and return its new id. Its name must be unique (default ``<type>_<id>``)."""
+        element = self.ontology.node_type(type)
+        values = self.ontology.check_attrs(element, attrs)
+        if name is not None:
+            self._check_new_name(name)
+        node_id = self._ids.next_id(self.id_taken)
+        self._create_node(node_id, element, name if name is not None else f"{type}_{node_id}", values)
+        return node_id
+
+    def id_taken(self, node_id: int) -> bool:
+        """Whether ``node_id`` belongs to a live node or to a deleted one (ids are never reused)."""
+        return node_id in self._index.node_meta or self._store.is_deleted(str(node_id))
+
+    def _check_new_name(self, name: str) -> None:
+        if not isinstance(name, str) or not name or name.startswith("@"):
+            raise ValidationError(f"a node name must be a non-empty str not starting with '@', got {name!r}")
+        if self._index.resolve_name(name) is not None:
+            raise NameExistsError(f"a node named {name!r} already exists")
+
+    def _create_node(self, node_id: int, element: ElementType, name: str, values: dict[str, Value]) -> None:
+        durable, volatile = self._split(values)
+        key = str(node_id)
+        with self._transaction():
+            self._store.create_node(key, element.name, name, _to_crdt(durable))
+            for attr, value in volatile.items():
+                self._volatile.write(node_owner(node_id), attr, value)
+
+    def update_node(self, ref: NodeRef, attrs: Mapping[str, Any]) -> None:
+        """Write the given attributes, one by one; attributes not named are left as they are."""
+        node_id = self.resolve(ref)
+        values = self.ontology.check_attrs(self.ontology.node_type(self._index.node_meta[node_id][0]), attrs)
+        durable, volatile = self._split(values)
+        with self._transaction(crdt=bool(durable)):
+            if durable:
+                self._store.set_node_attrs(str(node_id), _to_crdt(durable))
+            if volatile:
+                self._write_volatile(node_owner(node_id), volatile)
+
+    def delete_attr(self, ref: NodeRef, attr: str) -> None:
+        """Remove one attribute of a node (a no-op if it is not set)."""
+        node_id = self.resolve(ref)
+        element = self.ontology.node_type(self._index.node_meta[node_id][0])
+        spec = self.ontology.attribute_for(element, attr)
+        with self._transaction(crdt=not spec.volatile):
+            if spec.volatile:
+                if self._volatile.has(node_owner(node_id), attr):
+                    self._write_volatile(node_owner(node_id), {attr: None})
+            else:
+                self._store.delete_node_attr(str(node_id), attr)
+
+    def rename_node(self, ref: NodeRef, new_name: str) -> None:
+        node_id = self.resolve(ref)
+        self._check_new_name(new_name)
+        with self._transaction():
+            self._store.set_node_attrs(str(node_id), {NAME_KEY: new_name})
+
+    def delete_node(self, ref: NodeRef) -> None:
+        """Delete a node and every edge to or from it. The id is never used again."""
+        node_id = self.resolve(ref)
+        with self._transaction():
+            for key in self._index.edges_of(node_id):
+                self._store.delete_edge(key, self._index.edge_attr_names.get(key, set()))
+            self._store.delete_node(str(node_id))
+
+    def resolve(self, ref: NodeRef) -> int:
+        """The id of a live node given its id or name."""
+        if isinstance(ref, bool) or not isinstance(ref, (int, str)):
+            raise NodeNotFoundError(f"a node is referred to by int id or str name, got {type(ref).__name__}")
+        if isinstance(ref, int):
+            if ref in self._index.node_meta:
+                return ref
+            raise NodeNotFoundError(f"no node with id {ref}")
+        node_id = self._index.resolve_name(ref)
+        if node_id is None:
+            raise NodeNotFoundError(f"no node named {ref!r}")
+        return node_id
+
+    def get_node(self, ref: NodeRef) -> Node:
+        """A snapshot of the node; raises :class:`NodeNotFoundError`."""
+        return self._node_snapshot(self.resolve(ref))
+
+    def find_node(self, ref: NodeRef) -> Node | None:
+        """A snapshot of the node, or None if there is no such node."""
+        try:
+            return self.get_node(ref)
+        except NodeNotFoundError:
+            return None
+
+    def nodes(self, type: str | None = None) -> list[Node]:  # noqa: A002
+        """Snapshots of every live node, or of one type, in id order."""
+        ids = self._index.node_meta if type is None else self._index.by_type.get(type, ())
+        return [self._node_snapshot(node_id) for node_id in sorted(ids)]
+
+    def node_count(self) -> int:
+        return len(self._index.node_meta)
+
+    def _node_snapshot(self, node_id: int) -> Node:
+        node_type, name = self._index.node_meta[node_id]
+        node_map = self._store.node_map(str(node_id))
+        decode = self.ontology.decode
+        attrs = {k: decode(k, v) for k, v in node_map.items() if k[0] != "@"} if node_map is not None else {}
+        for attr, value in self._volatile.values(node_owner(node_id)).items():
+            attrs[attr] = decode(attr, value)
+        return Node(node_id, node_type, name, freeze(attrs))
+
+    # -- edges ---------------------------------------------------------------
+
+    def insert_or_assign_edge(self, src: NodeRef, dst: NodeRef, type: str, attrs: Mapping[str, Any] | None = None) -> None:  # noqa: A002
+        """Create the edge if needed and write the given attributes, one by one."""
+        src_id, dst_id = self.resolve(src), self.resolve(dst)
+        element = self.ontology.edge_type(type)
+        values = self.ontology.check_attrs(element, attrs)
+        if type == "RT":
+            self.rt.check_new_edge(src_id, dst_id)
+        durable, volatile = self._split(values)
+        key = edge_key(src_id, dst_id, type)
+        with self._transaction(crdt=bool(durable) or key not in self._index.markers):
+            if durable or key not in self._index.markers:
+                self._store.set_edge(key, _to_crdt(durable))
+            if volatile:
+                self._write_volatile(edge_owner(key), volatile)
+
+    def get_edge(self, src: NodeRef, dst: NodeRef, type: str) -> Edge:  # noqa: A002
+        key = self._visible_edge_key(src, dst, type)
+        return self._edge_snapshot(key)
+
+    def find_edge(self, src: NodeRef, dst: NodeRef, type: str) -> Edge | None:  # noqa: A002
+        try:
+            return self.get_edge(src, dst, type)
+        except (EdgeNotFoundError, NodeNotFoundError):
+            return None
+
+    def delete_edge(self, src: NodeRef, dst: NodeRef, type: str) -> None:  # noqa: A002
+        key = self._visible_edge_key(src, dst, type)
+        with self._transaction():
+            self._store.delete_edge(key, self._index.edge_attr_names.get(key, set()))
+
+    def delete_edge_attr(self, src: NodeRef, dst: NodeRef, type: str, attr: str) -> None:  # noqa: A002
+        key = self._visible_edge_key(src, dst, type)
+        spec = self.ontology.attribute_for(self.ontology.edge_type(type), attr)
+        with self._transaction(crdt=not spec.volatile):
+            if spec.volatile:
+                if self._volatile.has(edge_owner(key), attr):
+                    self._write_volatile(edge_owner(key), {attr: None})
+            else:
+                self._store.delete_edge_attrs(key, {attr})
+
+    def edges(self, type: str | None = None, src: NodeRef | None = None, dst: NodeRef | None = None) -> list[Edge]:  # noqa: A002
+        """Snapshots of the visible edges matching every given filter."""
+        index = self._index
+        candidates: set[str] | None = None
+        if src is not None:
+            candidates = index.out_edges.get(self.resolve(src), set())
+        if dst is not None:
+            incoming = index.in_edges.get(self.resolve(dst), set())
+            candidates = incoming if candidates is None else candidates & incoming
+        if type is not None:
+            of_type = index.edge_type.get(type, set())
+            candidates = of_type if candidates is None else candidates & of_type
+        keys = index.visible if candidates is None else candidates & index.visible
+        return [self._edge_snapshot(key) for key in sorted(keys, key=index.markers.__getitem__)]
+
+    def _visible_edge_key(self, src: NodeRef, dst: NodeRef, edge_type: str) -> str:
+        key = edge_key(self.resolve(src), self.resolve(dst), edge_type)
+        if key not in self._index.visible:
+            raise EdgeNotFoundError(f"no edge {src!r} -[{edge_type}]-> {dst!r}")
+        return key
+
+    def _edge_snapshot(self, key: str) -> Edge:
+        src, dst, edge_type = self._index.markers[key]
+        decode = self.ontology.decode
+        stored = self._store.edge_attr_values(key, self._index.edge_attr_names.get(key, set()))
+        attrs = {k: decode(k, v) for k, v in stored.items()}
+        for attr, value in self._volatile.values(edge_owner(key)).items():
+            attrs[attr] = decode(attr, value)
+        return Edge(src, dst, edge_type, freeze(attrs))
+
+    # -- shared write helpers ------------------------------------------------
+
+    def _split(self, values: dict[str, Value]) -> tuple[dict[str, Value], dict[str, Value]]:
+        durable: dict[str, Value] = {}
+        volatile: dict[str, Value] = {}
+        for attr, value in values.items():
+            (volatile if self.ontology.is_volatile(attr) else durable)[attr] = value
+        return durable, volatile
+
+    def _write_volatile(self, owner: str, values: Mapping[str, Any]) -> None:
+        for attr, value in values.items():
+            self._volatile.write(owner, attr, value)
+        self._pending.extend(self._index.volatile_events([(owner, a) for a in values], self.replica_id, True))
+
+
+    def _delete_dangling(self, keys: list[str]) -> None:
+        with self._transaction():
+            for key in keys:
+                if key in self._store.edges:
+                    self._store.delete_edge(key, self._index.edge_attr_names.get(key, set()))
+
+    def _rename_losers(self, names: list[str]) -> None:
+        """Every replica renames the same losers to the same names, so the repair converges."""
+        with self._transaction():
+            for name in names:
+                ids = sorted(self._index.names.get(name, ()))
+                for loser in ids[1:]:
+                    self._store.set_node_attrs(str(loser), {NAME_KEY: f"{name}~{loser}"})
+
+    # -- replication hooks (used by wm.replication and wm.persistence) --------
+
+    def state_vector(self) -> bytes:
+        return self._store.state_vector()
+
+    def diff(self, state_vector: bytes | None = None) -> bytes:
+        """The CRDT update a replica with ``state_vector`` lacks (all of it when None)."""
+        return self._store.diff(state_vector)
+
+    def apply_update(self, update: bytes, writer: str) -> None:
+        """Apply a CRDT update received from replica ``writer``; malformed bytes raise DecodeError."""
+        try:
+            self._store.apply(update, origin=writer)
+        finally:
+            self._settle(writer, local=False)
+
+    def observe_updates(self, callback: Callable[[bytes, Any], None]) -> Any:
+        """``callback(update, origin)`` after every transaction; origin is the writer's replica id."""
+        return self._store.observe_updates(callback)
+
+    def take_volatile_outbox(self) -> list[Record]:
+        return self._volatile.take_outbox()
+
+    def volatile_records(self) -> list[Record]:
+        return self._volatile.records()
+
+    def merge_volatile(self, records: Iterable[Record], writer: str) -> None:
+        """Merge volatile registers received from ``writer`` (records of deleted nodes are ignored)."""
+        accepted = []
+        for record in records:
+            owner = record[0]
+            if owner.startswith("n:") and self._store.is_deleted(owner[2:]):
+                continue
+            accepted.append(record)
+        changed = self._volatile.merge(accepted)
+        if changed:
+            self._pending.extend(self._index.volatile_events(changed, writer, False))
+            if self._depth == 0:
+                self._flush_events()
+
+    def prune_volatile(self, older_than: float = 30.0) -> int:
+        """Forget registers of elements that no longer exist; returns how many owners were dropped."""
+
+        def alive(owner: str) -> bool:
+            kind, ident = owner.split(":", 1)
+            return int(ident) in self._index.node_meta if kind == "n" else ident in self._index.markers
+
+        return self._volatile.prune(alive, older_than)
+
+    def encode_state(self) -> bytes:
+        """The whole replica (CRDT state and volatile registers) as one byte string."""
+        return msgpack.packb(
+            {"v": SNAPSHOT_VERSION, "crdt": self._store.diff(), "volatile": self._volatile.records()}, use_bin_type=True
+        )
+
+    def load_state(self, data: bytes, writer: str = "snapshot") -> None:
+        """Merge a byte string made by :meth:`encode_state` (into an empty or a live replica)."""
+        try:
+            snapshot = msgpack.unpackb(data, raw=False)
+            crdt, records = snapshot["crdt"], [tuple(r) for r in snapshot["volatile"]]
+        except Exception as exc:
+            raise DecodeError(f"not a cortex-wm snapshot: {exc}") from None
+        self.apply_update(crdt, writer)
+        self.merge_volatile(records, writer)  # type: ignore[arg-type]
+
+    # -- JSON ----------------------------------------------------------------
+
+    def to_dict(self) -> dict[str, Any]:
+        return scene_json.graph_to_dict(self)
+
+    def to_json(self, indent: int | None = 2) -> str:
+        return scene_json.dumps(self.to_dict(), indent)
+
+    def load_json(self, source: str | Path | Mapping[str, Any], *, keep_ids: bool = True) -> scene_json.LoadReport:
+        """Insert a scene in our JSON format or DSR's (``{"DSRModel": {"symbols": ...}}``)."""
+        return scene_json.load_into(self, source, keep_ids=keep_ids)
+
+    def insert_node_with_id(self, node_id: int, type: str, name: str, attrs: Mapping[str, Any] | None = None) -> None:  # noqa: A002
+        """Create a node with a given id (scene import). A live or deleted id is refused."""
+        if isinstance(node_id, bool) or not isinstance(node_id, int) or not 0 < node_id < 2**53:
+            raise ValidationError(f"a node id is an int in 1..2**53, got {node_id!r}")
+        if self.id_taken(node_id):
+            raise NodeExistsError(f"node id {node_id} is in use or was deleted")
+        element = self.ontology.node_type(type)
+        values = self.ontology.check_attrs(element, attrs)
+        self._check_new_name(name)
+        self._create_node(node_id, element, name, values)
+
+
+def _to_crdt(values: Mapping[str, Value]) -> dict[str, Any]:
+    """Vectors are stored as lists; everything else as is."""
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in values.items()}
+
+
+def _coalesce(events: list[Event]) -> list[Event]:
+    """Merge repeated updates of one element within one transaction into one event."""
+    if len(events) < 2:
+        return events
+    slots: dict[tuple[Any, ...], int] = {}
+    result: list[Event] = []
+    for event in events:
+        if event.kind in (EventKind.NODE_UPDATED, EventKind.EDGE_UPDATED):
+            key = (event.kind, event.id, event.src, event.dst, event.type)
+            slot = slots.get(key)
+            if slot is not None:
+                result[slot] = replace(result[slot], attrs=result[slot].attrs | event.attrs)
+                continue
+            slots[key] = len(result)
+        result.append(event)
+    return result
