@@ -1,0 +1,1 @@
+"""Agent processes that read and write the working memory."""

@@ -1,0 +1,1 @@
+"""Bridges between the working memory and the outside world."""
