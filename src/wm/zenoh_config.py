@@ -64,6 +64,7 @@ __all__ = [
     "config_from_endpoints",
     "config_from_file",
     "deploy_dir",
+    "parse_variables",
     "render_template",
     "render_template_file",
     "template_path",
@@ -408,7 +409,7 @@ def build_config(
 # --------------------------------------------------------------------------
 
 
-def _parse_assignments(items: Sequence[str]) -> dict[str, Any]:
+def parse_variables(items: Sequence[str]) -> dict[str, Any]:
     """``NAME=VALUE`` pairs; a VALUE that parses as JSON (number, list, bool) is used as such."""
     out: dict[str, Any] = {}
     for item in items:
@@ -441,7 +442,7 @@ def _main(argv: Sequence[str] | None = None) -> int:
     p_run.add_argument("vars", nargs="*", metavar="NAME=VALUE")
     args = parser.parse_args(argv)
     try:
-        variables = _parse_assignments(args.vars)
+        variables = parse_variables(args.vars)
         if args.cmd == "render":
             text = render_template_file(args.template, args.output, variables)
             if args.output is None:

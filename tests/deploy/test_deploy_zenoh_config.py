@@ -1,0 +1,170 @@
+"""wm.zenoh_config: building configs from files, dicts and endpoints; templates; errors."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import zenoh
+
+from wm.zenoh_config import (
+    ZenohConfigError,
+    build_config,
+    config_from_dict,
+    config_from_endpoints,
+    config_from_file,
+    parse_variables,
+    render_template,
+    render_template_file,
+    template_path,
+    template_variables,
+)
+
+from deploy_helpers import ZENOH_DIR
+
+TEMPLATES = sorted(p.relative_to(ZENOH_DIR).as_posix() for p in ZENOH_DIR.rglob("*.json5"))
+ALL_VARS = {
+    "CERT_DIR": "/etc/cortex-wm/certs",
+    "AGENT": "perception",
+    "WRITERS": ["perception", "intention"],
+    "MONITORS": ["monitor"],
+    "ROUTERS": ["router"],
+}
+
+
+def get(config: zenoh.Config, key: str) -> object:
+    return json.loads(config.get_json(key))
+
+
+def test_templates_exist() -> None:
+    assert set(TEMPLATES) == {
+        "peer-loopback.json5",
+        "router.json5",
+        "client.json5",
+        "tls/router.json5",
+        "tls/client.json5",
+        "acl/router.json5",
+    }
+
+
+@pytest.mark.parametrize("name", TEMPLATES)
+def test_every_template_renders_to_a_valid_config(name: str, tmp_path: Path) -> None:
+    path = template_path(name)
+    needed = {k for k, default in template_variables(path.read_text()).items() if default is None}
+    variables = {k: v for k, v in ALL_VARS.items() if k in needed}
+    assert needed <= set(variables), f"{name} needs variables the test does not know: {needed - set(variables)}"
+    out = tmp_path / "out.json5"
+    render_template_file(path, out, variables)
+    assert "${" not in out.read_text().split("//")[0]
+    config = config_from_file(out)
+    assert get(config, "scouting/multicast/enabled") is False
+    assert get(config, "mode") in ("peer", "client", "router")
+
+
+def test_missing_variable_is_named(tmp_path: Path) -> None:
+    with pytest.raises(ZenohConfigError, match=r"AGENT.*CERT_DIR|CERT_DIR.*AGENT"):
+        config_from_file(template_path("tls/client.json5"))
+
+
+def test_defaults_and_whole_string_values() -> None:
+    text = '{a: "tcp/${H:-127.0.0.1}:${P}", b: "${L}", c: "${N}", d: "${B}"} // ${NOT_A_VAR}'
+    out = render_template(text, {"P": 7447, "L": ["x", "y"], "N": 3, "B": True})
+    assert out == '{a: "tcp/127.0.0.1:7447", b: ["x", "y"], c: 3, d: true} // ${NOT_A_VAR}'
+    with pytest.raises(ZenohConfigError, match="L is a list"):
+        render_template('{a: "x${L}"}', {"L": ["x"]})
+
+
+def test_missing_file() -> None:
+    with pytest.raises(ZenohConfigError, match="not found: /nonexistent/zenoh.json5"):
+        build_config("/nonexistent/zenoh.json5")
+
+
+def test_invalid_json5(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.json5"
+    bad.write_text("{ mode: 'peer', listen: ")
+    with pytest.raises(ZenohConfigError, match=r"invalid Zenoh JSON5 config in .*bad\.json5"):
+        build_config(bad)
+
+
+def test_unknown_key_is_reported(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.json5"
+    bad.write_text("{ transport: { link: { tls: { client_auth: true } } } }")
+    with pytest.raises(ZenohConfigError, match="unknown field `client_auth`"):
+        build_config(bad)
+
+
+def test_zenoh_config_error_is_a_value_error() -> None:
+    assert issubclass(ZenohConfigError, ValueError)
+
+
+def test_multicast_off_unless_file_says_otherwise(tmp_path: Path) -> None:
+    plain = tmp_path / "plain.json5"
+    plain.write_text("{ mode: 'peer' }")
+    assert get(build_config(plain), "scouting/multicast/enabled") is False
+    on = tmp_path / "on.json5"
+    on.write_text("{ mode: 'peer', scouting: { multicast: { enabled: true } } }")
+    assert get(build_config(on), "scouting/multicast/enabled") is True
+    assert get(config_from_dict({"mode": "peer"}), "scouting/multicast/enabled") is False
+    assert get(config_from_endpoints(), "scouting/multicast/enabled") is False
+
+
+def test_endpoints_and_mode_override_file() -> None:
+    config = build_config(
+        template_path("router.json5"),
+        variables={"ROUTER_PORT": 7500},
+        connect=["tcp/10.213.77.2:7500"],
+    )
+    assert get(config, "mode") == "router"
+    assert get(config, "listen/endpoints") == ["tcp/0.0.0.0:7500"]
+    assert get(config, "connect/endpoints") == ["tcp/10.213.77.2:7500"]
+    config = build_config(mode="client", connect="tcp/127.0.0.1:7447")
+    assert get(config, "mode") == "client"
+    assert get(config, "connect/endpoints") == ["tcp/127.0.0.1:7447"]
+
+
+def test_dict_with_overrides() -> None:
+    config = build_config(
+        {"mode": "peer", "listen": {"endpoints": ["tcp/127.0.0.1:0"]}},
+        overrides={"transport/link/tls/enable_mtls": True},
+    )
+    assert get(config, "transport/link/tls/enable_mtls") is True
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"mode": "server"}, "bad Zenoh mode 'server'"),
+        ({"connect": ["127.0.0.1:7447"]}, "bad connect endpoint '127.0.0.1:7447'"),
+        ({"listen": ["tcp/ 1"]}, "bad listen endpoint"),
+        ({"overrides": {"scouting/nonsense": 1}}, "cannot set 'scouting/nonsense'"),
+    ],
+)
+def test_bad_arguments(kwargs: dict[str, object], match: str) -> None:
+    with pytest.raises(ZenohConfigError, match=match):
+        build_config(**kwargs)  # type: ignore[arg-type]
+
+
+def test_bad_sources() -> None:
+    with pytest.raises(ZenohConfigError, match="path or a mapping"):
+        build_config(42)  # type: ignore[arg-type]
+    with pytest.raises(ZenohConfigError, match="only apply to config files"):
+        build_config({"mode": "peer"}, variables={"A": 1})
+    with pytest.raises(ZenohConfigError, match="not JSON-serialisable"):
+        config_from_dict({"mode": object()})
+
+
+def test_parse_variables() -> None:
+    assert parse_variables(["P=7447", 'L=["a","b"]', "D=/tmp/x", "H=localhost"]) == {
+        "P": 7447,
+        "L": ["a", "b"],
+        "D": "/tmp/x",
+        "H": "localhost",
+    }
+    with pytest.raises(ZenohConfigError, match="NAME=VALUE"):
+        parse_variables(["nope"])
+
+
+def test_unknown_template() -> None:
+    with pytest.raises(ZenohConfigError, match="no Zenoh config template 'nope.json5'"):
+        template_path("nope.json5")
