@@ -1,0 +1,197 @@
+"""Grid path planning for walkers (people and the robot) in a room.
+
+The room is rasterised at 5 cm. Only the obstacles handed in are drawn, each
+inflated by the walker's radius plus a small safety margin; the inflated mask of
+every (obstacle, radius) pair is cached, so replanning after a gaze or pose change
+only ORs cached masks. Reachability is decided first with ``scipy.ndimage.label``
+(an unreachable goal costs a labelling, not an exhaustive search), then
+``tcod.path.path2d`` runs optimal A* (octile costs 70/99) from every goal cell to
+the start at once. The cell path is string-pulled into a short polyline in metres.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import tcod.path
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from .geometry import FloatArray, Shape, aabb, polyline_length, signed_distance
+from .scene import Obstacle
+
+_EIGHT = np.ones((3, 3), dtype=bool)
+_CARDINAL, _DIAGONAL = 70, 99
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A planned walk: ``path`` is an ``(N, 2)`` polyline in metres, empty when unreachable."""
+
+    reachable: bool
+    path: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
+    length: float = math.inf
+
+
+UNREACHABLE = Plan(False)
+
+
+@dataclass(frozen=True)
+class _Mask:
+    i0: int
+    j0: int
+    cells: NDArray[np.bool_]
+
+
+class GridPlanner:
+    """Occupancy-grid planner over fixed room bounds with a per-obstacle inflation cache."""
+
+    def __init__(self, bounds: tuple[float, float, float, float], resolution: float = 0.05,
+                 margin: float | None = None, cache_size: int = 4096) -> None:
+        self.bounds = bounds
+        self.resolution = resolution
+        self.margin = resolution if margin is None else margin
+        self.shape = (int(math.ceil((bounds[2] - bounds[0]) / resolution)),
+                      int(math.ceil((bounds[3] - bounds[1]) / resolution)))
+        self._cache: OrderedDict[tuple[Shape, float], _Mask] = OrderedDict()
+        self._cache_size = cache_size
+        self.cache_hits = 0
+        self.cache_misses = 0
+
+    # -- grid helpers -------------------------------------------------------------------------
+    def cell_of(self, x: float, y: float) -> tuple[int, int]:
+        """The grid cell holding a point (clamped to the grid)."""
+        i = int((x - self.bounds[0]) / self.resolution)
+        j = int((y - self.bounds[1]) / self.resolution)
+        return min(max(i, 0), self.shape[0] - 1), min(max(j, 0), self.shape[1] - 1)
+
+    def centres(self, cells: NDArray[np.integer]) -> FloatArray:
+        """Centres in metres of an ``(N, 2)`` array of cells."""
+        return (np.asarray(cells, dtype=np.float64) + 0.5) * self.resolution + self.bounds[:2]
+
+    def clear_cache(self) -> None:
+        """Forget every cached inflated mask."""
+        self._cache.clear()
+
+    def _inflated(self, shape: Shape, inflate: float) -> _Mask:
+        key = (shape, round(inflate, 6))
+        mask = self._cache.get(key)
+        if mask is not None:
+            self.cache_hits += 1
+            self._cache.move_to_end(key)
+            return mask
+        self.cache_misses += 1
+        x0, y0, x1, y1 = aabb(shape)
+        i0, j0 = self.cell_of(x0 - inflate, y0 - inflate)
+        i1, j1 = self.cell_of(x1 + inflate, y1 + inflate)
+        ii, jj = np.meshgrid(np.arange(i0, i1 + 1), np.arange(j0, j1 + 1), indexing="ij")
+        pts = self.centres(np.stack((ii.ravel(), jj.ravel()), axis=1))
+        cells = (signed_distance(shape, pts) <= inflate).reshape(ii.shape)
+        mask = _Mask(i0, j0, cells)
+        self._cache[key] = mask
+        if len(self._cache) > self._cache_size:
+            self._cache.popitem(last=False)
+        return mask
+
+    def blocked(self, obstacles: Sequence[Obstacle], radius: float) -> NDArray[np.bool_]:
+        """Cells a walker of ``radius`` cannot occupy, given only ``obstacles``."""
+        grid = np.zeros(self.shape, dtype=bool)
+        for obs in obstacles:
+            m = self._inflated(obs.shape, radius + self.margin)
+            grid[m.i0:m.i0 + m.cells.shape[0], m.j0:m.j0 + m.cells.shape[1]] |= m.cells
+        return grid
+
+    # -- planning -----------------------------------------------------------------------------
+    def plan_to_object(self, start: tuple[float, float], target: Obstacle, obstacles: Sequence[Obstacle],
+                       radius: float) -> Plan:
+        """Shortest walk from ``start`` to a free cell touching the target's inflated footprint."""
+        others = [o for o in obstacles if o.name != target.name]
+        grid = self.blocked([*others, target], radius)
+        tm = self._inflated(target.shape, radius + self.margin)
+        pad = np.zeros(self.shape, dtype=bool)
+        pad[tm.i0:tm.i0 + tm.cells.shape[0], tm.j0:tm.j0 + tm.cells.shape[1]] = tm.cells
+        lo_i, lo_j = max(tm.i0 - 1, 0), max(tm.j0 - 1, 0)
+        hi_i, hi_j = tm.i0 + tm.cells.shape[0] + 1, tm.j0 + tm.cells.shape[1] + 1
+        window = pad[lo_i:hi_i, lo_j:hi_j]
+        ring = np.zeros(self.shape, dtype=bool)
+        ring[lo_i:hi_i, lo_j:hi_j] = ndimage.binary_dilation(window, _EIGHT) & ~window
+        return self._search(start, grid, ring)
+
+    def plan_to_point(self, start: tuple[float, float], goal: tuple[float, float], obstacles: Sequence[Obstacle],
+                      radius: float) -> Plan:
+        """Shortest walk from ``start`` to ``goal``; unreachable if the goal cell is blocked."""
+        grid = self.blocked(obstacles, radius)
+        goals = np.zeros(self.shape, dtype=bool)
+        goals[self.cell_of(*goal)] = True
+        plan = self._search(start, grid, goals)
+        if plan.reachable:
+            path = np.vstack((plan.path, np.asarray(goal, dtype=np.float64)))
+            return Plan(True, path, polyline_length(path))
+        return plan
+
+    def _search(self, start: tuple[float, float], grid: NDArray[np.bool_], goals: NDArray[np.bool_]) -> Plan:
+        start_cell = self._free_cell_near(start, grid)
+        if start_cell is None:
+            return UNREACHABLE
+        labels, _ = ndimage.label(~grid, structure=_EIGHT)
+        goal_cells = np.argwhere(goals & ~grid & (labels == labels[start_cell]))
+        if goal_cells.size == 0:
+            return UNREACHABLE
+        cost = (~grid).astype(np.int8)
+        cells = tcod.path.path2d(cost, start_points=[tuple(c) for c in goal_cells.tolist()],
+                                 end_points=[start_cell], cardinal=_CARDINAL, diagonal=_DIAGONAL)
+        if len(cells) == 0:
+            return UNREACHABLE
+        pts = np.vstack((np.asarray(start, dtype=np.float64), self.centres(cells[::-1][1:])))
+        path = self._string_pull(pts, grid)
+        return Plan(True, path, polyline_length(path))
+
+    def _free_cell_near(self, point: tuple[float, float], grid: NDArray[np.bool_]) -> tuple[int, int] | None:
+        """The point's cell, or the nearest free cell within two cells when it is blocked."""
+        i, j = self.cell_of(*point)
+        if not grid[i, j]:
+            return i, j
+        lo_i, lo_j = max(i - 2, 0), max(j - 2, 0)
+        free = np.argwhere(~grid[lo_i:i + 3, lo_j:j + 3]) + (lo_i, lo_j)
+        if free.size == 0:
+            return None
+        d = np.hypot(*(self.centres(free) - point).T)
+        best = free[int(np.argmin(d))]
+        return int(best[0]), int(best[1])
+
+    def _string_pull(self, pts: FloatArray, grid: NDArray[np.bool_]) -> FloatArray:
+        """Keep only the waypoints needed for straight segments that stay on free cells."""
+        if len(pts) <= 2:
+            return pts
+        # Candidate waypoints: the cells where the grid path turns, plus the goal.
+        step = np.diff(pts[1:], axis=0)
+        turns = np.flatnonzero(np.any(np.abs(np.diff(step, axis=0)) > 1e-9, axis=1)) + 2
+        keys = np.concatenate(([1], turns, [len(pts) - 1]))
+        out = [pts[0]]
+        anchor = 0
+        while anchor < len(pts) - 1:
+            ahead = keys[keys > anchor]
+            if self._clear(pts[anchor], pts[-1:], grid, anchor == 0)[0]:
+                nxt = len(pts) - 1
+            else:
+                clear = np.flatnonzero(self._clear(pts[anchor], pts[ahead], grid, anchor == 0))
+                nxt = int(ahead[clear[-1]]) if clear.size else anchor + 1
+            out.append(pts[nxt])
+            anchor = nxt
+        return np.asarray(out)
+
+    def _clear(self, origin: FloatArray, ends: FloatArray, grid: NDArray[np.bool_], skip_origin: bool
+               ) -> NDArray[np.bool_]:
+        """For each end point, whether the segment from ``origin`` crosses only free cells."""
+        seg = ends - origin
+        n = int(math.ceil(float(np.hypot(seg[:, 0], seg[:, 1]).max()) / (self.resolution / 2))) + 1
+        t = np.linspace(0.0, 1.0, n)[int(skip_origin):]  # the start itself may sit on a blocked cell
+        samples = origin + seg[:, None, :] * t[None, :, None]
+        idx = np.floor((samples - self.bounds[:2]) / self.resolution).astype(np.intp)
+        i = np.clip(idx[..., 0], 0, self.shape[0] - 1)
+        j = np.clip(idx[..., 1], 0, self.shape[1] - 1)
+        return ~grid[i, j].any(axis=1)

@@ -1,0 +1,117 @@
+"""What a person can see: a horizontal field-of-view cone and a vertical gaze window.
+
+An object is seen when its footprint overlaps the horizontal cone about the
+person's heading *and* its elevation span, seen from the eyes, overlaps the
+vertical window ``[gaze - vfov/2, gaze + vfov/2]``. A low ball close by sits
+below the window, which is why the paper's person walks into it. Walls are
+always known (people know their own room). Since each object is seen for one
+interval of gaze, the gaze range splits into a few classes with the same visible
+set: :func:`gaze_classes` enumerates them exactly, so no sampling is needed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .geometry import Circle, bounding_radius, corners, signed_distance
+from .scene import Obstacle, PersonState
+
+WALL_KIND = "wall"
+
+
+def _wrap(angle: float | np.ndarray) -> float | np.ndarray:
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+def in_horizontal_fov(person: PersonState, obstacle: Obstacle) -> bool:
+    """Whether any part of the footprint lies inside the person's horizontal cone."""
+    shape = obstacle.shape
+    if signed_distance(shape, (person.x, person.y))[0] <= 0.0:
+        return True
+    centre = math.atan2(shape.y - person.y, shape.x - person.x)
+    if isinstance(shape, Circle):
+        dist = math.hypot(shape.x - person.x, shape.y - person.y)
+        half = math.asin(min(1.0, shape.r / dist))
+        lo, hi = -half, half
+    else:
+        pts = corners(shape)
+        rel = _wrap(np.arctan2(pts[:, 1] - person.y, pts[:, 0] - person.x) - centre)
+        lo, hi = float(np.min(rel)), float(np.max(rel))
+    offset = float(_wrap(centre - person.heading))
+    return offset + hi >= -person.hfov / 2 and offset + lo <= person.hfov / 2
+
+
+def elevation_span(person: PersonState, obstacle: Obstacle) -> tuple[float, float]:
+    """Lowest and highest elevation (rad, up positive) of the object seen from the eyes."""
+    near = max(float(signed_distance(obstacle.shape, (person.x, person.y))[0]), 1e-3)
+    far = math.hypot(obstacle.shape.x - person.x, obstacle.shape.y - person.y) + bounding_radius(obstacle.shape)
+    top = obstacle.height - person.eye_height
+    low = math.atan2(-person.eye_height, near)
+    high = math.atan2(top, far if top < 0.0 else near)
+    return low, high
+
+
+def gaze_interval(person: PersonState, obstacle: Obstacle) -> tuple[float, float] | None:
+    """The gaze pitches for which the object is seen, or ``None`` if it is outside the cone."""
+    if obstacle.kind == WALL_KIND:
+        return (-math.pi / 2, math.pi / 2)
+    if not in_horizontal_fov(person, obstacle):
+        return None
+    low, high = elevation_span(person, obstacle)
+    return low - person.vfov / 2, high + person.vfov / 2
+
+
+def can_see(person: PersonState, obstacle: Obstacle, gaze: float) -> bool:
+    """Whether the person, gazing at pitch ``gaze`` (rad), sees the obstacle."""
+    interval = gaze_interval(person, obstacle)
+    return interval is not None and interval[0] <= gaze <= interval[1]
+
+
+def visible(person: PersonState, obstacles: Iterable[Obstacle], gaze: float) -> tuple[Obstacle, ...]:
+    """The obstacles seen at gaze ``gaze`` (walls always included)."""
+    return tuple(o for o in obstacles if can_see(person, o, gaze))
+
+
+def candidate_targets(person: PersonState, obstacles: Iterable[Obstacle]) -> tuple[Obstacle, ...]:
+    """Possible destinations inside the person's horizontal cone (Algorithm 1, line 5)."""
+    return tuple(o for o in obstacles if o.target and in_horizontal_fov(person, o))
+
+
+@dataclass(frozen=True)
+class GazeClass:
+    """A sub-range of gaze pitches over which the person sees the same objects."""
+
+    low: float
+    high: float
+    visible: frozenset[str]
+
+    @property
+    def gaze(self) -> float:
+        """A representative gaze of the class (its midpoint)."""
+        return (self.low + self.high) / 2
+
+
+def gaze_classes(person: PersonState, obstacles: Sequence[Obstacle]) -> tuple[GazeClass, ...]:
+    """Split ``[gaze_min, gaze_max]`` into the classes with distinct visible sets, in order."""
+    intervals = {o.name: gaze_interval(person, o) for o in obstacles}
+    if person.gaze_max <= person.gaze_min:
+        g = person.gaze_min
+        return (GazeClass(g, g, frozenset(n for n, iv in intervals.items() if iv is not None and iv[0] <= g <= iv[1])),)
+    cuts = {person.gaze_min, person.gaze_max}
+    for interval in intervals.values():
+        if interval is not None:
+            cuts.update(c for c in interval if person.gaze_min < c < person.gaze_max)
+    edges = sorted(cuts)
+    classes: list[GazeClass] = []
+    for low, high in zip(edges[:-1], edges[1:], strict=True):
+        mid = (low + high) / 2
+        seen = frozenset(n for n, iv in intervals.items() if iv is not None and iv[0] <= mid <= iv[1])
+        if classes and classes[-1].visible == seen:
+            classes[-1] = GazeClass(classes[-1].low, high, seen)
+        else:
+            classes.append(GazeClass(low, high, seen))
+    return tuple(classes)
