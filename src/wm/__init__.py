@@ -4,6 +4,7 @@ A typed graph of nodes and edges with typed attributes and RT (geometric)
 edges, replicated as a CRDT. Start with :class:`wm.Graph` for a local replica.
 """
 
+from .connection import ConnectError, connect
 from .errors import (
     AttributeTypeError,
     DecodeError,
@@ -27,7 +28,7 @@ from .ontology import AttributeSpec, Ontology
 from .rt import se2
 
 __all__ = [
-    "AttributeSpec", "AttributeTypeError", "DecodeError", "Edge", "EdgeNotFoundError", "Event", "EventKind",
+    "AttributeSpec", "AttributeTypeError", "ConnectError", "connect", "DecodeError", "Edge", "EdgeNotFoundError", "Event", "EventKind",
     "EventStream", "Graph", "NameExistsError", "Node", "NodeExistsError", "NodeNotFoundError", "NotFoundError",
     "Ontology", "OntologyError", "RTError", "SceneFormatError", "Subscription", "UnknownAttributeError",
     "UnknownTypeError", "ValidationError", "WMError", "se2",

@@ -21,7 +21,8 @@ them into events once the transaction is over.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -37,7 +38,6 @@ NAME_KEY = "@name"
 class RawChanges:
     """The keys one or more transactions touched, in the order they were reported."""
 
-    origin: Any = None
     nodes_added: list[str] = field(default_factory=list)
     nodes_removed: list[str] = field(default_factory=list)
     node_attrs: dict[str, set[str]] = field(default_factory=dict)
@@ -65,6 +65,7 @@ class CrdtStore:
         self.edge_attrs: Map = self.doc.get("edge_attrs", type=Map)
         self.deleted: Map = self.doc.get("deleted", type=Map)
         self.pending = RawChanges()
+        self.current_origin: Any = None
         self._subscriptions = [
             self.nodes.observe_deep(self._on_nodes),
             self.edges.observe(self._on_edges),
@@ -77,12 +78,19 @@ class CrdtStore:
         changes, self.pending = self.pending, RawChanges()
         return changes
 
-    def _note_origin(self, event: Any) -> None:
-        self.pending.origin = event.transaction.origin
+    @contextmanager
+    def transaction(self, origin: Any) -> Iterator[None]:
+        """A document transaction whose changes are attributed to ``origin`` (a replica id)."""
+        outer = self.current_origin
+        self.current_origin = origin
+        try:
+            with self.doc.transaction(origin=origin):
+                yield
+        finally:
+            self.current_origin = outer
 
     def _on_nodes(self, events: list[Any]) -> None:
         for event in events:
-            self._note_origin(event)
             path = event.path
             if not path:
                 for key, change in event.keys.items():
@@ -95,7 +103,6 @@ class CrdtStore:
                 self.pending.node_attrs.setdefault(str(path[0]), set()).update(event.keys)
 
     def _on_edges(self, event: Any) -> None:
-        self._note_origin(event)
         for key, change in event.keys.items():
             if change["action"] == "delete":
                 self.pending.edges_removed.append(key)
@@ -103,7 +110,6 @@ class CrdtStore:
                 self.pending.edges_added.append(key)
 
     def _on_edge_attrs(self, event: Any) -> None:
-        self._note_origin(event)
         for flat_key in event.keys:
             key, attr = flat_key.rsplit(".", 1)
             self.pending.edge_attrs.setdefault(key, set()).add(attr)
@@ -178,7 +184,7 @@ class CrdtStore:
     def apply(self, update: bytes, origin: Any) -> None:
         """Apply a remote update; malformed bytes raise :class:`DecodeError` and change nothing."""
         try:
-            with self.doc.transaction(origin=origin):
+            with self.transaction(origin):
                 self.doc.apply_update(update)
         except BaseException as exc:
             if isinstance(exc, Exception) or _is_panic(exc):
@@ -189,6 +195,6 @@ class CrdtStore:
         """Call ``callback(update, origin)`` after every transaction that changed the document."""
 
         def on_transaction(event: TransactionEvent) -> None:
-            callback(event.update, event.transaction.origin)
+            callback(event.update, self.current_origin)
 
         return self.doc.observe(on_transaction)

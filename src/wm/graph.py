@@ -16,7 +16,7 @@ from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import msgpack
 
@@ -38,6 +38,9 @@ from .ontology import ElementType, Ontology, Value
 from .rt import RTApi
 from .volatile import Record, VolatileStore, edge_owner, node_owner
 
+if TYPE_CHECKING:
+    from .replication import Replicator
+
 NodeRef = int | str
 SNAPSHOT_VERSION = 1
 
@@ -55,6 +58,9 @@ class Graph:
         self._hub = EventHub()
         self._depth = 0
         self._pending: list[Event] = []
+        self._write_listeners: list[Callable[[], None]] = []
+        self._members: dict[str, str] = {}
+        self.network: Replicator | None = None  # set while connected, see wm.connect
         self.rt = RTApi(self)
 
     # -- transactions and events --------------------------------------------
@@ -78,7 +84,7 @@ class Graph:
     def _transaction(self, crdt: bool = True) -> Iterator[None]:
         """One local write. ``crdt=False`` skips the CRDT transaction for volatile-only writes."""
         if crdt:
-            with self._store.doc.transaction(origin=self.replica_id):
+            with self._store.transaction(self.replica_id):
                 yield
         else:
             yield
@@ -98,6 +104,9 @@ class Graph:
                 self._delete_dangling(result.dangling_edges)
             if result.name_conflicts:
                 self._rename_losers(result.name_conflicts)
+        if local:
+            for listener in self._write_listeners:
+                listener()
         if self._depth == 0:
             self._flush_events()
 
@@ -129,9 +138,20 @@ class Graph:
         """Call ``callback(event)`` for every matching event, after the change is complete."""
         return self._hub.subscribe(callback, EventFilter.of(kind, type, name))
 
-    def publish_event(self, event: Event) -> None:
-        """Deliver an event that does not come from the graph itself (membership, from replication)."""
-        self._hub.publish([event])
+    def members(self) -> dict[str, str]:
+        """Replica id -> agent name of every live replica of this graph that this one knows of."""
+        return dict(self._members) if self._members else {self.replica_id: "local"}
+
+    def note_member(self, replica: str, agent: str, joined: bool) -> None:
+        """Record a replica joining or leaving (called by replication) and publish the event."""
+        if joined == (replica in self._members):
+            return
+        if joined:
+            self._members[replica] = agent
+        else:
+            self._members.pop(replica, None)
+        kind = EventKind.MEMBER_JOINED if joined else EventKind.MEMBER_LEFT
+        self._hub.publish([Event(kind, "member", replica, replica == self.replica_id, name=agent)])
 
     @property
     def callback_errors(self) -> int:
@@ -361,6 +381,10 @@ class Graph:
             self._store.apply(update, origin=writer)
         finally:
             self._settle(writer, local=False)
+
+    def add_write_listener(self, listener: Callable[[], None]) -> None:
+        """Call ``listener()`` after every local write (durable or volatile)."""
+        self._write_listeners.append(listener)
 
     def observe_updates(self, callback: Callable[[bytes, Any], None]) -> Any:
         """``callback(update, origin)`` after every transaction; origin is the writer's replica id."""

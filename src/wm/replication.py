@@ -1,0 +1,329 @@
+"""The Zenoh provider: keeps one :class:`wm.Graph` in step with its peers.
+
+It moves the messages of :mod:`wm.sync_protocol` over one Zenoh session:
+
+* local writes of one loop tick leave as one DELTA on ``wm/<g>/delta/<me>``;
+* remote DELTAs are applied on the loop thread (Zenoh callbacks only hand the
+  bytes over with ``call_soon_threadsafe``), never echoed back;
+* a gap in a sender's sequence numbers, or a HEARTBEAT showing state we lack,
+  triggers an immediate SYNC_REQUEST to that sender's queryable;
+* a joining replica catches up from any live member (the durable ``serve``
+  member first, if there is one);
+* membership comes from liveliness tokens ``wm/<g>/alive/<me>/<agent>``.
+
+Malformed bytes are logged with the key they came on, counted in
+:attr:`ReplicationStats.rejected`, and dropped; the replica is untouched.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import zenoh
+
+from . import keys
+from . import sync_protocol as proto
+from .errors import DecodeError
+from .graph import Graph
+
+log = logging.getLogger(__name__)
+DURABLE_AGENT = "serve"
+
+
+@dataclass
+class ReplicationStats:
+    """Counters of one replica's traffic, for monitoring and tests."""
+
+    published: int = 0
+    applied: int = 0
+    rejected: int = 0
+    gaps: int = 0
+    repairs: int = 0
+    syncs_served: int = 0
+    heartbeats: int = 0
+    caught_up_from: str | None = None
+
+
+class Replicator:
+    """Replication of one graph over one (shared) Zenoh session."""
+
+    def __init__(
+        self,
+        graph: Graph,
+        session: zenoh.Session,
+        graph_name: str,
+        agent: str,
+        *,
+        heartbeat_period: float = 1.0,
+        query_timeout: float = 2.0,
+    ) -> None:
+        self.graph = graph
+        self.session = session
+        self.name = keys.check_segment(graph_name, "graph name")
+        self.agent = keys.check_segment(agent, "agent name")
+        self.heartbeat_period = heartbeat_period
+        self.query_timeout = query_timeout
+        self.stats = ReplicationStats()
+        self.seq = 0
+        self.drop_outgoing = 0  # test hook: number of next DELTAs to lose on purpose
+        self._tracker = proto.SequenceTracker()
+        self._updates: list[bytes] = []
+        self._flush_scheduled = False
+        self._repairing: set[str] = set()
+        self._tasks: set[asyncio.Task[Any]] = set()
+        self._declared: list[Any] = []
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._publisher: zenoh.Publisher | None = None
+
+    # -- lifecycle -----------------------------------------------------------
+
+    async def start(self, catch_up: bool = True) -> None:
+        """Declare everything, then catch up from a live member."""
+        self._loop = loop = asyncio.get_running_loop()
+        me = self.graph.replica_id
+        session = self.session
+        self.graph.observe_updates(self._on_local_update)
+        self.graph.add_write_listener(self._schedule_flush)
+        self._publisher = session.declare_publisher(
+            keys.delta(self.name, me), congestion_control=zenoh.CongestionControl.BLOCK, express=True
+        )
+        remote = zenoh.Locality.REMOTE
+        handoff = loop.call_soon_threadsafe
+        self._declared += [
+            self._publisher,
+            session.declare_subscriber(
+                keys.delta(self.name), lambda s: handoff(self._on_delta, str(s.key_expr), s.payload.to_bytes()),
+                allowed_origin=remote,
+            ),
+            session.declare_subscriber(
+                keys.heartbeat(self.name), lambda s: handoff(self._on_heartbeat, str(s.key_expr), s.payload.to_bytes()),
+                allowed_origin=remote,
+            ),
+            session.declare_queryable(keys.sync(self.name, me), lambda q: handoff(self._answer, q), allowed_origin=remote),
+            session.liveliness().declare_subscriber(
+                keys.alive(self.name), lambda s: handoff(self._on_liveliness, str(s.key_expr), s.kind), history=True
+            ),
+            session.liveliness().declare_token(keys.alive(self.name, me, self.agent)),
+        ]
+        self.graph.note_member(me, self.agent, True)
+        if catch_up:
+            await self.catch_up()
+        self._spawn(self._heartbeat_loop())
+
+    async def stop(self) -> None:
+        """Send what is pending, leave, and undeclare (the session stays open)."""
+        self._flush()
+        for task in list(self._tasks):
+            task.cancel()
+        await asyncio.gather(*self._tasks, return_exceptions=True)
+        for entity in reversed(self._declared):
+            try:
+                entity.undeclare()
+            except zenoh.ZError:
+                pass
+        self._declared.clear()
+
+    def _spawn(self, coro: Any) -> None:
+        task = asyncio.ensure_future(coro)
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    # -- outgoing ------------------------------------------------------------
+
+    def _on_local_update(self, update: bytes, origin: Any) -> None:
+        if origin == self.graph.replica_id:
+            self._updates.append(update)
+
+    def _schedule_flush(self) -> None:
+        if not self._flush_scheduled and self._loop is not None:
+            self._flush_scheduled = True
+            self._loop.call_soon(self._flush)
+
+    def _flush(self) -> None:
+        """Publish this tick's local writes as one DELTA."""
+        self._flush_scheduled = False
+        updates, self._updates = self._updates, []
+        message = proto.make_delta(self.graph.replica_id, self.seq + 1, updates, self.graph.take_volatile_outbox())
+        if message is None or self._publisher is None:
+            return
+        self.seq += 1
+        if self.drop_outgoing > 0:
+            self.drop_outgoing -= 1
+            return
+        self._publisher.put(proto.encode(message))
+        self.stats.published += 1
+
+    async def flush(self) -> None:
+        """Publish pending writes now (they would leave at the end of this tick anyway)."""
+        self._flush()
+
+    # -- incoming ------------------------------------------------------------
+
+    def _decode(self, key: str, payload: bytes, expected: type) -> Any:
+        try:
+            message = proto.decode(payload)
+            if not isinstance(message, expected):
+                raise DecodeError(f"expected {expected.__name__}, got {type(message).__name__}")
+            if message.sender != keys.replica_of(key):
+                raise DecodeError(f"sender {message.sender!r} does not match its key")
+            return message
+        except DecodeError as exc:
+            self._reject(key, exc)
+            return None
+
+    def _reject(self, key: str, exc: Exception) -> None:
+        self.stats.rejected += 1
+        log.warning("rejected a message on %s (from replica %r): %s", key, keys.replica_of(key), exc)
+
+    def _on_delta(self, key: str, payload: bytes) -> None:
+        message = self._decode(key, payload, proto.Delta)
+        if message is None or message.sender == self.graph.replica_id:
+            return
+        gap = self._tracker.on_delta(message.sender, message.seq)
+        try:
+            proto.apply_delta(self.graph, message)
+        except DecodeError as exc:
+            self._reject(key, exc)
+            return
+        self.stats.applied += 1
+        if gap:
+            self.stats.gaps += 1
+            self.repair(message.sender)
+
+    def _on_heartbeat(self, key: str, payload: bytes) -> None:
+        message = self._decode(key, payload, proto.Heartbeat)
+        if message is None or message.sender == self.graph.replica_id:
+            return
+        self.stats.heartbeats += 1
+        try:
+            behind = message.sender not in self._tracker.last or self._tracker.on_heartbeat(message.sender, message.seq)
+            behind = behind or proto.lacks(self.graph.state_vector(), message.state_vector)
+        except DecodeError as exc:
+            self._reject(key, exc)
+            return
+        if behind:
+            self.repair(message.sender)
+
+    def _on_liveliness(self, key: str, kind: zenoh.SampleKind) -> None:
+        try:
+            replica, agent = keys.parse_alive(key)
+        except Exception as exc:
+            self._reject(key, exc)
+            return
+        joined = kind == zenoh.SampleKind.PUT
+        if not joined:
+            self._tracker.forget(replica)
+        self.graph.note_member(replica, agent, joined)
+
+    def _answer(self, query: zenoh.Query) -> None:
+        key = keys.sync(self.name, self.graph.replica_id)
+        try:
+            payload = query.payload.to_bytes() if query.payload is not None else b""
+            message = proto.decode(payload)
+            if isinstance(message, proto.SyncRequest):
+                reply: proto.Message = proto.answer_sync(self.graph, message, self.seq)
+                self.stats.syncs_served += 1
+            elif isinstance(message, proto.AckRequest):
+                reply = proto.AckReply(self.graph.replica_id, self._tracker.last.get(message.sender, 0))
+            else:
+                raise DecodeError(f"cannot answer a {type(message).__name__}")
+            query.reply(key, proto.encode(reply))
+        except DecodeError as exc:
+            self._reject(str(query.key_expr), exc)
+            query.reply_err(str(exc))
+        finally:
+            query.drop()
+
+    # -- repair and catch-up -------------------------------------------------
+
+    def repair(self, sender: str) -> None:
+        """Fetch what ``sender`` has and we lack, at once (one request in flight per sender)."""
+        if sender not in self._repairing:
+            self._repairing.add(sender)
+            self._spawn(self._repair(sender))
+
+    async def _repair(self, sender: str) -> None:
+        try:
+            if await self.sync_from(sender):
+                self.stats.repairs += 1
+        finally:
+            self._repairing.discard(sender)
+
+    async def sync_from(self, replica: str) -> bool:
+        """Ask one replica for everything we lack; True if it answered."""
+        request = proto.encode(proto.SyncRequest(self.graph.replica_id, self.graph.state_vector()))
+        for key, payload in await self._query(keys.sync(self.name, replica), request):
+            reply = self._decode(key, payload, proto.SyncReply)
+            if reply is None:
+                continue
+            try:
+                proto.apply_delta(self.graph, reply)
+            except DecodeError as exc:
+                self._reject(key, exc)
+                continue
+            self._tracker.on_sync(reply.sender, reply.seq)
+            return True
+        return False
+
+    async def catch_up(self) -> str | None:
+        """Sync from one live member, the durable one first; returns its replica id."""
+        for replica in await self.live_members(prefer=DURABLE_AGENT):
+            if await self.sync_from(replica):
+                self.stats.caught_up_from = replica
+                return replica
+        return None
+
+    async def live_members(self, prefer: str | None = None) -> list[str]:
+        """Replica ids of the other live members, asked of the network now."""
+
+        def ask() -> list[tuple[str, str]]:
+            found = []
+            for reply in self.session.liveliness().get(keys.alive(self.name), timeout=self.query_timeout):
+                if reply.ok is not None:
+                    found.append(keys.parse_alive(str(reply.ok.key_expr)))
+            return found
+
+        members = [m for m in await asyncio.to_thread(ask) if m[0] != self.graph.replica_id]
+        members.sort(key=lambda m: m[1] != prefer)
+        return [replica for replica, _ in members]
+
+    async def confirm(self, timeout: float = 2.0) -> bool:
+        """Wait until some other replica acknowledges every DELTA we published."""
+        self._flush()
+        request = proto.encode(proto.AckRequest(self.graph.replica_id, self.seq))
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            for key, payload in await self._query(keys.sync(self.name), request, timeout=0.5):
+                reply = self._decode(key, payload, proto.AckReply)
+                if reply is not None and reply.acked >= self.seq:
+                    return True
+            await asyncio.sleep(0.05)
+        return False
+
+    async def _query(self, selector: str, payload: bytes, timeout: float | None = None) -> list[tuple[str, bytes]]:
+        """A Zenoh get, run in a worker thread; returns (key, payload) of every good reply."""
+        wait = self.query_timeout if timeout is None else timeout
+
+        def ask() -> list[tuple[str, bytes]]:
+            replies = self.session.get(
+                selector, payload=payload, timeout=wait, target=zenoh.QueryTarget.ALL,
+                allowed_destination=zenoh.Locality.REMOTE,
+            )
+            return [(str(r.ok.key_expr), r.ok.payload.to_bytes()) for r in replies if r.ok is not None]
+
+        return await asyncio.to_thread(ask)
+
+    # -- anti-entropy --------------------------------------------------------
+
+    async def _heartbeat_loop(self) -> None:
+        key = keys.heartbeat(self.name, self.graph.replica_id)
+        while True:
+            await asyncio.sleep(self.heartbeat_period)
+            self._flush()
+            message = proto.Heartbeat(self.graph.replica_id, self.seq, self.graph.state_vector())
+            self.session.put(key, proto.encode(message))
+            self.graph.prune_volatile()
