@@ -84,6 +84,23 @@ class Fields:
             raise self.fail(key, f"expected a list of {count} numbers, got {_show(value)}")
         return tuple(self.check_number(f"{key}[{i}]", v) for i, v in enumerate(value))
 
+    def optional_number(self, key: str) -> float | None:
+        """A number, or ``None`` when absent or null."""
+        value = self._data.get(key)
+        return None if value is None else self.check_number(key, value)
+
+    def pairs(self, key: str) -> tuple[tuple[float, float], ...]:
+        """A list of ``[x, y]`` points."""
+        value = self._get(key, _MISSING)
+        if not isinstance(value, (list, tuple)):
+            raise self.fail(key, f"expected a list of [x, y] points, got {_show(value)}")
+        out = []
+        for i, item in enumerate(value):
+            if not isinstance(item, (list, tuple)) or len(item) != 2:
+                raise self.fail(f"{key}[{i}]", f"expected an [x, y] point, got {_show(item)}")
+            out.append((self.check_number(f"{key}[{i}][0]", item[0]), self.check_number(f"{key}[{i}][1]", item[1])))
+        return tuple(out)
+
     def child(self, key: str, default: Any = _MISSING) -> Fields:
         """The nested mapping at ``key``."""
         return Fields(self._get(key, default), self.path_of(key), self._error)

@@ -1,0 +1,162 @@
+"""The two "imagine" requests the simulation agent serves, as pure functions of a frozen scene.
+
+* :func:`imagine_person` (Algorithm 1): the person plans a path to the target with
+  only what they see at the given gaze, then walks it in the full scene.
+* :func:`imagine_joint` (Algorithm 2): the robot drives to a move's pose (its
+  arrival time follows its speed and acceleration limits); the person, who now
+  sees the robot at that pose if it is in view, plans again and walks.
+
+Results are plain dataclasses with ``to_wire``/``from_wire`` (msgpack-friendly
+dicts); :func:`answer` dispatches a wire request. Malformed requests raise
+:class:`RequestError`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+from .errors import RequestError
+from .fields import Fields
+from .planner import GridPlanner
+from .robot_moves import RobotMove, robot_arrival
+from .rollout import NumpyRollout, Rollout
+from .scene import Scene
+from .visibility import visible
+
+_PLANNERS: dict[tuple[float, float, float, float], GridPlanner] = {}
+_NUMPY = NumpyRollout()
+
+
+def planner_for(bounds: tuple[float, float, float, float]) -> GridPlanner:
+    """The process-wide planner (and mask cache) for a room."""
+    planner = _PLANNERS.get(bounds)
+    if planner is None:
+        planner = _PLANNERS[bounds] = GridPlanner(bounds)
+    return planner
+
+
+@dataclass(frozen=True)
+class Imagination:
+    """What the imagined walk of ``person`` to ``target`` at gaze ``gaze`` (rad) gives."""
+
+    person: str
+    target: str
+    gaze: float
+    seen: tuple[str, ...]
+    reachable: bool
+    path: tuple[tuple[float, float], ...]
+    collided: bool
+    collision_time: float | None
+    collision_point: tuple[float, float] | None
+    collision_object: str | None
+    min_clearance: float
+    duration: float
+
+    def to_wire(self) -> dict[str, Any]:
+        """A msgpack-friendly dict."""
+        return {
+            "person": self.person, "target": self.target, "gaze": self.gaze, "seen": list(self.seen),
+            "reachable": self.reachable, "path": [list(p) for p in self.path], "collided": self.collided,
+            "collision_time": self.collision_time,
+            "collision_point": list(self.collision_point) if self.collision_point is not None else None,
+            "collision_object": self.collision_object,
+            "min_clearance": self.min_clearance if math.isfinite(self.min_clearance) else None,
+            "duration": self.duration,
+        }
+
+    @classmethod
+    def from_wire(cls, data: object) -> Imagination:
+        """Parse :meth:`to_wire` output."""
+        return cls.from_fields(Fields(data, "imagination", RequestError))
+
+    @classmethod
+    def from_fields(cls, f: Fields) -> Imagination:
+        """Parse an imagination nested in a larger message."""
+        collided = f.boolean("collided")
+        point = f.numbers("collision_point", 2) if collided else None
+        clearance = f.optional_number("min_clearance")
+        return cls(
+            person=f.string("person"), target=f.string("target"), gaze=f.number("gaze"), seen=f.strings("seen"),
+            reachable=f.boolean("reachable"), path=f.pairs("path"), collided=collided,
+            collision_time=f.number("collision_time") if collided else None,
+            collision_point=(point[0], point[1]) if point is not None else None,
+            collision_object=f.string("collision_object") if collided else None,
+            min_clearance=math.inf if clearance is None else clearance,
+            duration=f.number("duration", non_negative=True),
+        )
+
+
+@dataclass(frozen=True)
+class JointImagination:
+    """A robot move imagined together with a person's intention."""
+
+    move: RobotMove
+    robot_reachable: bool
+    robot_arrival: float
+    robot_seen: bool
+    person: Imagination
+
+    @property
+    def removes_danger(self) -> bool:
+        """Whether the robot gets there and the person's imagined walk is now collision-free."""
+        return self.robot_reachable and self.person.reachable and not self.person.collided
+
+    def to_wire(self) -> dict[str, Any]:
+        """A msgpack-friendly dict."""
+        return {"move": self.move.to_wire(), "robot_reachable": self.robot_reachable,
+                "robot_arrival": self.robot_arrival if math.isfinite(self.robot_arrival) else None,
+                "robot_seen": self.robot_seen, "person": self.person.to_wire()}
+
+    @classmethod
+    def from_wire(cls, data: object) -> JointImagination:
+        """Parse :meth:`to_wire` output."""
+        f = Fields(data, "joint", RequestError)
+        reachable = f.boolean("robot_reachable")
+        return cls(RobotMove.from_fields(f.child("move")), reachable,
+                   f.number("robot_arrival") if reachable else math.inf, f.boolean("robot_seen"),
+                   Imagination.from_fields(f.child("person")))
+
+
+def imagine_person(scene: Scene, person: str, target: str, gaze: float, rollout: Rollout | None = None,
+                   planner: GridPlanner | None = None) -> Imagination:
+    """Plan with only what ``person`` sees at ``gaze``, then walk the plan in the full scene."""
+    if isinstance(gaze, bool) or not isinstance(gaze, (int, float)) or not -math.pi / 2 <= gaze <= math.pi / 2:
+        raise RequestError(f"gaze: expected a pitch in [-pi/2, pi/2] rad, got {gaze!r}")
+    p = scene.person(person)
+    goal = scene.obstacle(target)
+    around = scene.bodies_around(person)
+    seen = visible(p, around, gaze)
+    plan = (planner or planner_for(scene.bounds)).plan_to_object((p.x, p.y), goal, seen, p.radius)
+    names = tuple(o.name for o in seen)
+    if not plan.reachable:
+        return Imagination(person, target, gaze, names, False, (), False, None, None, None, math.inf, 0.0)
+    walk = (rollout or _NUMPY).walk(plan.path, p.radius, p.speed, [o for o in around if o.name != target])
+    c = walk.contact
+    return Imagination(person, target, float(gaze), names, True, tuple((float(x), float(y)) for x, y in plan.path),
+                       c is not None, c.time if c else None, c.point if c else None, c.obstacle if c else None,
+                       walk.min_clearance, walk.duration)
+
+
+def imagine_joint(scene: Scene, person: str, target: str, gaze: float, move: RobotMove,
+                  rollout: Rollout | None = None, planner: GridPlanner | None = None) -> JointImagination:
+    """Imagine the robot at the move's pose and the person re-planning with it (if seen) in the scene."""
+    planner = planner or planner_for(scene.bounds)
+    arrival = robot_arrival(scene, move, planner)
+    robot = scene.robot
+    assert robot is not None  # robot_arrival raised otherwise
+    moved = scene.with_robot(replace(robot, x=move.x, y=move.y, heading=move.heading))
+    result = imagine_person(moved if arrival.reachable else scene, person, target, gaze, rollout, planner)
+    return JointImagination(move, arrival.reachable, arrival.time, robot.name in result.seen, result)
+
+
+def answer(scene: Scene, request: object, rollout: Rollout | None = None) -> dict[str, Any]:
+    """Serve one wire request: ``{"kind": "person"|"joint", "person", "target", "gaze"[, "move"]}``."""
+    f = Fields(request, "request", RequestError)
+    kind = f.string("kind", choices=frozenset({"person", "joint"}))
+    person, target, gaze = f.string("person"), f.string("target"), f.number("gaze")
+    if kind == "person":
+        return imagine_person(scene, person, target, gaze, rollout).to_wire()
+    move = RobotMove.from_fields(f.child("move"))
+    return imagine_joint(scene, person, target, gaze, move, rollout).to_wire()

@@ -1,0 +1,136 @@
+"""Candidate robot moves for Algorithm 2 and the "can it get there in time" filter.
+
+The robot's only action is ``move_to(object)``: it drives to a stand-off pose
+around an object, facing it. Travel time follows a trapezoidal speed profile
+(accelerate at ``max_accel`` up to ``max_speed``, cruise, brake to rest) over the
+planned path length, and a move is feasible only if it arrives before the
+predicted time to collision.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from .errors import RequestError
+from .fields import Fields
+from .geometry import Box, corners, shapes_overlap, signed_distance
+from .planner import GridPlanner
+from .scene import Obstacle, RobotState, Scene
+from .visibility import WALL_KIND
+
+
+@dataclass(frozen=True)
+class RobotMove:
+    """Drive to ``(x, y)`` and stop facing ``heading`` (rad), next to object ``target``."""
+
+    target: str
+    x: float
+    y: float
+    heading: float
+
+    def to_wire(self) -> dict[str, Any]:
+        """A msgpack-friendly dict."""
+        return {"target": self.target, "x": self.x, "y": self.y, "heading": self.heading}
+
+    @classmethod
+    def from_wire(cls, data: object) -> RobotMove:
+        """Parse :meth:`to_wire` output; raises :class:`RequestError` when malformed."""
+        return cls.from_fields(Fields(data, "move", RequestError))
+
+    @classmethod
+    def from_fields(cls, f: Fields) -> RobotMove:
+        """Parse a move nested in a larger message."""
+        return cls(f.string("target"), f.number("x"), f.number("y"), f.number("heading", 0.0))
+
+
+def travel_time(distance: float, max_speed: float, max_accel: float, v0: float = 0.0) -> float:
+    """Time to cover ``distance`` from speed ``v0`` and stop, under speed and acceleration limits."""
+    if distance <= 0.0:
+        return 0.0
+    v0 = min(max(v0, 0.0), max_speed)
+    d_up = (max_speed ** 2 - v0 ** 2) / (2 * max_accel)
+    d_down = max_speed ** 2 / (2 * max_accel)
+    if d_up + d_down <= distance:
+        return (max_speed - v0) / max_accel + (distance - d_up - d_down) / max_speed + max_speed / max_accel
+    peak = max(math.sqrt((2 * max_accel * distance + v0 ** 2) / 2), v0)
+    return (peak - v0) / max_accel + peak / max_accel
+
+
+def standoff_moves(scene: Scene, target: str, gap: float = 0.1, count: int = 8) -> list[RobotMove]:
+    """Poses around ``target`` (``gap`` metres from its boundary, facing it) where the robot fits."""
+    robot = _robot(scene)
+    obstacle = scene.obstacle(target)
+    shape = obstacle.shape
+    half = max(robot.length, robot.width) / 2
+    blockers = [o for o in scene.obstacles if o.name != target] + [p.body() for p in scene.people]
+    moves = []
+    for k in range(count):
+        angle = 2 * math.pi * k / count
+        dx, dy = math.cos(angle), math.sin(angle)
+        t = 0.0
+        for _ in range(20):  # march out to the offset boundary (signed distance is 1-Lipschitz)
+            d = float(signed_distance(shape, (shape.x + dx * t, shape.y + dy * t))[0])
+            if abs(d - (gap + half)) < 1e-4:
+                break
+            t += (gap + half) - d
+        x, y = shape.x + dx * t, shape.y + dy * t
+        heading = math.atan2(-dy, -dx)
+        footprint = Box(x, y, robot.length / 2, robot.width / 2, heading)
+        if _fits(scene, footprint, blockers, obstacle):
+            moves.append(RobotMove(target, x, y, heading))
+    return moves
+
+
+def candidate_moves(scene: Scene, gap: float = 0.1, count: int = 8) -> list[RobotMove]:
+    """:func:`standoff_moves` around every non-wall object of the scene."""
+    return [m for o in scene.obstacles if o.kind != WALL_KIND for m in standoff_moves(scene, o.name, gap, count)]
+
+
+def _fits(scene: Scene, footprint: Box, blockers: list[Obstacle], target: Obstacle) -> bool:
+    x0, y0, x1, y1 = scene.bounds
+    inside = bool((signed_distance(Box((x0 + x1) / 2, (y0 + y1) / 2, (x1 - x0) / 2, (y1 - y0) / 2),
+                                   corners(footprint)) <= 0.0).all())
+    return inside and not shapes_overlap(footprint, target.shape) and \
+        not any(shapes_overlap(footprint, b.shape) for b in blockers)
+
+
+@dataclass(frozen=True)
+class Arrival:
+    """Whether the robot can reach a move's pose, over what path, and when."""
+
+    reachable: bool
+    length: float
+    time: float
+
+
+def robot_arrival(scene: Scene, move: RobotMove, planner: GridPlanner) -> Arrival:
+    """Plan the robot's drive to the move's pose among static obstacles and people; time it.
+
+    The holonomic base turns along its path, so it is inflated by its half width.
+    """
+    robot = _robot(scene)
+    obstacles = list(scene.obstacles) + [p.body() for p in scene.people]
+    plan = planner.plan_to_point((robot.x, robot.y), (move.x, move.y), obstacles, robot.width / 2)
+    if not plan.reachable:
+        return Arrival(False, math.inf, math.inf)
+    return Arrival(True, plan.length, travel_time(plan.length, robot.max_speed, robot.max_accel))
+
+
+def arrives_in_time(scene: Scene, move: RobotMove, deadline: float, planner: GridPlanner) -> bool:
+    """Feasibility filter: can the robot reach the move's pose before ``deadline`` seconds from now?
+
+    The straight-line time is a lower bound and prunes hopeless moves without planning.
+    """
+    robot = _robot(scene)
+    straight = math.hypot(move.x - robot.x, move.y - robot.y)
+    if travel_time(straight, robot.max_speed, robot.max_accel) >= deadline:
+        return False
+    return robot_arrival(scene, move, planner).time < deadline
+
+
+def _robot(scene: Scene) -> RobotState:
+    if scene.robot is None:
+        raise RequestError("the scene has no robot")
+    return scene.robot
