@@ -36,7 +36,7 @@ from .index import GraphIndex
 from .model import Edge, Node, edge_key, freeze
 from .ontology import ElementType, Ontology, Value
 from .rt import RTApi
-from .volatile import Record, VolatileStore, edge_owner, node_owner
+from .volatile import Record, VolatileStore, check_records, edge_owner, node_owner
 
 if TYPE_CHECKING:
     from .replication import Replicator
@@ -164,7 +164,7 @@ class Graph:
         element = self.ontology.node_type(type)
         values = self.ontology.check_attrs(element, attrs)
         if name is not None:
-            self._check_new_name(name)
+            self.check_new_name(name)
         node_id = self._ids.next_id(self.id_taken)
         self._create_node(node_id, element, name if name is not None else f"{type}_{node_id}", values)
         return node_id
@@ -173,7 +173,15 @@ class Graph:
         """Whether ``node_id`` belongs to a live node or to a deleted one (ids are never reused)."""
         return node_id in self._index.node_meta or self._store.is_deleted(str(node_id))
 
-    def _check_new_name(self, name: str) -> None:
+    def check_new_id(self, node_id: int) -> None:
+        """Refuse an explicit node id (scene import) that is malformed, live or deleted."""
+        if isinstance(node_id, bool) or not isinstance(node_id, int) or not 0 < node_id < 2**53:
+            raise ValidationError(f"a node id is an int in 1..2**53, got {node_id!r}")
+        if self.id_taken(node_id):
+            raise NodeExistsError(f"node id {node_id} is in use or was deleted")
+
+    def check_new_name(self, name: str) -> None:
+        """Refuse a name that is malformed or already taken."""
         if not isinstance(name, str) or not name or name.startswith("@"):
             raise ValidationError(f"a node name must be a non-empty str not starting with '@', got {name!r}")
         if self._index.resolve_name(name) is not None:
@@ -212,7 +220,7 @@ class Graph:
 
     def rename_node(self, ref: NodeRef, new_name: str) -> None:
         node_id = self.resolve(ref)
-        self._check_new_name(new_name)
+        self.check_new_name(new_name)
         with self._transaction():
             self._store.set_node_attrs(str(node_id), {NAME_KEY: new_name})
 
@@ -429,11 +437,13 @@ class Graph:
         """Merge a byte string made by :meth:`encode_state` (into an empty or a live replica)."""
         try:
             snapshot = msgpack.unpackb(data, raw=False)
-            crdt, records = snapshot["crdt"], [tuple(r) for r in snapshot["volatile"]]
+            crdt, records = snapshot["crdt"], check_records(snapshot["volatile"])
+        except DecodeError:
+            raise
         except Exception as exc:
             raise DecodeError(f"not a cortex-wm snapshot: {exc}") from None
         self.apply_update(crdt, writer)
-        self.merge_volatile(records, writer)  # type: ignore[arg-type]
+        self.merge_volatile(records, writer)
 
     # -- JSON ----------------------------------------------------------------
 
@@ -449,13 +459,10 @@ class Graph:
 
     def insert_node_with_id(self, node_id: int, type: str, name: str, attrs: Mapping[str, Any] | None = None) -> None:  # noqa: A002
         """Create a node with a given id (scene import). A live or deleted id is refused."""
-        if isinstance(node_id, bool) or not isinstance(node_id, int) or not 0 < node_id < 2**53:
-            raise ValidationError(f"a node id is an int in 1..2**53, got {node_id!r}")
-        if self.id_taken(node_id):
-            raise NodeExistsError(f"node id {node_id} is in use or was deleted")
+        self.check_new_id(node_id)
         element = self.ontology.node_type(type)
         values = self.ontology.check_attrs(element, attrs)
-        self._check_new_name(name)
+        self.check_new_name(name)
         self._create_node(node_id, element, name, values)
 
 

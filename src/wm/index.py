@@ -145,6 +145,7 @@ class GraphIndex:
                 result.removed_nodes.append(node_id)
                 removed_nodes.append(Event(EventKind.NODE_REMOVED, node_type, writer, local, frozenset(), node_id, name))
 
+        self._note_edge_attrs(store, changes)
         touched_edges = dict.fromkeys(changes.edges_added + changes.edges_removed)
         for event in added_nodes + removed_nodes:
             touched_edges.update(dict.fromkeys(self.edges_of(event.id)))  # type: ignore[arg-type]
@@ -177,6 +178,18 @@ class GraphIndex:
         result.events = added_nodes + added_edges + updated + removed_edges + removed_nodes
         return result
 
+    def _note_edge_attrs(self, store: CrdtStore, changes: RawChanges) -> None:
+        """Track which durable attributes each edge carries (before events list them)."""
+        for key, attrs in changes.edge_attrs.items():
+            known = self.edge_attr_names.setdefault(key, set())
+            for attr in attrs:
+                if f"{key}.{attr}" in store.edge_attrs:
+                    known.add(attr)
+                else:
+                    known.discard(attr)
+            if not known:
+                del self.edge_attr_names[key]
+
     def _attribute_updates(
         self,
         store: CrdtStore,
@@ -205,14 +218,6 @@ class GraphIndex:
 
         fresh_edges = {(e.src, e.dst, e.type) for e in added_edges}
         for key, attrs in changes.edge_attrs.items():
-            known = self.edge_attr_names.setdefault(key, set())
-            for attr in attrs:
-                if f"{key}.{attr}" in store.edge_attrs:
-                    known.add(attr)
-                else:
-                    known.discard(attr)
-            if not known:
-                del self.edge_attr_names[key]
             if key in self.visible and self.markers[key] not in fresh_edges:
                 src, dst, edge_type = self.markers[key]
                 events.append(

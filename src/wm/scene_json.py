@@ -179,10 +179,13 @@ def _check(graph: Graph, scene: _Scene, keep_ids: bool) -> None:
     ids: set[int] = set()
     for node_id, node_type, name, attrs in scene.nodes:
         ontology.check_attrs(ontology.node_type(node_type), attrs)
-        if name in names or graph.find_node(name) is not None:
-            raise NameExistsError(f"scene node name {name!r} is used twice or already exists in the graph")
-        if node_id in ids or (keep_ids and graph.id_taken(node_id)):
-            raise NodeExistsError(f"scene node id {node_id} is used twice or already exists in the graph")
+        if name in names:
+            raise NameExistsError(f"scene node name {name!r} is used twice")
+        graph.check_new_name(name)
+        if node_id in ids:
+            raise NodeExistsError(f"scene node id {node_id} is used twice")
+        if keep_ids:
+            graph.check_new_id(node_id)
         names.add(name)
         ids.add(node_id)
     rt_parents: dict[int, int] = {}

@@ -18,6 +18,8 @@ import time
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from .errors import DecodeError
+
 # one register on the wire and on disk: (owner, attr, value, clock, writer)
 Record = tuple[str, str, Any, int, str]
 
@@ -101,3 +103,25 @@ class VolatileStore:
 
     def __len__(self) -> int:
         return sum(len(attrs) for attrs in self._owners.values())
+
+
+def check_records(items: Any) -> list[Record]:
+    """Records decoded from msgpack, checked field by field; raises :class:`wm.DecodeError` if malformed."""
+    if not isinstance(items, list):
+        raise DecodeError("volatile records must be a list")
+    records = []
+    for item in items:
+        if (
+            not isinstance(item, (list, tuple))
+            or len(item) != 5
+            or not isinstance(item[0], str)
+            or item[0][:2] not in ("n:", "e:")
+            or not isinstance(item[1], str)
+            or not isinstance(item[3], int)
+            or isinstance(item[3], bool)
+            or not isinstance(item[4], str)
+        ):
+            raise DecodeError("a volatile record is [owner, attr, value, clock, writer]")
+        value = tuple(item[2]) if isinstance(item[2], list) else item[2]
+        records.append((item[0], item[1], value, item[3], item[4]))
+    return records
