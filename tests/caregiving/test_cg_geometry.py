@@ -1,0 +1,84 @@
+"""Planar shapes and distance queries."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from caregiving.geometry import (Box, Circle, aabb, as_points, bounding_radius, closest_boundary_point, corners,
+                                 moved, polyline_length, resample_by_distance, shapes_overlap, signed_distance,
+                                 swept_clearance)
+
+
+def test_circle_signed_distance_inside_and_outside() -> None:
+    c = Circle(1.0, 2.0, 0.5)
+    d = signed_distance(c, [[1.0, 2.0], [2.0, 2.0], [1.0, 2.25]])
+    assert d == pytest.approx([-0.5, 0.5, -0.25])
+
+
+def test_rotated_box_signed_distance() -> None:
+    b = Box(0.0, 0.0, 1.0, 0.5, math.pi / 2)  # long axis along y after rotation
+    assert signed_distance(b, (0.0, 1.5))[0] == pytest.approx(0.5)
+    assert signed_distance(b, (1.0, 0.0))[0] == pytest.approx(0.5)
+    assert signed_distance(b, (0.0, 0.0))[0] == pytest.approx(-0.5)
+    assert signed_distance(b, (1.5, 2.0))[0] == pytest.approx(math.hypot(1.0, 1.0))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(-3, 3), st.floats(-3, 3), st.floats(0, math.pi))
+def test_closest_boundary_point_lies_on_boundary_at_distance(px: float, py: float, theta: float) -> None:
+    for shape in (Box(0.2, -0.1, 0.7, 0.3, theta), Circle(0.2, -0.1, 0.6)):
+        q = closest_boundary_point(shape, (px, py))
+        assert abs(signed_distance(shape, q)[0]) < 1e-9
+        d = signed_distance(shape, (px, py))[0]
+        assert np.hypot(*(q[0] - (px, py))) == pytest.approx(abs(d), abs=1e-9)
+
+
+def test_closest_point_of_circle_centre_is_defined() -> None:
+    q = closest_boundary_point(Circle(0, 0, 1), (0, 0))
+    assert np.hypot(*q[0]) == pytest.approx(1.0)
+
+
+def test_corners_aabb_and_radius() -> None:
+    b = Box(1.0, 1.0, 1.0, 0.5, 0.0)
+    assert corners(b).tolist() == [[2.0, 1.5], [0.0, 1.5], [0.0, 0.5], [2.0, 0.5]]
+    assert aabb(b) == pytest.approx((0.0, 0.5, 2.0, 1.5))
+    assert aabb(Circle(0, 0, 2)) == (-2, -2, 2, 2)
+    assert bounding_radius(b) == pytest.approx(math.hypot(1.0, 0.5))
+    assert bounding_radius(Circle(0, 0, 2)) == 2
+
+
+def test_moved_keeps_size() -> None:
+    assert moved(Circle(0, 0, 1), 2, 3) == Circle(2, 3, 1)
+    assert moved(Box(0, 0, 1, 2, 0.3), 2, 3) == Box(2, 3, 1, 2, 0.3)
+    assert moved(Box(0, 0, 1, 2, 0.3), 2, 3, 1.0) == Box(2, 3, 1, 2, 1.0)
+
+
+def test_shapes_overlap_all_pairs() -> None:
+    assert shapes_overlap(Circle(0, 0, 1), Circle(1.5, 0, 1))
+    assert not shapes_overlap(Circle(0, 0, 1), Circle(2.5, 0, 1))
+    assert shapes_overlap(Circle(0, 0, 1), Circle(2.5, 0, 1), margin=0.6)
+    assert shapes_overlap(Box(0, 0, 1, 1), Circle(1.5, 0, 0.6))
+    assert shapes_overlap(Circle(1.5, 0, 0.6), Box(0, 0, 1, 1))
+    assert not shapes_overlap(Box(0, 0, 1, 1), Box(3, 0, 1, 1))
+    assert shapes_overlap(Box(0, 0, 1, 1), Box(3, 0, 1, 1), margin=1.1)
+    # A thin cross: no vertex inside the other, but the edges cross.
+    assert shapes_overlap(Box(0, 0, 2, 0.1), Box(0, 0, 0.1, 2))
+
+
+def test_polyline_length_and_resample() -> None:
+    path = [[0, 0], [3, 0], [3, 4]]
+    assert polyline_length(path) == 7
+    assert polyline_length([[1, 1]]) == 0.0
+    pts = resample_by_distance(path, [0, 1.5, 5, 100])
+    assert pts.tolist() == [[0, 0], [1.5, 0], [3, 2], [3, 4]]
+    assert resample_by_distance([[2, 2]], [0, 1]).tolist() == [[2, 2], [2, 2]]
+    assert as_points((1, 2)).shape == (1, 2)
+
+
+def test_swept_clearance_finds_closest_approach() -> None:
+    clear, where = swept_clearance(Circle(2, 0.5, 0.2), [[0, 0], [4, 0]], 0.25, 0.01)
+    assert clear == pytest.approx(0.05, abs=1e-6)
+    assert where == pytest.approx([2, 0], abs=0.01)

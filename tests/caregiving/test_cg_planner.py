@@ -1,0 +1,92 @@
+"""Grid planning: optimal paths, goals at the target boundary, fast unreachability, mask cache."""
+
+import math
+
+import numpy as np
+import pytest
+
+from caregiving.geometry import Box, Circle, polyline_length, signed_distance
+from caregiving.planner import GridPlanner
+from caregiving.scenario import load_scenario
+from caregiving.scene import Obstacle
+
+BOUNDS = (-4.0, -3.0, 4.0, 3.0)
+COUCH = Obstacle("couch", "couch", Box(3.5, 0.0, 0.45, 1.0), 0.8, target=True)
+BALL = Obstacle("ball", "ball", Circle(0.0, 0.0, 0.11), 0.22)
+
+
+def walls() -> list[Obstacle]:
+    return list(load_scenario("paper_experiment1").room.wall_obstacles())
+
+
+def test_straight_walk_to_the_couch_boundary() -> None:
+    planner = GridPlanner(BOUNDS)
+    plan = planner.plan_to_object((-2.5, 0.0), COUCH, walls(), 0.25)
+    assert plan.reachable
+    assert plan.path[0].tolist() == [-2.5, 0.0]
+    assert len(plan.path) == 2  # open floor: one straight segment after string pulling
+    end_gap = signed_distance(COUCH.shape, plan.path[-1])[0]
+    assert 0.25 + planner.margin <= end_gap <= 0.25 + planner.margin + 2 * planner.resolution
+    assert plan.length == pytest.approx(polyline_length(plan.path))
+
+
+def test_path_avoids_known_obstacles_with_clearance() -> None:
+    planner = GridPlanner(BOUNDS)
+    plan = planner.plan_to_object((-2.5, 0.0), COUCH, [*walls(), BALL], 0.25)
+    assert plan.reachable and len(plan.path) >= 3
+    fine = np.concatenate([np.linspace(a, b, 200) for a, b in zip(plan.path[:-1], plan.path[1:])])
+    assert signed_distance(BALL.shape, fine).min() > 0.25
+    # Close to optimal: the detour around the inflated ball is short.
+    assert plan.length < math.hypot(5.3, 0.0) + 0.2
+
+
+def test_plan_ignores_obstacles_it_is_not_given() -> None:
+    planner = GridPlanner(BOUNDS)
+    assert len(planner.plan_to_object((-2.5, 0.0), COUCH, walls(), 0.25).path) == 2
+
+
+def test_unreachable_target_is_reported() -> None:
+    planner = GridPlanner(BOUNDS)
+    fence = Obstacle("fence", "wall", Box(1.0, 0.0, 0.05, 3.0), 2.0)
+    assert not planner.plan_to_object((-2.5, 0.0), COUCH, [*walls(), fence], 0.25).reachable
+    assert not planner.plan_to_point((-2.5, 0.0), (3.0, 0.0), [*walls(), fence], 0.25).reachable
+
+
+def test_start_inside_an_obstacle_is_unreachable_but_grazing_is_snapped() -> None:
+    planner = GridPlanner(BOUNDS)
+    big = Obstacle("table", "table", Box(-2.5, 0.0, 0.5, 0.5), 0.7)
+    assert not planner.plan_to_object((-2.5, 0.0), COUCH, [big], 0.25).reachable
+    near = Obstacle("ball", "ball", Circle(-2.5, 0.35, 0.05), 0.1)  # within radius+margin of the start
+    plan = planner.plan_to_object((-2.5, 0.0), COUCH, [near], 0.25)
+    assert plan.reachable and plan.path[0].tolist() == [-2.5, 0.0]
+
+
+def test_plan_to_point_ends_exactly_at_the_goal() -> None:
+    planner = GridPlanner(BOUNDS)
+    plan = planner.plan_to_point((-2.0, -2.0), (2.0, 1.0), [*walls(), BALL], 0.2)
+    assert plan.reachable
+    assert plan.path[-1].tolist() == [2.0, 1.0]
+    assert plan.length == pytest.approx(5.0, abs=0.1)
+
+
+def test_inflated_masks_are_cached_per_obstacle_and_radius() -> None:
+    planner = GridPlanner(BOUNDS, cache_size=8)
+    obstacles = [*walls(), BALL]
+    planner.plan_to_object((-2.5, 0.0), COUCH, obstacles, 0.25)
+    misses = planner.cache_misses
+    planner.plan_to_object((-2.0, 0.5), COUCH, obstacles, 0.25)
+    assert planner.cache_misses == misses and planner.cache_hits >= len(obstacles)
+    planner.plan_to_object((-2.5, 0.0), COUCH, obstacles, 0.3)
+    assert planner.cache_misses > misses
+    assert len(planner._cache) <= 8  # noqa: SLF001 - bounded LRU
+    planner.clear_cache()
+    assert not planner._cache  # noqa: SLF001
+
+
+def test_blocked_grid_and_cells() -> None:
+    planner = GridPlanner(BOUNDS)
+    assert planner.shape == (160, 120)
+    grid = planner.blocked([BALL], 0.25)
+    assert grid[planner.cell_of(0.0, 0.0)] and not grid[planner.cell_of(1.0, 0.0)]
+    assert planner.cell_of(-10, 10) == (0, 119)
+    assert planner.centres(np.array([[0, 0]])).tolist() == [[-3.975, -2.975]]
