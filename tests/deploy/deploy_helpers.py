@@ -28,6 +28,8 @@ DEPLOY = REPO / "deploy"
 ZENOH_DIR = DEPLOY / "zenoh"
 ZPROC = Path(__file__).resolve().parent / "zproc.py"
 PYTHON = sys.executable
+# After a later message has arrived, how long an earlier, denied one is still given to show up.
+GRACE_S = 0.5
 if str(TESTS_DIR) not in sys.path:
     sys.path.insert(0, str(TESTS_DIR))
 
@@ -66,8 +68,9 @@ class Proc:
             self._q.put(line)
         self._q.put(None)
 
-    def wait_line(self, prefix: str, timeout: float) -> str:
-        """The next stdout line starting with ``prefix``; fail clearly after ``timeout`` s."""
+    def wait_line(self, prefix: str, timeout: float, contains: str = "") -> str:
+        """The next stdout line starting with ``prefix`` (and containing ``contains``);
+        fail clearly after ``timeout`` s."""
         deadline = time.monotonic() + timeout
         while True:
             left = deadline - time.monotonic()
@@ -82,9 +85,9 @@ class Proc:
                     f"{self.name} exited (rc={self.popen.wait()}) before printing {prefix!r}; output:\n"
                     + "\n".join(self.lines)
                 )
-            if line.startswith(prefix):
+            if line.startswith(prefix) and contains in line:
                 return line
-        pytest.fail(f"{self.name}: no {prefix!r} line within {timeout} s; output so far:\n" + "\n".join(self.lines))
+        pytest.fail(f"{self.name}: no {prefix!r} line with {contains!r} within {timeout} s; output so far:\n" + "\n".join(self.lines))
 
     def stop(self, timeout: float = 5.0) -> int | None:
         """SIGTERM by PID, then SIGKILL by PID if it does not exit in time."""

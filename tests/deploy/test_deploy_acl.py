@@ -13,13 +13,13 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from deploy_helpers import Collector, free_port, wait_matching, wait_until
+from deploy_helpers import GRACE_S, Collector, free_port, wait_matching, wait_until
 from wm.zenoh_config import template_path
 
 ACL_ROUTER = template_path("acl/router.json5")
 TLS_CLIENT = template_path("tls/client.json5")
 KEY = "wm/g/delta/x"
-GRACE = 0.5  # after a later put has arrived, how long an earlier denied one may still be in flight
+
 
 
 @pytest.fixture
@@ -63,7 +63,7 @@ def test_writer_put_arrives_monitor_put_is_denied(client) -> None:
     writer_pub.put("from writer")
     at_writer.wait_for(lambda p: "from writer" in p, 5, "the writer's put at the other writer")
     at_monitor.wait_for(lambda p: "from writer" in p, 5, "the writer's put at the monitor")
-    time.sleep(GRACE)
+    time.sleep(GRACE_S)
     assert at_writer.items == [(KEY, "from writer")], "the monitor's put or delete got through the ACL"
     assert at_monitor.payloads() == ["from writer"]
 
@@ -93,7 +93,7 @@ def test_monitor_liveliness_token_is_not_propagated(client) -> None:
     wait_until(lambda: alive(observer) == ["wm/g/alive/perception"], 10, "the writer's token at the observer")
     # The monitor may watch membership (it sees the writer; its own token is only local).
     assert "wm/g/alive/perception" in alive(monitor)
-    time.sleep(GRACE)
+    time.sleep(GRACE_S)
     assert alive(observer) == ["wm/g/alive/perception"]
     for t in tokens:
         t.undeclare()
@@ -109,7 +109,7 @@ def test_unlisted_agent_with_valid_cert_can_neither_write_nor_read(client) -> No
     wait_matching(writer_pub, 10, "the monitor's subscriber")
     writer_pub.put("from writer")
     at_monitor.wait_for(lambda p: "from writer" in p, 5, "the writer's put at the monitor")
-    time.sleep(GRACE)
+    time.sleep(GRACE_S)
     assert at_monitor.payloads() == ["from writer"]
     assert at_stranger.payloads() == []
 
@@ -159,5 +159,5 @@ def test_acl_by_username(sessions, tmp_path: Path) -> None:
     pub.put("from writer")
     at_observer.wait_for(lambda p: "from writer" in p, 5, "the writer's put at the observer")
     at_monitor.wait_for(lambda p: "from writer" in p, 5, "the writer's put at the monitor")
-    time.sleep(GRACE)
+    time.sleep(GRACE_S)
     assert at_observer.payloads() == ["from writer"]
