@@ -12,6 +12,9 @@ clearance matrix (steps x obstacles):
   call per obstacle.
 
 A contact is a step where the clearance (distance minus walker radius) is <= 0.
+Past contact the two differ on purpose: PyBullet reports the 3D penetration depth
+(a low box may be left over its top), numpy the planar one; walks stop at the
+first contact, so their results agree.
 """
 
 from __future__ import annotations
@@ -137,7 +140,10 @@ class BulletRollout:
             shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[a, b, height / 2],
                                             physicsClientId=self._client)
         self._frozen = None  # a saved state no longer matches the body set
-        return pb.createMultiBody(0, shape, basePosition=[0.0, 0.0, -_FAR], physicsClientId=self._client)
+        body = pb.createMultiBody(0, shape, basePosition=[0.0, 0.0, -_FAR], physicsClientId=self._client)
+        # Bullet rounds box corners by the collision margin (4 cm by default); we want sharp geometry.
+        pb.changeDynamics(body, -1, collisionMargin=0.0, physicsClientId=self._client)
+        return body
 
     def _move(self, body: int, x: float, y: float, z: float, yaw: float) -> None:
         quat = (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
