@@ -280,10 +280,10 @@ class Graph:
         src_id, dst_id = self.resolve(src), self.resolve(dst)
         element = self.ontology.edge_type(type)
         values = self.ontology.check_attrs(element, attrs)
-        if type == "RT":
+        key = edge_key(src_id, dst_id, type)
+        if type == "RT" and key not in self._index.visible:  # re-assigning a pose cannot change the tree
             self.rt.check_new_edge(src_id, dst_id)
         durable, volatile = self._split(values)
-        key = edge_key(src_id, dst_id, type)
         with self._transaction(crdt=bool(durable) or key not in self._index.markers):
             if durable or key not in self._index.markers:
                 self._store.set_edge(key, _to_crdt(durable))
