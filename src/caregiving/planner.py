@@ -129,7 +129,10 @@ class GridPlanner:
         goals[self.cell_of(*goal)] = True
         plan = self._search(start, grid, goals)
         if plan.reachable:
-            path = np.vstack((plan.path, np.asarray(goal, dtype=np.float64)))
+            path = plan.path.copy()
+            path[-1] = goal  # end exactly on the goal rather than on its cell centre
+            if len(path) == 1:
+                path = np.vstack((plan.path, path))
             return Plan(True, path, polyline_length(path))
         return plan
 

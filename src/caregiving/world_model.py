@@ -135,8 +135,9 @@ class World:
                                      y=r.y + math.sin(r.heading) * self._speed * self.dt)
             return
         d = self._drive
-        remaining = d.length - d.walked
-        stop_speed = math.sqrt(2 * r.max_accel * max(remaining, 0.0))
+        remaining = max(d.length - d.walked, 0.0)
+        # Fastest speed for this step that still leaves room to brake at max_accel afterwards.
+        stop_speed = r.max_accel * (math.sqrt(self.dt ** 2 + 2 * remaining / r.max_accel) - self.dt)
         self._speed = min(self._speed + r.max_accel * self.dt, r.max_speed, stop_speed)
         d.walked = min(d.walked + self._speed * self.dt, d.length)
         if d.length - d.walked < 1e-3 or self._speed < 1e-6:

@@ -1,0 +1,78 @@
+"""Robot moves: stand-off poses, trapezoidal travel time, arrival filter."""
+
+import math
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from caregiving.errors import RequestError
+from caregiving.geometry import Box, shapes_overlap, signed_distance
+from caregiving.imagine import planner_for
+from caregiving.robot_moves import (RobotMove, arrives_in_time, candidate_moves, robot_arrival, standoff_moves,
+                                    travel_time)
+from caregiving.scenario import load_scenario
+
+
+def test_travel_time_trapezoid_and_triangle() -> None:
+    assert travel_time(0.0, 1.0, 1.0) == 0.0
+    # Triangle: 1 m at a = 1 m/s^2 peaks at 1 m/s (capped at vmax = 2): t = 2 s.
+    assert travel_time(1.0, 2.0, 1.0) == pytest.approx(2.0)
+    # Trapezoid: 0.5 m up, 0.5 m down, 2 m cruise at 1 m/s: 1 + 2 + 1 s.
+    assert travel_time(3.0, 1.0, 1.0) == pytest.approx(4.0)
+    # Already moving at full speed: no acceleration phase, 2.5 m cruise then 1 s braking.
+    assert travel_time(3.0, 1.0, 1.0, v0=1.0) == pytest.approx(3.5)
+
+
+@given(st.floats(0.01, 20), st.floats(0.1, 3), st.floats(0.1, 3))
+def test_travel_time_is_bounded_by_limits(d: float, vmax: float, amax: float) -> None:
+    t = travel_time(d, vmax, amax)
+    assert t >= d / vmax - 1e-9
+    assert t >= 2 * math.sqrt(d / amax) - 1e-9
+    assert travel_time(d * 1.5, vmax, amax) > t
+
+
+def test_standoff_moves_surround_the_object_and_fit() -> None:
+    scene = load_scenario("paper_experiment1").scene()
+    moves = standoff_moves(scene, "ball", gap=0.1, count=8)
+    assert len(moves) == 8
+    robot = scene.robot
+    for m in moves:
+        footprint = Box(m.x, m.y, robot.length / 2, robot.width / 2, m.heading)
+        assert signed_distance(scene.obstacle("ball").shape, (m.x, m.y))[0] == pytest.approx(0.1 + 0.25, abs=1e-3)
+        assert not shapes_overlap(footprint, scene.obstacle("ball").shape)
+        # Facing the ball.
+        assert math.atan2(-m.y, -m.x) == pytest.approx(m.heading)
+    couch = standoff_moves(scene, "couch")
+    assert 0 < len(couch) < 8  # the wall side is excluded
+    assert all(m.x < 3.05 or abs(m.y) > 1.0 for m in couch)  # beside or in front, never behind
+
+
+def test_candidate_moves_cover_every_object_but_walls() -> None:
+    scene = load_scenario("paper_experiment1").scene()
+    targets = {m.target for m in candidate_moves(scene)}
+    assert targets == {"ball", "couch", "door"}
+
+
+def test_arrival_and_feasibility_filter() -> None:
+    scene = load_scenario("paper_experiment1").scene()
+    planner = planner_for(scene.bounds)
+    move = RobotMove("ball", 0.0, -0.46, math.pi / 2)
+    arrival = robot_arrival(scene, move, planner)
+    assert arrival.reachable and arrival.length == pytest.approx(1.54, abs=0.05)
+    assert arrival.time == pytest.approx(travel_time(arrival.length, 0.8, 0.6))
+    assert arrives_in_time(scene, move, arrival.time + 0.1, planner)
+    assert not arrives_in_time(scene, move, arrival.time - 0.1, planner)
+    assert not arrives_in_time(scene, move, 0.5, planner)  # pruned by the straight-line bound
+    blocked = robot_arrival(scene, RobotMove("couch", 3.5, 0.0, 0.0), planner)
+    assert not blocked.reachable and blocked.time == math.inf
+
+
+def test_moves_need_a_robot_and_a_known_object() -> None:
+    scene = load_scenario("paper_experiment1").scene()
+    with pytest.raises(RequestError, match="no robot"):
+        standoff_moves(scene.with_robot(None), "ball")
+    with pytest.raises(RequestError, match="unknown object 'sofa'"):
+        standoff_moves(scene, "sofa")
+    with pytest.raises(RequestError, match="move.x: expected a number"):
+        RobotMove.from_wire({"target": "ball", "x": None, "y": 0})

@@ -1,0 +1,69 @@
+"""Sensors: rate, latency, drop-outs, position noise and persistent size error, all seeded."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from caregiving.scenario import load_scenario
+from caregiving.sensors import Sensors
+from caregiving.world_model import World
+
+
+def run(sensors: Sensors, world: World, seconds: float) -> list:
+    got = []
+    while world.time < seconds - 1e-9:
+        sensors.observe(world.scene())
+        got += sensors.ready(world.time)
+        world.step()
+    return got
+
+
+def test_rate_latency_and_content() -> None:
+    s = load_scenario("paper_experiment1")
+    spec = replace(s.sensors, dropout=0.0)
+    sensors = Sensors(spec, np.random.default_rng(0))
+    world = World(s)
+    dets = run(sensors, world, 2.0)
+    stamps = sorted({d.stamp for d in dets})
+    # 15 Hz sampled on a 20 Hz world clock: frames every 1 or 2 steps, about 15 per second.
+    assert 26 <= len(stamps) <= 31
+    assert {d.name for d in dets} == {"couch", "door", "ball", "person"}
+    assert all(d.kind != "wall" for d in dets)
+    assert stamps[0] == 0.0
+    # Nothing is released before the latency has passed.
+    fresh = Sensors(spec, np.random.default_rng(0))
+    fresh.observe(s.scene())
+    assert fresh.ready(0.0) == [] and len(fresh.ready(0.05)) == 4
+
+
+def test_noise_statistics_and_size_bias() -> None:
+    s = load_scenario("paper_experiment1")
+    sensors = Sensors(s.sensors, np.random.default_rng(1))
+    scene = s.scene()
+    errors, radii, frames = [], set(), 600
+    for k in range(frames):
+        sensors.observe(replace(scene, time=k / 15))
+    dets = sensors.ready(1e9)
+    ball = [d for d in dets if d.name == "ball"]
+    errors = np.array([[d.shape.x - 0.0, d.shape.y - 0.0] for d in ball])
+    radii = {round(d.shape.r, 12) for d in ball}
+    assert len(dets) / (4 * frames) == pytest.approx(0.95, abs=0.03)
+    assert errors.std(axis=0) == pytest.approx([0.05, 0.05], abs=0.01)
+    assert len(radii) == 1 and 0.11 * 0.8 <= radii.pop() <= 0.11 * 1.2
+    couch = [d for d in dets if d.name == "couch"][0]
+    assert couch.target and couch.shape.hx / 0.45 == pytest.approx(couch.shape.hy / 1.0)
+
+
+def test_seeded_and_disabled() -> None:
+    s = load_scenario("paper_experiment1")
+    a = Sensors(s.sensors, np.random.default_rng(5))
+    b = Sensors(s.sensors, np.random.default_rng(5))
+    for sensors in (a, b):
+        sensors.observe(s.scene())
+    assert a.ready(1.0) == b.ready(1.0)
+    exact = Sensors(replace(s.sensors, enabled=False), np.random.default_rng(5))
+    exact.observe(s.scene())
+    dets = {d.name: d for d in exact.ready(0.0)}
+    assert dets["ball"].shape == s.scene().obstacle("ball").shape
+    assert dets["person"].heading == 0.0

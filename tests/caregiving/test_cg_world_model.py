@@ -1,0 +1,117 @@
+"""Ground truth: idle outcomes of the shipped scenarios, replanning, commanded robot."""
+
+import math
+
+import numpy as np
+import pytest
+
+from caregiving.robot_moves import RobotMove, standoff_moves, travel_time
+from caregiving.scenario import load_scenario, sample_trial
+from caregiving.visibility import can_see
+from caregiving.world_model import World, run_idle
+
+
+def test_paper_default_person_does_not_see_the_ball_and_collides() -> None:
+    s = load_scenario("paper_experiment1")
+    scene = s.scene()
+    person = scene.people[0]
+    assert not can_see(person, scene.obstacle("ball"), math.radians(s.people[0].gaze_deg))
+    out = run_idle(s)
+    assert out.collided
+    (hit,) = out.collisions
+    assert hit.person == "person" and hit.obstacle == "ball"
+    assert hit.time == pytest.approx(4.3)
+    assert math.hypot(hit.point[0], hit.point[1]) == pytest.approx(0.11, abs=1e-6)
+    assert out.arrival["person"] is None and out.min_clearance["person"] <= 0.0
+
+
+def test_person_who_sees_the_obstacle_walks_around_it() -> None:
+    out = run_idle(load_scenario("person_sees_obstacle"))
+    assert not out.collided
+    assert out.closest["person"] == "plant" and 0.0 < out.min_clearance["person"] < 0.2
+    assert out.arrival["person"] == pytest.approx(10.6, abs=0.5)
+
+
+def test_safe_walk_and_two_people() -> None:
+    assert not run_idle(load_scenario("safe_walk")).collided
+    two = run_idle(load_scenario("two_people"))
+    assert [c.person for c in two.collisions] == ["person"]
+    assert two.arrival["visitor"] is not None
+
+
+def test_cluttered_room_outcome_is_deterministic() -> None:
+    s = load_scenario("cluttered_room")
+    assert run_idle(s) == run_idle(s)
+
+
+def test_robot_in_front_of_the_ball_prevents_the_collision() -> None:
+    s = load_scenario("paper_experiment1")
+    world = World(s)
+    move = next(m for m in standoff_moves(s.scene(), "ball") if m.x < -0.4 and abs(m.y) < 1e-6)
+    assert world.command_robot(move)
+    out = world.run()
+    assert not out.collided and out.arrival["person"] is not None
+    assert (world.robot.x, world.robot.y) == pytest.approx((move.x, move.y))
+    assert world.robot.heading == pytest.approx(move.heading)
+
+
+def test_robot_respects_speed_and_acceleration() -> None:
+    s = load_scenario("safe_walk")
+    world = World(s)
+    assert world.command_robot(RobotMove("door", 0.0, 1.0, 0.0))
+    xs, ys = [world.robot.x], [world.robot.y]
+    arrived_at = None
+    for _ in range(200):
+        world.step()
+        xs.append(world.robot.x)
+        ys.append(world.robot.y)
+        if arrived_at is None and (world.robot.x, world.robot.y) == (0.0, 1.0):
+            arrived_at = world.time
+    v = np.hypot(np.diff(xs), np.diff(ys)) / world.dt
+    r = s.robot
+    assert v.max() <= r.max_speed + 1e-9
+    moving = np.flatnonzero(v > 0)
+    dv = np.abs(np.diff(v[:moving[-1] + 1]))
+    assert dv.max() / world.dt <= r.max_accel + 1e-6
+    assert v[moving[-1]] <= 2 * r.max_accel * world.dt  # the stopping step is gentle too
+    assert arrived_at == pytest.approx(travel_time(3.0, r.max_speed, r.max_accel), abs=0.15)
+
+
+def test_unreachable_command_and_stopping() -> None:
+    world = World(load_scenario("safe_walk"))
+    assert not world.command_robot(RobotMove("couch", 3.5, 0.0, 0.0))
+    assert world.command_robot(RobotMove("door", 0.0, 1.0, 0.0))
+    for _ in range(20):
+        world.step()
+    assert world.command_robot(None)
+    for _ in range(40):
+        world.step()
+    before = (world.robot.x, world.robot.y)
+    world.step()
+    assert (world.robot.x, world.robot.y) == before
+
+
+def test_person_replans_when_the_robot_comes_into_view() -> None:
+    s = load_scenario("paper_experiment1")
+    idle = World(s)
+    idle.step()
+    path_before = idle._walkers[0].path.copy()  # noqa: SLF001 - inspecting the walker's plan
+    world = World(s)
+    move = next(m for m in standoff_moves(s.scene(), "ball") if m.x < -0.4 and abs(m.y) < 1e-6)
+    world.command_robot(move)
+    for _ in range(60):
+        world.step()
+    assert not np.array_equal(world._walkers[0].path, path_before)  # noqa: SLF001
+    assert "robot" in world._walkers[0].known  # noqa: SLF001
+
+
+def test_sampled_trials_mix_risky_and_safe() -> None:
+    s = load_scenario("paper_experiment1")
+    rng = np.random.default_rng(3)
+    outcomes = [run_idle(sample_trial(s, rng)).collided for _ in range(12)]
+    assert any(outcomes) and not all(outcomes)
+
+
+def test_max_time_bounds_a_run() -> None:
+    out = World(load_scenario("safe_walk")).run(max_time=1.0)
+    assert out.duration == pytest.approx(1.0) and out.arrival["person"] is None
