@@ -31,14 +31,21 @@ valid JSON5 before rendering:
 A placeholder without a value and without a default is an error
 (:class:`ZenohConfigError` names every missing variable).
 
-Command line (the raw steps of ``docs/deploy.md``)::
+Command line (the raw steps of ``docs/deploy.md``; ``deploy/zenohctl.py`` is the
+same without ``-m``).  ``NAME=VALUE`` template variables, NAME in capitals, may
+stand anywhere on the line; a VALUE that parses as JSON is used as such::
 
     python -m wm.zenoh_config render TEMPLATE [-o OUT] [NAME=VALUE ...]
     python -m wm.zenoh_config check FILE [NAME=VALUE ...]
     python -m wm.zenoh_config run FILE [--mode M] [--connect EP]... [--listen EP]... [NAME=VALUE ...]
+    python -m wm.zenoh_config sub FILE KEYEXPR [--count N] [--timeout S] [NAME=VALUE ...]
+    python -m wm.zenoh_config put FILE KEY VALUE [--timeout S] [NAME=VALUE ...]
 
 ``run`` opens a session with the file (typically a router) and keeps it open
 until SIGINT/SIGTERM.  It is the stand-in for ``wm serve`` until that exists.
+``sub`` prints the samples it receives from other processes; ``put`` waits (up to
+``--timeout``) until a subscriber matches, then puts once.  Both are smoke tests
+of a deployment.
 """
 
 from __future__ import annotations
@@ -50,6 +57,7 @@ import re
 import signal
 import sys
 import threading
+import time
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Literal, TypeAlias
@@ -64,6 +72,7 @@ __all__ = [
     "config_from_endpoints",
     "config_from_file",
     "deploy_dir",
+    "main",
     "parse_variables",
     "render_template",
     "render_template_file",
@@ -82,6 +91,7 @@ _PLACEHOLDER = re.compile(r"\$\{([A-Za-z_][A-Za-z0-9_]*)(?::-([^}]*))?\}")
 _WHOLE_STRING = re.compile(
     r"""(?P<q>["'])\$\{(?P<name>[A-Za-z_][A-Za-z0-9_]*)(?::-(?P<default>[^}"']*))?\}(?P=q)"""
 )
+_ASSIGNMENT = re.compile(r"^[A-Z_][A-Z0-9_]*=")
 _ENDPOINT = re.compile(r"^[a-z][a-z0-9+-]*/[^\s#]+(#.*)?$")
 
 
@@ -424,25 +434,35 @@ def parse_variables(items: Sequence[str]) -> dict[str, Any]:
     return out
 
 
-def _main(argv: Sequence[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m wm.zenoh_config", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="cmd", required=True)
     p_render = sub.add_parser("render", help="render a template to stdout or -o FILE")
     p_render.add_argument("template")
     p_render.add_argument("-o", "--output")
-    p_render.add_argument("vars", nargs="*", metavar="NAME=VALUE")
     p_check = sub.add_parser("check", help="load a config (rendering it) and print its mode and endpoints")
     p_check.add_argument("file")
-    p_check.add_argument("vars", nargs="*", metavar="NAME=VALUE")
     p_run = sub.add_parser("run", help="open a session with FILE and keep it open until SIGINT/SIGTERM")
     p_run.add_argument("file")
     p_run.add_argument("--mode", choices=MODES)
     p_run.add_argument("--connect", action="append", default=None, metavar="ENDPOINT")
     p_run.add_argument("--listen", action="append", default=None, metavar="ENDPOINT")
-    p_run.add_argument("vars", nargs="*", metavar="NAME=VALUE")
-    args = parser.parse_args(argv)
+    p_sub = sub.add_parser("sub", help="print samples from other processes on KEYEXPR")
+    p_sub.add_argument("file")
+    p_sub.add_argument("key")
+    p_sub.add_argument("--count", type=int, default=0, help="exit after N samples (0: never)")
+    p_sub.add_argument("--timeout", type=float, default=0.0, help="exit after S seconds (0: never)")
+    p_put = sub.add_parser("put", help="put VALUE on KEY once a subscriber matches")
+    p_put.add_argument("file")
+    p_put.add_argument("key")
+    p_put.add_argument("value")
+    p_put.add_argument("--timeout", type=float, default=10.0)
+    # NAME=VALUE assignments (NAME in capitals) may stand anywhere on the line.
+    tokens = list(sys.argv[1:] if argv is None else argv)
+    assignments = [t for t in tokens if _ASSIGNMENT.match(t)]
+    args = parser.parse_args([t for t in tokens if not _ASSIGNMENT.match(t)])
     try:
-        variables = parse_variables(args.vars)
+        variables = parse_variables(assignments)
         if args.cmd == "render":
             text = render_template_file(args.template, args.output, variables)
             if args.output is None:
@@ -453,9 +473,12 @@ def _main(argv: Sequence[str] | None = None) -> int:
             for key in ("mode", "listen/endpoints", "connect/endpoints", "scouting/multicast/enabled"):
                 print(f"{key}: {config.get_json(key)}")
             return 0
-        config = config_from_file(
-            args.file, variables=variables, mode=args.mode, connect=args.connect, listen=args.listen
-        )
+        if args.cmd == "run":
+            config = config_from_file(
+                args.file, variables=variables, mode=args.mode, connect=args.connect, listen=args.listen
+            )
+        else:
+            config = config_from_file(args.file, variables=variables)
     except ZenohConfigError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
@@ -468,13 +491,52 @@ def _main(argv: Sequence[str] | None = None) -> int:
         print(f"error: cannot open Zenoh session: {_clean(e)}", file=sys.stderr)
         return 1
     try:
-        print(f"zenoh {config.get_json('mode')} {session.zid()} up; Ctrl-C to stop", flush=True)
-        while not stop.wait(0.5):
-            pass
+        if args.cmd == "run":
+            print(f"zenoh {json.loads(config.get_json('mode'))} {session.zid()} up; Ctrl-C to stop", flush=True)
+            while not stop.wait(0.5):
+                pass
+            return 0
+        if args.cmd == "sub":
+            return _sub(session, args.key, args.count, args.timeout, stop)
+        return _put(session, args.key, args.value, args.timeout)
     finally:
         session.close()
+
+
+def _sub(session: zenoh.Session, key: str, count: int, timeout: float, stop: threading.Event) -> int:
+    seen = 0
+    lock = threading.Lock()
+
+    def on_sample(sample: zenoh.Sample) -> None:
+        nonlocal seen
+        with lock:
+            kind = "delete" if sample.kind == zenoh.SampleKind.DELETE else "put"
+            print(f"{kind} {sample.key_expr} {sample.payload.to_string()}", flush=True)
+            seen += 1
+            if count and seen >= count:
+                stop.set()
+
+    session.declare_subscriber(key, on_sample, allowed_origin=zenoh.Locality.REMOTE)
+    print(f"subscribed to {key}", file=sys.stderr, flush=True)
+    deadline = time.monotonic() + timeout if timeout else None
+    while not stop.wait(0.2):
+        if deadline is not None and time.monotonic() > deadline:
+            break
+    return 0 if (not count or seen >= count) else 3
+
+
+def _put(session: zenoh.Session, key: str, value: str, timeout: float) -> int:
+    publisher = session.declare_publisher(key)
+    deadline = time.monotonic() + timeout
+    while not publisher.matching_status.matching:
+        if time.monotonic() > deadline:
+            print(f"error: no subscriber matches {key} after {timeout} s", file=sys.stderr)
+            return 3
+        time.sleep(0.05)
+    publisher.put(value)
+    print(f"put {key} {value}", flush=True)
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(_main())
+    sys.exit(main())

@@ -77,3 +77,36 @@ def test_client_open_fails_without_router() -> None:
     else:
         session.close()
         raise AssertionError("a client session opened with no router listening")
+
+
+def test_zenohctl_run_sub_put(spawn) -> None:
+    """The command-line steps of docs/deploy.md: a router, a subscriber and a put, three processes."""
+    from deploy_helpers import DEPLOY, PYTHON
+
+    tool = str(DEPLOY / "zenohctl.py")
+    port = free_port()
+    router = spawn(argv=[PYTHON, tool, "run", str(ROUTER), "LISTEN_HOST=127.0.0.1", f"ROUTER_PORT={port}"], name="run")
+    router.wait_line("zenoh router", 15)
+    sub = spawn(
+        argv=[PYTHON, tool, "sub", str(CLIENT), "wm/demo/**", "--count", "1", "--timeout", "20", f"ROUTER_PORT={port}"],
+        name="sub",
+    )
+    sub.wait_line("subscribed to wm/demo/**", 15)
+    put = spawn(argv=[PYTHON, tool, "put", str(CLIENT), "wm/demo/hello", "world", f"ROUTER_PORT={port}"], name="put")
+    put.wait_line("put wm/demo/hello world", 15)
+    assert sub.wait_line("put ", 10) == "put wm/demo/hello world"
+    assert sub.popen.wait(timeout=10) == 0
+    assert put.popen.wait(timeout=10) == 0
+    assert router.stop() == 0
+
+
+def test_zenohctl_render_and_check(tmp_path, capsys) -> None:
+    from wm.zenoh_config import main
+
+    out = tmp_path / "client.json5"
+    assert main(["render", str(template_path("tls/client.json5")), "-o", str(out), "CERT_DIR=/certs", "AGENT=perception"]) == 0
+    assert '"/certs/perception.pem"' in out.read_text()
+    assert main(["check", str(out)]) == 0
+    assert 'connect/endpoints: ["tls/localhost:7447"]' in capsys.readouterr().out
+    assert main(["check", str(template_path("tls/client.json5"))]) == 2
+    assert "no value for template variable(s) AGENT, CERT_DIR" in capsys.readouterr().err
