@@ -28,8 +28,12 @@ valid JSON5 before rendering:
   (``"tcp/${HOST}:${PORT}"``).
 * ``${NAME:-default}`` uses ``default`` when ``NAME`` is not given.
 
-A placeholder without a value and without a default is an error
-(:class:`ZenohConfigError` names every missing variable).
+When a file is loaded or rendered, a variable not given explicitly is taken from
+the environment variable ``WM_ZENOH_<NAME>`` if set (parsed as JSON when it
+parses, e.g. ``WM_ZENOH_WRITERS='["perception"]'``), so that tools which only
+take a config path (``wm serve --config``, ``wm.connect(config=...)``) can use
+the templates too.  A placeholder without a value and without a default is an
+error (:class:`ZenohConfigError` names every missing variable).
 
 Command line (the raw steps of ``docs/deploy.md``; ``deploy/zenohctl.py`` is the
 same without ``-m``).  ``NAME=VALUE`` template variables, NAME in capitals, may
@@ -135,8 +139,25 @@ def template_variables(text: str) -> dict[str, str | None]:
     return found
 
 
+ENV_PREFIX = "WM_ZENOH_"
+
+
+def _with_environment(variables: Mapping[str, Any] | None) -> dict[str, Any]:
+    merged: dict[str, Any] = {}
+    for key, raw in os.environ.items():
+        if key.startswith(ENV_PREFIX) and len(key) > len(ENV_PREFIX):
+            try:
+                merged[key[len(ENV_PREFIX) :]] = json.loads(raw)
+            except ValueError:
+                merged[key[len(ENV_PREFIX) :]] = raw
+    merged.update(variables or {})
+    return merged
+
+
 def render_template(text: str, variables: Mapping[str, Any] | None = None, *, source: str = "<template>") -> str:
     """Substitute ``${NAME}`` placeholders in JSON5 template text (see module doc).
+
+    Only ``variables`` are used here; the file-level functions add ``WM_ZENOH_*``.
 
     Raises :class:`ZenohConfigError` naming every variable that has neither a
     value nor a default, or a list/dict value used inside a longer string.
@@ -183,7 +204,7 @@ def render_template_file(
     src: PathLike, dst: PathLike | None = None, variables: Mapping[str, Any] | None = None
 ) -> str:
     """Render the template file ``src``; write it to ``dst`` when given. Returns the text."""
-    text = render_template(_read(src), variables, source=str(src))
+    text = render_template(_read(src), _with_environment(variables), source=str(src))
     _parse_json5(text, source=str(src))  # fail here, not when a session opens
     if dst is not None:
         Path(dst).parent.mkdir(parents=True, exist_ok=True)
@@ -317,9 +338,10 @@ def config_from_file(
     listen: Endpoints | None = None,
     overrides: Mapping[str, Any] | None = None,
 ) -> zenoh.Config:
-    """Load a JSON5 file (rendering its placeholders with ``variables``), then apply the overrides."""
+    """Load a JSON5 file (rendering its placeholders with ``variables``, then
+    ``WM_ZENOH_<NAME>`` environment variables, then defaults), then apply the overrides."""
     source = str(path)
-    text = render_template(_read(path), variables, source=source)
+    text = render_template(_read(path), _with_environment(variables), source=source)
     config = _parse_json5(text, source=source)
     return _apply(
         config,

@@ -168,3 +168,17 @@ def test_parse_variables() -> None:
 def test_unknown_template() -> None:
     with pytest.raises(ZenohConfigError, match="no Zenoh config template 'nope.json5'"):
         template_path("nope.json5")
+
+
+def test_environment_fills_missing_variables(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("WM_ZENOH_CERT_DIR", "/env/certs")
+    monkeypatch.setenv("WM_ZENOH_AGENT", "perception")
+    monkeypatch.setenv("WM_ZENOH_ROUTER_PORT", "7500")
+    config = build_config(template_path("tls/client.json5"), variables={"AGENT": "monitor"})
+    assert get(config, "transport/link/tls/connect_certificate") == "/env/certs/monitor.pem"
+    assert get(config, "connect/endpoints") == ["tls/localhost:7500"]
+    monkeypatch.setenv("WM_ZENOH_WRITERS", '["perception"]')
+    monkeypatch.setenv("WM_ZENOH_MONITORS", '["monitor"]')
+    monkeypatch.setenv("WM_ZENOH_ROUTERS", '["router"]')
+    config = build_config(template_path("acl/router.json5"))
+    assert get(config, "access_control/subjects")[0]["cert_common_names"] == ["perception"]
