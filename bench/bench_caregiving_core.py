@@ -1,0 +1,115 @@
+"""Timing and ground-truth figures of the caregiving core on Experiment 1.
+
+Reports grid planning time with cached inflated masks versus a cold cache, a
+person rollout in PyBullet versus the numpy fast path (and their ratio),
+imagine_person and imagine_joint latency, and the ground-truth risky rate (robot
+idle, exact geometry) over sampled trials of ``paper_experiment1.yaml``.
+Latencies are medians and 95th percentiles of repeated calls in this process.
+
+    python bench/bench_caregiving_core.py [--json PATH] [--trials N] [--seed S] [--repeat N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import platform
+import statistics
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from caregiving.imagine import imagine_joint, imagine_person
+from caregiving.planner import GridPlanner
+from caregiving.robot_moves import standoff_moves
+from caregiving.rollout import BulletRollout, NumpyRollout
+from caregiving.scenario import load_scenario, sample_trial
+from caregiving.world_model import run_idle
+
+DEFAULT_JSON = Path(__file__).parent / "results" / "bench_caregiving_core.json"
+
+
+def timings(call: Callable[[], object], repeat: int) -> dict[str, float]:
+    """Median and p95 of ``call()`` in milliseconds, after one warm-up call."""
+    call()
+    samples = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        call()
+        samples.append((time.perf_counter() - start) * 1e3)
+    samples.sort()
+    return {"median_ms": statistics.median(samples), "p95_ms": samples[min(len(samples) - 1, int(0.95 * len(samples)))]}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--json", type=Path, default=DEFAULT_JSON, help=f"where to write results (default {DEFAULT_JSON})")
+    parser.add_argument("--trials", type=int, default=180, help="sampled Experiment 1 trials for the risky rate")
+    parser.add_argument("--seed", type=int, default=2024, help="seed of the trial sampler")
+    parser.add_argument("--repeat", type=int, default=200, help="timed calls per latency figure")
+    args = parser.parse_args()
+
+    scenario = load_scenario("paper_experiment1")
+    scene = scenario.scene()
+    person = scene.people[0]
+    couch = scene.obstacle("couch")
+    everything = scene.bodies_around(person.name)
+    gaze = math.radians(scenario.people[0].gaze_deg)
+
+    warm = GridPlanner(scene.bounds)
+    plan_cached = timings(lambda: warm.plan_to_object((person.x, person.y), couch, everything, person.radius), args.repeat)
+
+    def cold() -> None:
+        warm.clear_cache()
+        warm.plan_to_object((person.x, person.y), couch, everything, person.radius)
+
+    plan_cold = timings(cold, args.repeat)
+
+    path = warm.plan_to_object((person.x, person.y), couch, everything, person.radius).path
+    walk_obstacles = [o for o in everything if o.name != couch.name]
+    numpy_rollout, bullet_rollout = NumpyRollout(), BulletRollout.shared()
+    roll_numpy = timings(lambda: numpy_rollout.walk(path, person.radius, person.speed, walk_obstacles), args.repeat)
+    roll_bullet = timings(lambda: bullet_rollout.walk(path, person.radius, person.speed, walk_obstacles), args.repeat)
+    walked = numpy_rollout.walk(path, person.radius, person.speed, walk_obstacles)
+
+    person_latency = timings(lambda: imagine_person(scene, person.name, couch.name, gaze), args.repeat)
+    person_bullet = timings(lambda: imagine_person(scene, person.name, couch.name, gaze, bullet_rollout), args.repeat)
+    move = standoff_moves(scene, "ball")[4]
+    joint_latency = timings(lambda: imagine_joint(scene, person.name, couch.name, gaze, move), args.repeat)
+
+    rng = np.random.default_rng(args.seed)
+    planner = GridPlanner(scene.bounds)
+    risky = 0
+    start = time.perf_counter()
+    for _ in range(args.trials):
+        risky += run_idle(sample_trial(scenario, rng), planner=planner).collided
+    per_trial = (time.perf_counter() - start) / args.trials * 1e3
+
+    report = {
+        "machine": platform.machine(), "python": platform.python_version(),
+        "planning": {"cached_masks": plan_cached, "cold_cache": plan_cold,
+                     "cold_over_cached": plan_cold["median_ms"] / plan_cached["median_ms"]},
+        "rollout": {"steps": walked.steps, "numpy": roll_numpy, "pybullet": roll_bullet,
+                    "pybullet_over_numpy": roll_bullet["median_ms"] / roll_numpy["median_ms"]},
+        "imagine_person": person_latency, "imagine_person_pybullet": person_bullet,
+        "imagine_joint": joint_latency,
+        "ground_truth": {"trials": args.trials, "seed": args.seed, "risky": risky,
+                         "risky_rate": risky / args.trials, "ms_per_trial": per_trial},
+    }
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    args.json.write_text(json.dumps(report, indent=2))
+    print(f"planning (ms, median): cached {plan_cached['median_ms']:.2f}  cold {plan_cold['median_ms']:.2f}")
+    print(f"rollout {walked.steps} steps (ms, median): numpy {roll_numpy['median_ms']:.3f}  "
+          f"pybullet {roll_bullet['median_ms']:.3f}  ratio {report['rollout']['pybullet_over_numpy']:.1f}x")
+    print(f"imagine_person (ms): median {person_latency['median_ms']:.2f}  p95 {person_latency['p95_ms']:.2f}  "
+          f"(pybullet median {person_bullet['median_ms']:.2f})")
+    print(f"imagine_joint (ms): median {joint_latency['median_ms']:.2f}  p95 {joint_latency['p95_ms']:.2f}")
+    print(f"ground truth: {risky}/{args.trials} risky ({risky / args.trials:.1%}), {per_trial:.0f} ms per trial")
+    print(json.dumps(report))
+
+
+if __name__ == "__main__":
+    main()
