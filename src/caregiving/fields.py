@@ -32,10 +32,6 @@ class Fields:
         """Build the error for ``key`` (the caller raises it)."""
         return self._error(f"{self.path_of(key)}: {message}")
 
-    def has(self, key: str) -> bool:
-        """Whether ``key`` is present."""
-        return key in self._data
-
     def _get(self, key: str, default: Any) -> Any:
         if key in self._data:
             return self._data[key]

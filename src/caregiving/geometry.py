@@ -114,13 +114,6 @@ def aabb(shape: Shape) -> tuple[float, float, float, float]:
     return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
 
 
-def moved(shape: Shape, x: float, y: float, theta: float | None = None) -> Shape:
-    """The same shape placed at a new centre (and, for a box, heading)."""
-    if isinstance(shape, Circle):
-        return Circle(x, y, shape.r)
-    return Box(x, y, shape.hx, shape.hy, shape.theta if theta is None else theta)
-
-
 def shapes_overlap(a: Shape, b: Shape, margin: float = 0.0) -> bool:
     """True when the shapes come closer than ``margin`` (exact for circles, conservative-exact for boxes)."""
     if isinstance(a, Circle):

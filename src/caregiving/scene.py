@@ -8,7 +8,6 @@ was asked about. ``to_wire``/``from_wire`` give msgpack-friendly dicts.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -70,11 +69,6 @@ class RobotState:
         """The robot's footprint as an obstacle."""
         return Obstacle(self.name, ROBOT_KIND,
                         Box(self.x, self.y, self.length / 2, self.width / 2, self.heading), self.height)
-
-    @property
-    def radius(self) -> float:
-        """Radius of the circle circumscribing the footprint (used to plan its moves)."""
-        return math.hypot(self.length, self.width) / 2
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from caregiving.geometry import (Box, Circle, aabb, as_points, bounding_radius, closest_boundary_point, corners,
-                                 moved, polyline_length, resample_by_distance, shapes_overlap, signed_distance,
+                                 polyline_length, resample_by_distance, shapes_overlap, signed_distance,
                                  swept_clearance)
 
 
@@ -48,12 +48,6 @@ def test_corners_aabb_and_radius() -> None:
     assert aabb(Circle(0, 0, 2)) == (-2, -2, 2, 2)
     assert bounding_radius(b) == pytest.approx(math.hypot(1.0, 0.5))
     assert bounding_radius(Circle(0, 0, 2)) == 2
-
-
-def test_moved_keeps_size() -> None:
-    assert moved(Circle(0, 0, 1), 2, 3) == Circle(2, 3, 1)
-    assert moved(Box(0, 0, 1, 2, 0.3), 2, 3) == Box(2, 3, 1, 2, 0.3)
-    assert moved(Box(0, 0, 1, 2, 0.3), 2, 3, 1.0) == Box(2, 3, 1, 2, 1.0)
 
 
 def test_shapes_overlap_all_pairs() -> None:
