@@ -1,8 +1,8 @@
 """Walk a disc along a path in the full scene and report its first collision.
 
 The walker advances at constant speed with a 50 ms step. Two interchangeable
-implementations share the bookkeeping and differ only in how they measure the
-clearance matrix (steps x obstacles):
+implementations of the :class:`Rollout` interface walk the same
+:func:`trajectory` and expose the same ``(steps x obstacles)`` clearance matrix:
 
 * :class:`BulletRollout` asks PyBullet (DIRECT, one persistent client per
   process) with ``getClosestPoints``; bodies are created once, pooled by shape and
