@@ -32,6 +32,9 @@ from .replication import Replicator
 from .zenoh_config import Endpoints, Mode, ZenohConfigError, build_config
 
 
+LOOPBACK_ANY_PORT = "tcp/127.0.0.1:0"
+
+
 class ConnectError(WMError):
     """The Zenoh session could not be opened (bad config, or no router answering)."""
 
@@ -48,7 +51,14 @@ async def open_session(
     listen: Endpoints | None = None,
     mode: Mode | None = None,
 ) -> zenoh.Session:
-    """Open a Zenoh session (multicast scouting off unless the config file turns it on)."""
+    """Open a Zenoh session (multicast scouting off unless the config file turns it on).
+
+    A peer given neither a config file nor ``listen`` listens on
+    ``tcp/127.0.0.1:0``: Zenoh's own default (every interface) advertises
+    addresses that other peers on this host cannot use, and the mesh breaks.
+    """
+    if config is None and not listen and mode in (None, "peer"):
+        listen = [LOOPBACK_ANY_PORT]
     try:
         zconfig = build_config(config, connect=connect, listen=listen, mode=mode)
     except ZenohConfigError as exc:

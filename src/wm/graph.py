@@ -401,6 +401,13 @@ class Graph:
     def take_volatile_outbox(self) -> list[Record]:
         return self._volatile.take_outbox()
 
+    def track_volatile_changes(self) -> None:
+        """Remember which volatile registers change (for persistence)."""
+        self._volatile.track_changes()
+
+    def take_volatile_changes(self) -> list[Record]:
+        return self._volatile.take_changes()
+
     def volatile_records(self) -> list[Record]:
         return self._volatile.records()
 

@@ -271,25 +271,27 @@ class Replicator:
 
     async def catch_up(self) -> str | None:
         """Sync from one live member, the durable one first; returns its replica id."""
-        for replica in await self.live_members(prefer=DURABLE_AGENT):
+        members = await self.live_members()
+        for replica in sorted(members, key=lambda r: members[r] != DURABLE_AGENT):
             if await self.sync_from(replica):
                 self.stats.caught_up_from = replica
                 return replica
         return None
 
-    async def live_members(self, prefer: str | None = None) -> list[str]:
-        """Replica ids of the other live members, asked of the network now."""
+    async def live_members(self) -> dict[str, str]:
+        """Replica id -> agent name of the other live members, asked of the network now."""
 
-        def ask() -> list[tuple[str, str]]:
-            found = []
+        def ask() -> dict[str, str]:
+            found = {}
             for reply in self.session.liveliness().get(keys.alive(self.name), timeout=self.query_timeout):
                 if reply.ok is not None:
-                    found.append(keys.parse_alive(str(reply.ok.key_expr)))
+                    replica, agent = keys.parse_alive(str(reply.ok.key_expr))
+                    found[replica] = agent
             return found
 
-        members = [m for m in await asyncio.to_thread(ask) if m[0] != self.graph.replica_id]
-        members.sort(key=lambda m: m[1] != prefer)
-        return [replica for replica, _ in members]
+        members = await asyncio.to_thread(ask)
+        members.pop(self.graph.replica_id, None)
+        return members
 
     async def confirm(self, timeout: float = 2.0) -> bool:
         """Wait until some other replica acknowledges every DELTA we published."""

@@ -41,12 +41,15 @@ class VolatileStore:
         # owner -> attr -> [value, clock, writer, monotonic time of last change]
         self._owners: dict[str, dict[str, list[Any]]] = {}
         self._outbox: dict[tuple[str, str], Record] = {}
+        self._changed: set[tuple[str, str]] | None = None  # tracked only for persistence
 
     def write(self, owner: str, attr: str, value: Any) -> None:
         """A local write: it always wins over what this replica has seen."""
         self.clock += 1
         self._owners.setdefault(owner, {})[attr] = [value, self.clock, self.replica_id, time.monotonic()]
         self._outbox[(owner, attr)] = (owner, attr, value, self.clock, self.replica_id)
+        if self._changed is not None:
+            self._changed.add((owner, attr))
 
     def merge(self, records: Iterable[Record]) -> list[tuple[str, str]]:
         """Merge remote registers; returns the (owner, attr) pairs whose value changed."""
@@ -60,6 +63,8 @@ class VolatileStore:
             if current is None or (clock, writer) > (current[1], current[2]):
                 attrs[attr] = [value, clock, writer, now]
                 changed.append((owner, attr))
+        if self._changed is not None:
+            self._changed.update(changed)
         return changed
 
     def values(self, owner: str) -> dict[str, Any]:
@@ -93,6 +98,23 @@ class VolatileStore:
         """The local writes since the last call, one per register (newer writes replace older)."""
         records = list(self._outbox.values())
         self._outbox.clear()
+        return records
+
+    def track_changes(self) -> None:
+        """Start remembering which registers change, for :meth:`take_changes`."""
+        if self._changed is None:
+            self._changed = set()
+
+    def take_changes(self) -> list[Record]:
+        """The registers that changed since the last call (their current values)."""
+        if not self._changed:
+            return []
+        records = []
+        for owner, attr in self._changed:
+            reg = self._owners.get(owner, {}).get(attr)
+            if reg is not None:
+                records.append((owner, attr, reg[0], reg[1], reg[2]))
+        self._changed.clear()
         return records
 
     def records(self) -> list[Record]:

@@ -1,0 +1,200 @@
+"""The ``wm`` command line: serve, load, dump, watch, members, set, rm.
+
+Every command takes ``--graph``, ``--connect ENDPOINT`` (repeatable) and
+``--config FILE``. Errors are one line on stderr and exit status 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import logging
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+from .connection import connect
+from .errors import NotFoundError, UnknownAttributeError, WMError
+from .graph import Graph
+from .ontology import Ontology
+
+
+class CommandError(WMError):
+    """A command that cannot do its job (nothing answered, bad argument)."""
+
+
+def _common(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--graph", default="default", help="graph name (default: %(default)s)")
+    parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT", help="Zenoh endpoint, e.g. tcp/127.0.0.1:7447")
+    parser.add_argument("--config", help="Zenoh config file (JSON5)")
+    parser.add_argument("--ontology", help="ontology file (default: the packaged one)")
+    parser.add_argument("--timeout", type=float, default=3.0, help="seconds to wait for a peer (default: %(default)s)")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log replication details")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="wm", description="cortex-wm: a distributed working memory for robots")
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    p = commands.add_parser("serve", help="the durable member: keep graphs on disk, optionally be the Zenoh router")
+    _common(p)
+    p.add_argument("--data", required=True, help="directory for the graphs on disk")
+    p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT", help="listen here (router mode unless --config)")
+    p.add_argument("--also", action="append", default=[], metavar="GRAPH", help="serve another graph in the same process")
+
+    p = commands.add_parser("load", help="insert a JSON scene (ours or DSR's)")
+    _common(p)
+    p.add_argument("file")
+    p.add_argument("--new-ids", action="store_true", help="give the scene's nodes fresh ids")
+
+    p = commands.add_parser("dump", help="print the current graph, read from the network")
+    _common(p)
+    p.add_argument("--format", choices=["text", "json"], default="text")
+
+    p = commands.add_parser("watch", help="print live events, one per line")
+    _common(p)
+    p.add_argument("--type", action="append", help="only this node/edge type (repeatable)")
+    p.add_argument("--kind", action="append", help="only this event kind, e.g. node_added (repeatable)")
+    p.add_argument("--name", action="append", help="only events about this node name (repeatable)")
+
+    p = commands.add_parser("members", help="list the live replicas and their agent names")
+    _common(p)
+
+    p = commands.add_parser("set", help="write node attributes: wm set NODE ATTR=VALUE ...")
+    _common(p)
+    p.add_argument("node")
+    p.add_argument("assignments", nargs="+", metavar="ATTR=VALUE")
+
+    p = commands.add_parser("rm", help="delete a node and its edges")
+    _common(p)
+    p.add_argument("node")
+    return parser
+
+
+def parse_value(ontology: Ontology, attr: str, text: str) -> Any:
+    """Parse a command-line value according to the attribute's declared type."""
+    spec = ontology.attributes.get(attr)
+    if spec is None:
+        raise UnknownAttributeError(f"unknown attribute {attr!r}")
+    try:
+        if spec.type == "bool":
+            lowered = text.lower()
+            if lowered not in ("true", "false", "1", "0"):
+                raise ValueError(text)
+            return lowered in ("true", "1")
+        if spec.type == "int":
+            return int(text)
+        if spec.type == "float":
+            return float(text)
+        if spec.type == "vec":
+            return [float(x) for x in (json.loads(text) if text.strip().startswith("[") else text.split(","))]
+        if spec.type == "bytes":
+            return text.encode("utf-8")
+    except (ValueError, json.JSONDecodeError):
+        raise CommandError(f"{attr}: cannot read {text!r} as {spec.describe()}") from None
+    return text
+
+
+async def _joined(g: Graph, graph_name: str, timeout: float) -> None:
+    """Wait until a peer has answered a catch-up; a one-line error if none does."""
+    assert g.network is not None
+    if g.network.stats.caught_up_from:
+        return
+    deadline = asyncio.get_running_loop().time() + timeout
+    while asyncio.get_running_loop().time() < deadline:
+        if await g.network.catch_up():
+            return
+        await asyncio.sleep(0.1)
+    raise CommandError(f"no replica of graph {graph_name!r} answered within {timeout:g} s (is `wm serve` or an agent running?)")
+
+
+async def _confirmed(g: Graph, timeout: float) -> None:
+    assert g.network is not None
+    if not await g.network.confirm(timeout):
+        raise CommandError(f"no replica acknowledged the write within {timeout:g} s")
+
+
+def _print_text(g: Graph) -> None:
+    for node in g.nodes():
+        attrs = " ".join(f"{k}={_short(v)}" for k, v in sorted(node.attrs.items()))
+        print(f"node {node.id} {node.type} {node.name} {attrs}".rstrip())
+    for edge in g.edges():
+        attrs = " ".join(f"{k}={_short(v)}" for k, v in sorted(edge.attrs.items()))
+        src, dst = g.get_node(edge.src).name, g.get_node(edge.dst).name
+        print(f"edge {src} -[{edge.type}]-> {dst} {attrs}".rstrip())
+
+
+def _short(value: Any) -> str:
+    if isinstance(value, tuple):
+        return "[" + ",".join(f"{x:.3g}" for x in value[:8]) + (",..." if len(value) > 8 else "") + "]"
+    return repr(value) if isinstance(value, str) else str(value)
+
+
+async def run(args: argparse.Namespace) -> int:
+    ontology = Ontology.load(args.ontology) if args.ontology else None
+    if args.command == "serve":
+        from .serve import serve
+
+        await serve(args.data, [args.graph, *args.also], config=args.config, connect=args.connect, listen=args.listen, ontology=ontology)
+        return 0
+    async with connect(args.graph, args.config, f"wm-{args.command}", connect=args.connect or None, ontology=ontology) as g:
+        if args.command == "members":
+            members = await g.network.live_members()  # type: ignore[union-attr]
+            if not members:
+                raise CommandError(f"no replica of graph {args.graph!r} answered within {args.timeout:g} s")
+            for replica, agent in sorted(members.items(), key=lambda m: (m[1], m[0])):
+                print(f"{replica} {agent}")
+            return 0
+        await _joined(g, args.graph, args.timeout)
+        if args.command == "dump":
+            if args.format == "json":
+                print(g.to_json())
+            else:
+                _print_text(g)
+        elif args.command == "load":
+            report = g.load_json(args.file, keep_ids=not args.new_ids)
+            await _confirmed(g, args.timeout)
+            print(f"loaded {report.nodes} nodes and {report.edges} edges into {args.graph!r}")
+            for skipped in report.skipped:
+                print(f"skipped unknown attribute {skipped}", file=sys.stderr)
+        elif args.command == "set":
+            values = {}
+            for assignment in args.assignments:
+                attr, sep, text = assignment.partition("=")
+                if not sep:
+                    raise CommandError(f"expected ATTR=VALUE, got {assignment!r}")
+                values[attr] = parse_value(g.ontology, attr, text)
+            g.update_node(_node_ref(args.node), values)
+            await _confirmed(g, args.timeout)
+        elif args.command == "rm":
+            g.delete_node(_node_ref(args.node))
+            await _confirmed(g, args.timeout)
+        elif args.command == "watch":
+            with g.events(kind=args.kind, type=args.type, name=args.name) as stream:
+                async for event in stream:
+                    print(event, flush=True)
+    return 0
+
+
+def _node_ref(text: str) -> int | str:
+    return int(text) if text.isdigit() else text
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(
+        level=logging.INFO if args.verbose or args.command == "serve" else logging.WARNING,
+        format="%(asctime)s %(levelname)s %(name)s: %(message)s",
+    )
+    try:
+        return asyncio.run(run(args))
+    except (WMError, NotFoundError, ValueError) as exc:
+        print(f"wm {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+    except (KeyboardInterrupt, asyncio.CancelledError):
+        return 130 if args.command not in ("serve", "watch") else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
