@@ -533,7 +533,12 @@ def _sub(session: zenoh.Session, key: str, count: int, timeout: float, stop: thr
         nonlocal seen
         with lock:
             kind = "delete" if sample.kind == zenoh.SampleKind.DELETE else "put"
-            print(f"{kind} {sample.key_expr} {sample.payload.to_string()}", flush=True)
+            raw = sample.payload.to_bytes()
+            try:
+                text = raw.decode()
+            except UnicodeDecodeError:
+                text = f"<{len(raw)} bytes>"
+            print(f"{kind} {sample.key_expr} {text}", flush=True)
             seen += 1
             if count and seen >= count:
                 stop.set()
