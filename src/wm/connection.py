@@ -102,16 +102,21 @@ async def connect(
     replica: Graph | None = None,
     heartbeat_period: float = 1.0,
     catch_up: bool = True,
+    read_only: bool = False,
 ) -> AsyncIterator[Graph]:
     """Yield a :class:`wm.Graph` replica of graph ``graph``, kept in sync with every peer.
 
     ``config`` is a Zenoh config file or mapping; ``connect``/``listen`` add
     endpoints. ``name`` is the agent name shown in ``g.members()``. The
     replication layer is reachable as ``g.network`` (stats, ``confirm()``).
+    ``read_only=True`` joins as a monitor: it receives everything and never
+    publishes (local writes stay local and are counted in ``stats.withheld``).
     """
     g = replica if replica is not None else Graph(ontology)
     session = await open_session(config, connect=connect, listen=listen, mode=mode)
-    replicator = Replicator(g, session, graph, name or default_agent_name(), heartbeat_period=heartbeat_period)
+    replicator = Replicator(
+        g, session, graph, name or default_agent_name(), heartbeat_period=heartbeat_period, read_only=read_only
+    )
     g.network = replicator
     try:
         with sigterm_cancels_current_task():

@@ -45,6 +45,7 @@ class ReplicationStats:
     repairs: int = 0
     syncs_served: int = 0
     heartbeats: int = 0
+    withheld: int = 0
     caught_up_from: str | None = None
 
 
@@ -60,8 +61,10 @@ class Replicator:
         *,
         heartbeat_period: float = 1.0,
         query_timeout: float = 2.0,
+        read_only: bool = False,
     ) -> None:
         self.graph = graph
+        self.read_only = read_only
         self.session = session
         self.name = keys.check_segment(graph_name, "graph name")
         self.agent = keys.check_segment(agent, "agent name")
@@ -82,19 +85,28 @@ class Replicator:
     # -- lifecycle -----------------------------------------------------------
 
     async def start(self, catch_up: bool = True) -> None:
-        """Declare everything, then catch up from a live member."""
+        """Declare everything, then catch up from a live member.
+
+        A read-only replica (a monitor) declares no publisher, queryable or
+        liveliness token and sends no heartbeat: it only subscribes and asks.
+        """
         self._loop = loop = asyncio.get_running_loop()
         me = self.graph.replica_id
         session = self.session
         self.graph.observe_updates(self._on_local_update)
         self.graph.add_write_listener(self._schedule_flush)
-        self._publisher = session.declare_publisher(
-            keys.delta(self.name, me), congestion_control=zenoh.CongestionControl.BLOCK, express=True
-        )
         remote = zenoh.Locality.REMOTE
         handoff = loop.call_soon_threadsafe
+        if not self.read_only:
+            self._publisher = session.declare_publisher(
+                keys.delta(self.name, me), congestion_control=zenoh.CongestionControl.BLOCK, express=True
+            )
+            self._declared += [
+                self._publisher,
+                session.declare_queryable(keys.sync(self.name, me), lambda q: handoff(self._answer, q), allowed_origin=remote),
+                session.liveliness().declare_token(keys.alive(self.name, me, self.agent)),
+            ]
         self._declared += [
-            self._publisher,
             session.declare_subscriber(
                 keys.delta(self.name), lambda s: handoff(self._on_delta, str(s.key_expr), s.payload.to_bytes()),
                 allowed_origin=remote,
@@ -103,11 +115,9 @@ class Replicator:
                 keys.heartbeat(self.name), lambda s: handoff(self._on_heartbeat, str(s.key_expr), s.payload.to_bytes()),
                 allowed_origin=remote,
             ),
-            session.declare_queryable(keys.sync(self.name, me), lambda q: handoff(self._answer, q), allowed_origin=remote),
             session.liveliness().declare_subscriber(
                 keys.alive(self.name), lambda s: handoff(self._on_liveliness, str(s.key_expr), s.kind), history=True
             ),
-            session.liveliness().declare_token(keys.alive(self.name, me, self.agent)),
         ]
         self.graph.note_member(me, self.agent, True)
         if catch_up:
@@ -148,7 +158,12 @@ class Replicator:
         self._flush_scheduled = False
         updates, self._updates = self._updates, []
         message = proto.make_delta(self.graph.replica_id, self.seq + 1, updates, self.graph.take_volatile_outbox())
-        if message is None or self._publisher is None:
+        if message is None:
+            return
+        if self._publisher is None:
+            if self.read_only:
+                self.stats.withheld += 1
+                log.warning("read-only replica: a local write to graph %r stays local", self.name)
             return
         self.seq += 1
         if self.drop_outgoing > 0:
@@ -326,6 +341,7 @@ class Replicator:
         while True:
             await asyncio.sleep(self.heartbeat_period)
             self._flush()
-            message = proto.Heartbeat(self.graph.replica_id, self.seq, self.graph.state_vector())
-            self.session.put(key, proto.encode(message))
+            if not self.read_only:
+                message = proto.Heartbeat(self.graph.replica_id, self.seq, self.graph.state_vector())
+                self.session.put(key, proto.encode(message))
             self.graph.prune_volatile()
