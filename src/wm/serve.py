@@ -13,6 +13,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from .agent_nodes import install_reaper
 from .connection import close_session, open_session, sigterm_cancels_current_task
 from .graph import Graph
 from .keys import check_segment
@@ -56,6 +57,7 @@ async def serve(
                 replicator = Replicator(graph, session, name, DURABLE_AGENT, heartbeat_period=heartbeat_period)
                 graph.network = replicator
                 await replicator.start()
+                install_reaper(graph)  # agent nodes of members that leave, even by kill -9
                 replicators.append(replicator)
                 log.info(
                     "serving graph %r: %d nodes from %s (%d log records), replica %s",
