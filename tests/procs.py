@@ -72,8 +72,8 @@ class Proc:
     def output(self) -> str:
         return "\n".join(self.lines)
 
-    def wait_line(self, prefix: str, timeout: float) -> str:
-        """The next output line starting with ``prefix``; fails clearly after ``timeout`` s."""
+    def wait_line(self, prefix: str, timeout: float, contains: str = "") -> str:
+        """The next output line starting with ``prefix`` and containing ``contains``; fails after ``timeout`` s."""
         deadline = time.monotonic() + timeout
         while (left := deadline - time.monotonic()) > 0:
             try:
@@ -82,9 +82,9 @@ class Proc:
                 break
             if line is None:
                 pytest.fail(f"{self.name} exited (rc={self.popen.wait()}) before printing {prefix!r}:\n{self.output()}")
-            if line.startswith(prefix):
+            if line.startswith(prefix) and contains in line:
                 return line
-        pytest.fail(f"{self.name}: no {prefix!r} line within {timeout} s; output so far:\n{self.output()}")
+        pytest.fail(f"{self.name}: no {prefix!r} line with {contains!r} within {timeout} s; output so far:\n{self.output()}")
 
     def kill9(self) -> None:
         os.kill(self.popen.pid, signal.SIGKILL)

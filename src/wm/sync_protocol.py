@@ -129,7 +129,11 @@ def decode(data: bytes) -> Message:
     for (name, types), value in zip(fields, rest):
         if not isinstance(value, types) or (isinstance(value, bool) and int in types):
             raise DecodeError(f"{kind.name}.{name}: wrong type {type(value).__name__}")
-        values[name] = _check_records(value) if name == "volatile" else value
+        if name == "volatile":
+            value = _check_records(value)
+        elif name == "state_vector":
+            parse_state_vector(value)
+        values[name] = value
     return cls(sender=sender, **values)
 
 
@@ -176,6 +180,8 @@ def parse_state_vector(data: bytes) -> dict[int, int]:
         client, pos = _read_varint(data, pos)
         clock, pos = _read_varint(data, pos)
         clocks[client] = clock
+    if pos != len(data):
+        raise DecodeError("trailing bytes after the state vector")
     return clocks
 
 

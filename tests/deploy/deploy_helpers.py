@@ -5,10 +5,6 @@ Every wait is bounded; every process started here is stopped by its PID at teard
 
 from __future__ import annotations
 
-import os
-import queue
-import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -33,74 +29,7 @@ GRACE_S = 0.5
 if str(TESTS_DIR) not in sys.path:
     sys.path.insert(0, str(TESTS_DIR))
 
-
-def free_port() -> int:
-    """A TCP port free on 127.0.0.1 right now."""
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-class Proc:
-    """A child process whose stdout lines are read on a thread."""
-
-    def __init__(self, argv: Sequence[str], name: str) -> None:
-        self.name = name
-        self.argv = list(argv)
-        self.popen = subprocess.Popen(
-            self.argv,
-            stdin=subprocess.DEVNULL,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-            cwd=REPO,
-            env={**os.environ, "PYTHONUNBUFFERED": "1"},
-        )
-        self.lines: list[str] = []
-        self._q: queue.Queue[str | None] = queue.Queue()
-        threading.Thread(target=self._pump, daemon=True).start()
-
-    def _pump(self) -> None:
-        assert self.popen.stdout is not None
-        for line in self.popen.stdout:
-            line = line.rstrip("\n")
-            self.lines.append(line)
-            self._q.put(line)
-        self._q.put(None)
-
-    def wait_line(self, prefix: str, timeout: float, contains: str = "") -> str:
-        """The next stdout line starting with ``prefix`` (and containing ``contains``);
-        fail clearly after ``timeout`` s."""
-        deadline = time.monotonic() + timeout
-        while True:
-            left = deadline - time.monotonic()
-            if left <= 0:
-                break
-            try:
-                line = self._q.get(timeout=left)
-            except queue.Empty:
-                break
-            if line is None:
-                pytest.fail(
-                    f"{self.name} exited (rc={self.popen.wait()}) before printing {prefix!r}; output:\n"
-                    + "\n".join(self.lines)
-                )
-            if line.startswith(prefix) and contains in line:
-                return line
-        pytest.fail(f"{self.name}: no {prefix!r} line with {contains!r} within {timeout} s; output so far:\n" + "\n".join(self.lines))
-
-    def stop(self, timeout: float = 5.0) -> int | None:
-        """SIGTERM by PID, then SIGKILL by PID if it does not exit in time."""
-        if self.popen.poll() is None:
-            try:
-                os.kill(self.popen.pid, signal.SIGTERM)
-                self.popen.wait(timeout=timeout)
-            except subprocess.TimeoutExpired:
-                os.kill(self.popen.pid, signal.SIGKILL)
-                self.popen.wait(timeout=timeout)
-            except ProcessLookupError:
-                pass
-        return self.popen.returncode
+from procs import Proc, free_port, wait_until  # noqa: E402,F401 - shared by the deploy tests
 
 
 @pytest.fixture
@@ -157,14 +86,6 @@ class Collector:
                 if left <= 0:
                     pytest.fail(f"timed out after {timeout} s waiting for {what}; received {self.items!r}")
                 self._cv.wait(left)
-
-
-def wait_until(cond: Callable[[], bool], timeout: float, what: str, step: float = 0.05) -> None:
-    deadline = time.monotonic() + timeout
-    while not cond():
-        if time.monotonic() > deadline:
-            pytest.fail(f"timed out after {timeout} s waiting for {what}")
-        time.sleep(step)
 
 
 def wait_matching(publisher: zenoh.Publisher, timeout: float, what: str) -> None:

@@ -144,3 +144,35 @@ def test_cli_reports_one_line_when_nothing_answers(tmp_path: Path) -> None:
         assert result.returncode == 1
         assert "Traceback" not in result.stderr
         assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+
+
+def test_partition_with_writes_on_both_sides_heals_with_nothing_lost(spawner, tmp_path: Path) -> None:
+    """Two routers (``wm serve``) linked through a TCP relay that the test cuts and heals.
+
+    The partition is made by cutting the Zenoh link between the two routers; the
+    writers are Zenoh clients of their own router, so no other path exists.
+    """
+    from tcp_relay import TcpRelay
+
+    port_1, port_2 = free_port(), free_port()
+    start_serve(spawner, tmp_path / "r1", port_1, name="router-1")
+    relay = TcpRelay(port_1)
+    try:
+        start_serve(spawner, tmp_path / "r2", port_2, "--connect", endpoint(relay.port), name="router-2")
+        left, dump_l = start_replica(spawner, tmp_path, "left", "--connect", endpoint(port_1), "--mode", "client", "--prefix", "before-")
+        right, dump_r = start_replica(spawner, tmp_path, "right", "--connect", endpoint(port_2), "--mode", "client", "--prefix", "r", "--nodes", "5")
+        wait_converged(dump_l, dump_r, names={f"r{i}" for i in range(5)})
+
+        relay.cut()
+        wait_until(lambda: len((read_dump(dump_l) or {}).get("members", {})) <= 2, 30, "the partition to show in the membership")
+        left_during, dump_ld = start_replica(spawner, tmp_path, "left-during", "--connect", endpoint(port_1), "--mode", "client", "--prefix", "L", "--nodes", "20")
+        right_during, dump_rd = start_replica(spawner, tmp_path, "right-during", "--connect", endpoint(port_2), "--mode", "client", "--prefix", "R", "--nodes", "20")
+        left_during.wait_line("wrote", 30)
+        right_during.wait_line("wrote", 30)
+        assert not node_names(graphs(dump_l)[0]) & {f"R{i}" for i in range(20)}, "the partition leaked"
+
+        relay.heal()
+        everything = {f"r{i}" for i in range(5)} | {f"L{i}" for i in range(20)} | {f"R{i}" for i in range(20)}
+        wait_converged(dump_l, dump_r, dump_ld, dump_rd, names=everything, timeout=60)
+    finally:
+        relay.close()
