@@ -4,7 +4,9 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: install test demo bench clean
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo -n)
+
+.PHONY: install system-deps test demo bench clean
 
 install: $(STAMP)
 
@@ -14,7 +16,15 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install -q -e '.[dev]'
 	touch $(STAMP)
 
-test: $(STAMP)
+# Debian packages for the browser and terminal tests, installed only when missing
+# (those tests skip, saying why, if this could not install them).
+system-deps:
+	@if [ ! -x /usr/bin/chromium ] || ! command -v tmux >/dev/null; then \
+		( $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq chromium chromium-driver tmux ) >/dev/null 2>&1 \
+		|| echo "system-deps: could not install chromium and tmux; the browser and terminal tests will skip"; \
+	fi
+
+test: $(STAMP) system-deps
 	$(PY) -m pytest -q
 
 demo: $(STAMP)

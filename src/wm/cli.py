@@ -1,4 +1,5 @@
-"""The ``wm`` command line: serve, load, dump, watch, members, set, rm.
+"""The ``wm`` command line: serve, load, dump, watch, members, set, rm, and the
+monitoring commands of :mod:`wm.monitoring_cli` (monitor, view, record, replay, reactions).
 
 Every command takes ``--graph``, ``--connect ENDPOINT`` (repeatable) and
 ``--config FILE``. Errors are one line on stderr and exit status 1.
@@ -15,6 +16,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from .connection import connect
+from . import monitoring_cli
 from .errors import NotFoundError, UnknownAttributeError, WMError
 from .graph import Graph
 from .ontology import Ontology
@@ -51,6 +53,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = commands.add_parser("dump", help="print the current graph, read from the network")
     _common(p)
     p.add_argument("--format", choices=["text", "json"], default="text")
+    monitoring_cli.add_dump_source(p)
 
     p = commands.add_parser("watch", help="print live events, one per line")
     _common(p)
@@ -69,6 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = commands.add_parser("rm", help="delete a node and its edges")
     _common(p)
     p.add_argument("node")
+    monitoring_cli.add_commands(commands, _common)
     return parser
 
 
@@ -138,6 +142,8 @@ async def run(args: argparse.Namespace) -> int:
 
         await serve(args.data, [args.graph, *args.also], config=args.config, connect=args.connect, listen=args.listen, ontology=ontology)
         return 0
+    if args.command in monitoring_cli.COMMANDS or getattr(args, "source", None):
+        return await monitoring_cli.run(args, ontology)
     async with connect(args.graph, args.config, f"wm-{args.command}", connect=args.connect or None, ontology=ontology) as g:
         if args.command == "members":
             members = await g.network.live_members()  # type: ignore[union-attr]
@@ -193,7 +199,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"wm {args.command}: error: {exc}", file=sys.stderr)
         return 1
     except (KeyboardInterrupt, asyncio.CancelledError):
-        return 130 if args.command not in ("serve", "watch") else 0
+        return 130 if args.command not in ("serve", "watch", *monitoring_cli.RUN_UNTIL_STOPPED) else 0
 
 
 if __name__ == "__main__":

@@ -1,0 +1,101 @@
+"""The monitoring commands of ``wm``: monitor, view, record, replay, reactions and ``dump --from``.
+
+:mod:`wm.cli` adds them with :func:`add_commands` and hands them to :func:`run`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+from .ontology import Ontology
+
+COMMANDS = ("monitor", "view", "record", "replay", "reactions")
+RUN_UNTIL_STOPPED = ("monitor", "view", "record")
+
+
+def add_commands(commands: argparse._SubParsersAction, common: Callable[[argparse.ArgumentParser], None]) -> None:
+    """Add the monitoring subcommands to the ``wm`` parser."""
+    p = commands.add_parser("monitor", help="live terminal view of a graph (read-only)")
+    common(p)
+    p.add_argument("--type", action="append", help="log only this node/edge type (repeatable)")
+    p.add_argument("--kind", action="append", help="log only this event kind, e.g. node_added (repeatable)")
+    p.add_argument("--name", action="append", help="log only events about this node name (repeatable)")
+
+    p = commands.add_parser("view", help="live browser view of a graph (read-only), on http://HOST:PORT/")
+    common(p)
+    p.add_argument("--port", type=int, default=8765, help="HTTP and websocket port, 0 for any (default: %(default)s)")
+    p.add_argument("--host", default="127.0.0.1", help="address to serve on (default: %(default)s)")
+
+    p = commands.add_parser("record", help="record a graph's changes into an MCAP file (read-only)")
+    common(p)
+    p.add_argument("file")
+    p.add_argument("--duration", type=float, help="stop after this many seconds (default: until stopped)")
+
+    p = commands.add_parser("replay", help="republish a recording into a live graph")
+    common(p)
+    p.add_argument("file")
+    p.add_argument("--speed", type=float, default=1.0, help="playback speed factor (default: %(default)s)")
+    p.add_argument("--as", dest="as_graph", metavar="GRAPH", help="graph to replay into (default: --graph)")
+
+    p = commands.add_parser("reactions", help="reaction times of a recorded run, optionally plotted as SVG")
+    p.add_argument("file")
+    p.add_argument("--svg", help="write a histogram here")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+
+
+def add_dump_source(dump: argparse.ArgumentParser) -> None:
+    """``wm dump --from FILE [--at T]``: the graph of a recording instead of the network."""
+    dump.add_argument("--from", dest="source", metavar="FILE", help="read a recording instead of the network")
+    dump.add_argument("--at", type=float, metavar="T", help="with --from: seconds after the recording's start (default: its end)")
+
+
+async def run(args: argparse.Namespace, ontology: Ontology | None) -> int:
+    """Run one monitoring command (or ``dump --from``)."""
+    endpoints = args.connect if hasattr(args, "connect") else []
+    if args.command == "dump":
+        from .recording import graph_at
+
+        g = graph_at(args.source, args.at, ontology)
+        if args.format == "json":
+            print(g.to_json())
+        else:
+            from .cli import _print_text
+
+            _print_text(g)
+    elif args.command == "monitor":
+        from .monitor import monitor
+
+        await monitor(args.graph, config=args.config, connect_to=endpoints, ontology=ontology, kinds=args.kind, types=args.type, names=args.name)
+    elif args.command == "view":
+        from .view import view
+
+        await view(args.graph, host=args.host, port=args.port, config=args.config, connect_to=endpoints, ontology=ontology)
+    elif args.command == "record":
+        from .record import record
+
+        count = await record(args.file, args.graph, config=args.config, connect_to=endpoints, ontology=ontology, duration=args.duration)
+        print(f"wm record: {count} updates in {args.file}")
+    elif args.command == "replay":
+        from .replay import replay
+
+        target = args.as_graph or args.graph
+        count = await replay(args.file, target, speed=args.speed, config=args.config, connect_to=endpoints, ontology=ontology)
+        print(f"wm replay: {count} updates republished into {target!r}")
+    elif args.command == "reactions":
+        from .reactions import plot_svg, reactions, summary
+
+        found = reactions(args.file)
+        stats = summary(found)
+        if args.json:
+            print(json.dumps(stats))
+        else:
+            for r in found:
+                answer = f"{r.action} after {r.reaction_ms:.1f} ms" if r.reaction_ms is not None else "no action"
+                print(f"{r.person} -> {r.target}: {answer}")
+            print(f"{stats['risky']} risky, {stats['missed']} missed, mean {stats['reaction_ms_mean']:.1f} ms, sd {stats['reaction_ms_sd']:.1f} ms")
+        if args.svg:
+            Path(args.svg).write_text(plot_svg(found, title=f"Reaction times: {Path(args.file).name}"))
+    return 0
