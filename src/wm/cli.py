@@ -1,5 +1,6 @@
-"""The ``wm`` command line: serve, load, dump, watch, members, set, rm, and the
-monitoring commands of :mod:`wm.monitoring_cli` (monitor, view, record, replay, reactions).
+"""The ``wm`` command line: serve, load, dump, watch, members, set, rm, the
+monitoring commands of :mod:`wm.monitoring_cli` (monitor, view, record, replay, reactions)
+and ``launch`` (:mod:`wm.launch_cli`).
 
 Every command takes ``--graph``, ``--connect ENDPOINT`` (repeatable) and
 ``--config FILE``. Errors are one line on stderr and exit status 1.
@@ -16,7 +17,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from .connection import connect
-from . import monitoring_cli
+from . import launch_cli, monitoring_cli
 from .errors import NotFoundError, UnknownAttributeError, WMError
 from .graph import Graph
 from .ontology import Ontology
@@ -73,6 +74,7 @@ def build_parser() -> argparse.ArgumentParser:
     _common(p)
     p.add_argument("node")
     monitoring_cli.add_commands(commands, _common)
+    launch_cli.add_command(commands)
     return parser
 
 
@@ -189,6 +191,8 @@ def _node_ref(text: str) -> int | str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if args.command == "launch":
+        return launch_cli.main(args)
     logging.basicConfig(
         level=logging.INFO if args.verbose or args.command == "serve" else logging.WARNING,
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
