@@ -113,7 +113,7 @@ async def record(
             task = asyncio.ensure_future(recorder.run())
             try:
                 await asyncio.wait_for(asyncio.shield(task), duration)
-            except TimeoutError:
+            except (TimeoutError, asyncio.CancelledError):  # the duration is up, or SIGTERM/SIGINT: stop cleanly
                 pass
             finally:
                 task.cancel()

@@ -117,26 +117,26 @@ def iter_messages(path: str | Path, topics: Iterable[str] | None = None) -> Iter
 def iter_updates(path: str | Path) -> Iterator[tuple[int, bytes | None, list[Record]]]:
     """(log time in ns, CRDT update or None, volatile records) of every ``/wm/updates`` message."""
     for _, t_ns, data in iter_messages(path, [UPDATES]):
-        update, records = msgpack.unpackb(data, raw=False)
-        yield t_ns, update, check_records(records)
+        yield (t_ns, *_unpack_update(data))
 
 
-def time_range(path: str | Path) -> tuple[int, int] | None:
-    """Log times (ns) of the first and last message, or None for a recording with none."""
-    times = [t for _, t, _ in iter_messages(path)]
-    return (min(times), max(times)) if times else None
+def _unpack_update(data: bytes) -> tuple[bytes | None, list[Record]]:
+    update, records = msgpack.unpackb(data, raw=False)
+    return update, check_records(records)
 
 
 def graph_at(path: str | Path, at: float | None = None, ontology: Ontology | None = None) -> Graph:
     """The graph as recorded ``at`` seconds after the recording's first message (None: the end)."""
     graph = Graph(ontology)
     first: int | None = None
-    for t_ns, update, records in iter_updates(path):
+    for topic, t_ns, data in iter_messages(path):
         first = t_ns if first is None else first
         if at is not None and t_ns - first > at * 1e9:
             break
-        if update:
-            graph.apply_update(update, RECORDING_WRITER)
-        if records:
-            graph.merge_volatile(records, RECORDING_WRITER)
+        if topic == UPDATES:
+            update, records = _unpack_update(data)
+            if update:
+                graph.apply_update(update, RECORDING_WRITER)
+            if records:
+                graph.merge_volatile(records, RECORDING_WRITER)
     return graph
