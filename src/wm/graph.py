@@ -13,7 +13,7 @@ A Graph is not thread-safe; use it from one thread (the asyncio loop).
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Iterator, Mapping
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -58,6 +58,7 @@ class Graph:
         self._hub = EventHub()
         self._depth = 0
         self._pending: list[Event] = []
+        self._shared: AbstractContextManager[None] | None = None  # a batch's open transaction
         self._write_listeners: list[Callable[[], None]] = []
         self._members: dict[str, str] = {}
         self.network: Replicator | None = None  # set while connected, see wm.connect
@@ -67,28 +68,54 @@ class Graph:
 
     @contextmanager
     def batch(self) -> Iterator[None]:
-        """Hold events back until the last write of the block, so consumers see the block at once.
+        """Group writes: attribute writes share one CRDT transaction and events wait for the end.
 
-        Writes inside the block are visible to reads at once; their deltas leave
-        in one message, as do all writes made in one loop tick.
+        Writes inside the block are visible to reads at once. Structural writes
+        (creating or deleting nodes and edges, renames) commit the shared
+        transaction first, so ids and names resolve straight away. Do not
+        ``await`` inside a batch: a transaction must not span an await.
         """
         self._depth += 1
+        outermost = self._depth == 1
+        if outermost:
+            self._open_shared_transaction()
         try:
             yield
         finally:
             self._depth -= 1
-            if self._depth == 0:
+            if outermost:
+                self._commit_shared_transaction()
                 self._flush_events()
 
+    def _open_shared_transaction(self) -> None:
+        self._shared = self._store.transaction(self.replica_id)
+        self._shared.__enter__()
+
+    def _commit_shared_transaction(self) -> None:
+        shared, self._shared = self._shared, None
+        if shared is not None:
+            shared.__exit__(None, None, None)
+            self._settle(self.replica_id, local=True)
+
     @contextmanager
-    def _transaction(self, crdt: bool = True) -> Iterator[None]:
+    def _transaction(self, crdt: bool = True, structural: bool = False) -> Iterator[None]:
         """One local write. ``crdt=False`` skips the CRDT transaction for volatile-only writes."""
-        if crdt:
-            with self._store.transaction(self.replica_id):
+        if self._shared is not None and not structural:
+            yield  # joins the batch's shared transaction; settled when the batch ends
+            return
+        reopen = self._shared is not None
+        if reopen:
+            self._commit_shared_transaction()
+        try:
+            if crdt:
+                with self._store.transaction(self.replica_id):
+                    yield
+            else:
                 yield
-        else:
-            yield
-        self._settle(self.replica_id, local=True)
+            self._settle(self.replica_id, local=True)
+        finally:
+            if reopen:
+                self._open_shared_transaction()
 
     def _settle(self, writer: str, local: bool) -> None:
         """Turn what the last transaction touched into index updates and events, then repair."""
@@ -190,7 +217,7 @@ class Graph:
     def _create_node(self, node_id: int, element: ElementType, name: str, values: dict[str, Value]) -> None:
         durable, volatile = self._split(values)
         key = str(node_id)
-        with self._transaction():
+        with self._transaction(structural=True):
             self._store.create_node(key, element.name, name, _to_crdt(durable))
             for attr, value in volatile.items():
                 self._volatile.write(node_owner(node_id), attr, value)
@@ -221,13 +248,13 @@ class Graph:
     def rename_node(self, ref: NodeRef, new_name: str) -> None:
         node_id = self.resolve(ref)
         self.check_new_name(new_name)
-        with self._transaction():
+        with self._transaction(structural=True):
             self._store.set_node_attrs(str(node_id), {NAME_KEY: new_name})
 
     def delete_node(self, ref: NodeRef) -> None:
         """Delete a node and every edge to or from it. The id is never used again."""
         node_id = self.resolve(ref)
-        with self._transaction():
+        with self._transaction(structural=True):
             for key in self._index.edges_of(node_id):
                 self._store.delete_edge(key, self._index.edge_attr_names.get(key, set()))
             self._store.delete_node(str(node_id))
@@ -284,9 +311,11 @@ class Graph:
         if type == "RT" and key not in self._index.visible:  # re-assigning a pose cannot change the tree
             self.rt.check_new_edge(src_id, dst_id)
         durable, volatile = self._split(values)
-        with self._transaction(crdt=bool(durable) or key not in self._index.markers):
-            if durable or key not in self._index.markers:
+        new_edge = key not in self._index.markers
+        with self._transaction(crdt=bool(durable) or new_edge, structural=new_edge):
+            if durable or new_edge:
                 self._store.set_edge(key, _to_crdt(durable))
+                self._index.note_edge_attrs(key, durable)
             if volatile:
                 self._write_volatile(edge_owner(key), volatile)
 
@@ -302,7 +331,7 @@ class Graph:
 
     def delete_edge(self, src: NodeRef, dst: NodeRef, type: str) -> None:  # noqa: A002
         key = self._visible_edge_key(src, dst, type)
-        with self._transaction():
+        with self._transaction(structural=True):
             self._store.delete_edge(key, self._index.edge_attr_names.get(key, set()))
 
     def delete_edge_attr(self, src: NodeRef, dst: NodeRef, type: str, attr: str) -> None:  # noqa: A002
@@ -361,14 +390,14 @@ class Graph:
 
 
     def _delete_dangling(self, keys: list[str]) -> None:
-        with self._transaction():
+        with self._transaction(structural=True):
             for key in keys:
                 if key in self._store.edges:
                     self._store.delete_edge(key, self._index.edge_attr_names.get(key, set()))
 
     def _rename_losers(self, names: list[str]) -> None:
         """Every replica renames the same losers to the same names, so the repair converges."""
-        with self._transaction():
+        with self._transaction(structural=True):
             for name in names:
                 ids = sorted(self._index.names.get(name, ()))
                 for loser in ids[1:]:

@@ -62,6 +62,11 @@ class GraphIndex:
 
     # -- maintenance ---------------------------------------------------------
 
+    def note_edge_attrs(self, key: str, attrs: Iterable[str]) -> None:
+        """Record attributes this replica just wrote on an edge, before the transaction settles."""
+        if attrs:
+            self.edge_attr_names.setdefault(key, set()).update(attrs)
+
     def _add_node(self, node_id: int, node_type: str, name: str) -> None:
         self.node_meta[node_id] = (node_type, name)
         self.names.setdefault(name, set()).add(node_id)
