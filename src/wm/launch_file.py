@@ -5,7 +5,8 @@ A launch file is TOML::
     log_dir = "logs/home"             # optional; default logs/<file stem>
     stop_timeout = 5.0                # optional; seconds between SIGTERM and SIGKILL
 
-    [vars]                            # ${name} or ${name:-default} in cmd, args, env, cwd, ready, log_dir
+    [vars]                            # ${name} or ${name:-default} in cmd, args, env, cwd, ready, log_dir;
+                                      # ${process} is the process's own name
     graph = "home"
     router = "tcp/127.0.0.1:7447"
 
@@ -200,6 +201,7 @@ def _processes(check: _Checker, data: Mapping[str, Any]) -> list[ProcessSpec]:
 
 def _process(check: _Checker, key: str, name: str, entry: dict[str, Any]) -> ProcessSpec | None:
     before = len(check.problems)
+    check.variables = {**check.variables, "process": name}
     check.unknown(f"{key}.", entry, PROCESS_KEYS)
     argv = _argv(check, key, entry)
     env = entry.get("env", {})

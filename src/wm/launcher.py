@@ -148,6 +148,7 @@ class Supervisor:
             self._set_final()
             return
         self._set("stopping")
+        self.console.note(f"{self.spec.name}: stopping, SIGTERM to pid {proc.pid}")
         try:
             os.kill(proc.pid, signal.SIGTERM)
             returncode = await asyncio.wait_for(proc.wait(), self.spec.stop_timeout)
