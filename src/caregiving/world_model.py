@@ -102,6 +102,11 @@ class World:
         return Scene(self._bounds, self._static, tuple(w.state for w in self._walkers), self.robot, self.time)
 
     @property
+    def robot_speed(self) -> float:
+        """The robot's current speed, m/s."""
+        return self._speed
+
+    @property
     def done(self) -> bool:
         """Whether nobody is walking any more."""
         return all(w.status != "walking" for w in self._walkers)

@@ -1,0 +1,89 @@
+"""The executor: drives the robot to its chosen intention through the world bridge.
+
+``python -m agents.executor --graph G --connect EP``
+
+A ``proposed`` robot ``intention`` (``move_to`` with a ``final_pose``) is sent
+as a command on ``robot/cmd``; it becomes ``active`` when the world accepts it
+and ``failed`` when it refuses (no path) or cannot be reached. An active
+intention is ``done`` once the robot, as placed in W, rests at the final pose.
+The status is written on the node and on its ``robot -has-> intention`` edge.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from typing import Any
+
+from bridges import bus, keys
+from wm import Node
+
+from .action import INTENTION
+from .context import WORLD
+from .loop import Coalescer
+from .runtime import Agent, every, main
+
+
+class Executor(Agent):
+    """Turns the robot's intentions into motion commands and reports how they end."""
+
+    name = "executor"
+
+    @classmethod
+    def add_arguments(cls, parser: argparse.ArgumentParser) -> None:
+        parser.add_argument("--arrived", type=float, default=0.05, help="metres from the final pose counted as there")
+
+    async def setup(self) -> None:
+        self.session = self.g.network.session  # type: ignore[union-attr]
+        self.loop = Coalescer(self.dispatch, self.log, "dispatch")
+        self.g.on(self.loop.poke, type=INTENTION, kind="node_added")
+        self.commands = 0
+
+    async def teardown(self) -> None:
+        self.loop.cancel()
+
+    def _status(self, node: Node, status: str, reason: str | None = None) -> None:
+        g = self.g
+        with g.batch():
+            g.update_node(node.id, {"status": status, **({"reason": reason} if reason else {})})
+            for e in g.edges(type="has", dst=node.id):
+                g.insert_or_assign_edge(e.src, node.id, "has", {"status": status, "updated_at": time.time()})
+
+    async def dispatch(self) -> None:
+        world = self.g.find_node(WORLD)
+        episode = int(world.get("episode", 0)) if world else 0
+        for node in self.g.nodes(INTENTION):
+            if node.get("status") != "proposed" or node.get("action") != "move_to":
+                continue
+            x, y, heading = node.get("final_pose")
+            request: dict[str, Any] = {"trial": episode,
+                                       "move": {"target": str(node.get("target")), "x": x, "y": y, "heading": heading}}
+            try:
+                reply = await bus.ask(self.session, keys.robot_cmd(self.args.graph), request, timeout=2.0)
+            except bus.BusError as exc:
+                self._status(node, "failed", str(exc))
+                self.log.warning("command refused", intention=node.name, error=str(exc))
+                continue
+            self.commands += 1
+            if self.g.find_node(node.id) is not None:
+                self._status(node, "active" if reply["accepted"] else "failed",
+                             None if reply["accepted"] else "no path to the final pose")
+            self.log.info("command sent", intention=node.name, accepted=reply["accepted"])
+
+    @every(0.1)
+    async def watch(self) -> None:
+        robots = self.g.nodes("robot")
+        if not robots:
+            return
+        for node in self.g.nodes(INTENTION):
+            if node.get("status") != "active":
+                continue
+            x, y, _ = self.g.rt.pose2d(WORLD, robots[0].id)
+            fx, fy, _ = node.get("final_pose")
+            if math.hypot(fx - x, fy - y) <= self.args.arrived and robots[0].get("speed", 0.0) < 1e-3:
+                self._status(node, "done")
+
+
+if __name__ == "__main__":
+    main(Executor)

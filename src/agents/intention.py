@@ -1,0 +1,210 @@
+"""Algorithm 1: guess each person's intentions, imagine them, and mark the risky ones in W.
+
+``python -m agents.intention --graph G --connect EP [--scenario S]``
+
+Whenever a person moves in W: for each person tracked long enough, the targets
+are the target objects inside their horizontal field of view; the vertical gaze
+range is split exactly into the classes that see the same objects
+(:func:`caregiving.visibility.gaze_classes`), which covers every sampled gaze.
+One batched request asks the simulator to imagine every (target, gaze class)
+walk and to sample perception's uncertainty around it.
+
+A walking person's heading tells where they are going: a target whose imagined
+path starts more than ``--heading-gate-deg`` away from it is not their intention.
+An intention is risky when the nominal walk collides or the sampled collision
+probability reaches ``--risk-threshold``. Each surviving intention is written as
+``has_intention`` person -> target (risky, path, collision point and object,
+time to collision, gaze, probability); risky ones also get a ``collision`` edge
+person -> object. Edges are updated in place, rewritten only when their meaning
+changes (or every ``--refresh`` simulated seconds), and deleted when they stop holding.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+from bridges import bus, keys
+from caregiving.geometry import resample_by_distance
+from caregiving.scenario import load_scenario
+from caregiving.visibility import candidate_targets, gaze_classes
+
+from .context import Context, read_context
+from .loop import Coalescer
+from .runtime import Agent, main
+
+HAS_INTENTION = "has_intention"
+COLLISION = "collision"
+HEADING_PROBE = 0.4  # metres along the imagined path where its direction is measured
+
+
+@dataclass(frozen=True)
+class Guess:
+    """The summary of one (person, target) intention over its gaze classes."""
+
+    person: str
+    target: str
+    risky: bool
+    probability: float
+    path: tuple[tuple[float, float], ...]
+    gaze: float
+    ttc: float | None
+    point: tuple[float, float] | None
+    obstacle: str | None
+
+
+def summarise(person: str, target: str, answers: list[dict[str, Any]], threshold: float) -> Guess:
+    """Fold the gaze classes of one intention: risky if any class is; report the earliest danger."""
+    worst: Guess | None = None
+    first: Guess | None = None
+    for a in answers:
+        r, risk = a["result"], a["risk"]
+        nominal = r["collided"]
+        risky = nominal or risk["probability"] >= threshold
+        times = [t for t in (r["collision_time"], risk["time"]) if t is not None]
+        ttc = min(times) if risky and times else None
+        point = (r["collision_point"] if nominal else risk["point"]) if risky else None
+        obstacle = (r["collision_object"] if nominal else risk["object"]) if risky else None
+        g = Guess(person, target, risky, max(risk["probability"], float(nominal)), tuple(map(tuple, r["path"])),
+                  r["gaze"], ttc, tuple(point) if point else None, obstacle)
+        first = first or g
+        if risky and (worst is None or (ttc or math.inf) < (worst.ttc or math.inf)):
+            worst = g
+    assert first is not None
+    return worst or first
+
+
+def heading_error(path: tuple[tuple[float, float], ...], heading: float) -> float:
+    """Angle between a heading and the direction the path sets off in (radians)."""
+    if len(path) < 2:
+        return 0.0
+    x, y = resample_by_distance(path, [HEADING_PROBE])[0]
+    direction = math.atan2(y - path[0][1], x - path[0][0])
+    return abs((direction - heading + math.pi) % (2 * math.pi) - math.pi)
+
+
+class Intention(Agent):
+    """Guesses and enacts people's intentions (Algorithm 1)."""
+
+    name = "intention"
+
+    @classmethod
+    def add_arguments(cls, parser: argparse.ArgumentParser) -> None:
+        parser.add_argument("--scenario", help="take the sensors' size error from this scenario")
+        parser.add_argument("--size-error", type=float, help="bound of the object size bias (default 0.2)")
+        parser.add_argument("--samples", type=int, default=64, help="sampled worlds per imagined walk")
+        parser.add_argument("--risk-threshold", type=float, default=0.05, help="collision probability deemed risky")
+        parser.add_argument("--heading-gate-deg", type=float, default=20.0,
+                            help="a walking person's heading must match the path's start within this")
+        parser.add_argument("--moving-speed", type=float, default=0.2, help="m/s above which a person walks")
+        parser.add_argument("--min-track", type=float, default=0.3, help="seconds a person is tracked before guessing")
+        parser.add_argument("--refresh", type=float, default=0.5, help="simulated seconds between unchanged rewrites")
+
+    async def setup(self) -> None:
+        a = self.args
+        spec = load_scenario(a.scenario) if a.scenario else None
+        self.size_error = a.size_error if a.size_error is not None else \
+            (spec.sensors.size_error if spec and spec.sensors.enabled else 0.2)
+        self.first_seen: dict[int, float] = {}
+        self.written: dict[tuple[int, int], tuple[bool, str | None, float]] = {}
+        self.evaluations = 0
+        self.session = self.g.network.session  # type: ignore[union-attr]
+        self.loop = Coalescer(self.evaluate, self.log, "evaluation")
+        self.g.on(self.loop.poke, type="person", kind=["node_added", "node_updated"])
+        self.log.info("guessing", size_error=self.size_error, samples=a.samples, threshold=a.risk_threshold)
+
+    async def teardown(self) -> None:
+        self.loop.cancel()
+
+    async def evaluate(self) -> None:
+        ctx = read_context(self.g)
+        if ctx is None:
+            return
+        a = self.args
+        items, eligible = [], []
+        for p in ctx.scene.people:
+            pid = ctx.ids[p.name]
+            first = self.first_seen.setdefault(pid, ctx.scene.time)
+            if ctx.scene.time - first < a.min_track:
+                continue
+            eligible.append(p.name)
+            around = ctx.scene.bodies_around(p.name)
+            classes = gaze_classes(p, around)
+            for t in candidate_targets(p, ctx.scene.obstacles):
+                for c in classes:
+                    items.append({"kind": "person", "person": p.name, "target": t.name, "gaze": c.gaze,
+                                  "uncertainty": {"size_error": self.size_error, "sigma": ctx.sigma,
+                                                  "samples": a.samples, "seed": 0}})
+        if not eligible:
+            return
+        reply = await bus.ask(self.session, keys.imagine(a.graph), {"items": items}) if items else {"results": []}
+        self.evaluations += 1
+        self._write(ctx, eligible, self._guesses(ctx, items, reply["results"]))
+
+    def _guesses(self, ctx: Context, items: list[dict[str, Any]], results: list[dict[str, Any]]) -> list[Guess]:
+        grouped: dict[tuple[str, str], list[dict[str, Any]]] = {}
+        for item, res in zip(items, results, strict=True):
+            if res["ok"] and res["result"]["reachable"]:
+                grouped.setdefault((item["person"], item["target"]), []).append(res)
+        guesses = []
+        gate = math.radians(self.args.heading_gate_deg)
+        for (person, target), answers in grouped.items():
+            p = ctx.scene.person(person)
+            if ctx.speed(person) > self.args.moving_speed:
+                answers = [x for x in answers if heading_error(tuple(map(tuple, x["result"]["path"])), p.heading) <= gate]
+            if answers:
+                guesses.append(summarise(person, target, answers, self.args.risk_threshold))
+        return guesses
+
+    def _write(self, ctx: Context, people: list[str], guesses: list[Guess]) -> None:
+        g = self.g
+        now = time.time()
+        keep = {(ctx.ids[x.person], ctx.ids[x.target]) for x in guesses}
+        with g.batch():
+            for x in guesses:
+                src, dst = ctx.ids[x.person], ctx.ids[x.target]
+                if g.find_node(src) is None or g.find_node(dst) is None:
+                    continue  # perception dropped it meanwhile
+                last = self.written.get((src, dst))
+                stale = last is None or last[0] != x.risky or last[1] != x.obstacle or \
+                    ctx.scene.time - last[2] >= self.args.refresh
+                if not stale:
+                    continue
+                self.written[(src, dst)] = (x.risky, x.obstacle, ctx.scene.time)
+                attrs: dict[str, Any] = {
+                    "risky": x.risky, "path": [c for pt in x.path for c in pt], "gaze": x.gaze, "action": "walk_to",
+                    "probability": x.probability, "updated_at": now, "stamp": ctx.scene.time,
+                    "observed_at": ctx.written_at}
+                if x.risky and x.obstacle in ctx.ids:
+                    attrs.update(collision_point=list(x.point or (0.0, 0.0)), collision_object=ctx.ids[x.obstacle],
+                                 time_to_collision=x.ttc if x.ttc is not None else 0.0)
+                g.insert_or_assign_edge(src, dst, HAS_INTENTION, attrs)
+            self._prune(ctx, people, keep, guesses)
+
+    def _prune(self, ctx: Context, people: list[str], keep: set[tuple[int, int]], guesses: list[Guess]) -> None:
+        """Delete intentions and collision marks of evaluated people that no longer hold."""
+        g = self.g
+        evaluated = {ctx.ids[p] for p in people}
+        dangers = {(ctx.ids[x.person], ctx.ids[x.obstacle]) for x in guesses if x.risky and x.obstacle in ctx.ids}
+        for e in g.edges(type=HAS_INTENTION):
+            if e.src in evaluated and (e.src, e.dst) not in keep:
+                g.delete_edge(e.src, e.dst, HAS_INTENTION)
+                self.written.pop((e.src, e.dst), None)
+        for e in g.edges(type=COLLISION):
+            if e.src in evaluated and (e.src, e.dst) not in dangers:
+                g.delete_edge(e.src, e.dst, COLLISION)
+        for x in guesses:
+            if x.risky and x.obstacle in ctx.ids:
+                src, dst = ctx.ids[x.person], ctx.ids[x.obstacle]
+                if g.find_node(src) is not None and g.find_node(dst) is not None and \
+                        g.find_edge(src, dst, COLLISION) is None:
+                    g.insert_or_assign_edge(src, dst, COLLISION, {
+                        "collision_point": list(x.point or (0.0, 0.0)),
+                        "time_to_collision": x.ttc if x.ttc is not None else 0.0, "updated_at": time.time()})
+
+
+if __name__ == "__main__":
+    main(Intention)

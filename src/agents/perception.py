@@ -1,0 +1,162 @@
+"""Perception: noisy detections and robot odometry from the world bridge, as nodes and RT edges in W.
+
+``python -m agents.perception --graph G --connect EP [--scenario S]``
+
+It keeps, all placed by an RT edge from the ``world`` node:
+
+* ``world``: the room size and the current ``episode`` (the world's trial number);
+* the ``robot``: size and limits, pose and speed from odometry;
+* a ``person`` node per confirmed person track: radius, eye height and the
+  robot's generic model of people (fields of view, vertical gaze range), plus
+  the tracked velocity, position uncertainty, sensor stamp and write time;
+* an ``object`` node per confirmed object track: kind, shape, size, target flag.
+
+Poses and the other high-rate attributes are volatile. Ids persist for as long
+as a track lives; a track unseen for ``--forget`` seconds is deleted. When the
+world starts a new trial every person and object node is cleared first.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from typing import Any
+
+from bridges import bus, keys
+from caregiving.scenario import load_scenario
+
+from .context import WORLD
+from .runtime import Agent, main
+from .tracking import PERSON, Track, Tracker
+
+
+class Perception(Agent):
+    """Turns detections into tracked person and object nodes in W."""
+
+    name = "perception"
+
+    @classmethod
+    def add_arguments(cls, parser: argparse.ArgumentParser) -> None:
+        parser.add_argument("--scenario", help="take the sensor noise and the model of people from this scenario")
+        parser.add_argument("--position-sigma", type=float, help="sensor position noise, metres (default 0.05)")
+        parser.add_argument("--hfov-deg", type=float, help="people's horizontal field of view (default 120)")
+        parser.add_argument("--vfov-deg", type=float, help="people's vertical field of view (default 40)")
+        parser.add_argument("--gaze-deg", type=float, nargs=2, help="people's vertical gaze range (default 6 10)")
+        parser.add_argument("--walk-speed", type=float, help="assumed walking speed, m/s (default 0.5)")
+        parser.add_argument("--forget", type=float, default=1.0, help="seconds before an unseen track is dropped")
+
+    async def setup(self) -> None:
+        a = self.args
+        spec = load_scenario(a.scenario) if a.scenario else None
+        person = spec.people[0] if spec and spec.people else None
+
+        def pick(value: float | None, from_spec: float | None, default: float) -> float:
+            return value if value is not None else from_spec if from_spec is not None else default
+
+        sigma = pick(a.position_sigma, spec.sensors.position_sigma if spec and spec.sensors.enabled else None, 0.05)
+        gaze = a.gaze_deg or (list(person.gaze_range_deg) if person else [6.0, 10.0])
+        self.person_model = {
+            "fov": math.radians(pick(a.hfov_deg, person.hfov_deg if person else None, 120.0)),
+            "vfov": math.radians(pick(a.vfov_deg, person.vfov_deg if person else None, 40.0)),
+            "gaze_range": [math.radians(gaze[0]), math.radians(gaze[1])],
+        }
+        self.walk_speed = pick(a.walk_speed, person.speed if person else None, 0.5)
+        self.tracker = Tracker(max(sigma, 1e-3), forget=a.forget)
+        self.episode: int | None = None
+        self.nodes: dict[int, int] = {}  # track id -> node id
+        self.frames = 0
+        session = self.g.network.session  # type: ignore[union-attr]
+        self._subs = [bus.subscribe(session, keys.frame(a.graph), self.on_frame),
+                      bus.subscribe(session, keys.robot_state(a.graph), self.on_robot)]
+        self.log.info("listening", sigma=sigma, forget=a.forget)
+
+    async def teardown(self) -> None:
+        for sub in self._subs:
+            sub.undeclare()
+
+    # -- episodes ------------------------------------------------------------------------------
+    def _new_episode(self, trial: int) -> None:
+        g = self.g
+        with g.batch():
+            for node in g.nodes("person") + g.nodes("object"):
+                g.delete_node(node.id)
+            if g.find_node(WORLD) is None:
+                g.insert_node("world", WORLD)
+            g.update_node(WORLD, {"episode": trial, "sim_time": 0.0})
+        self.tracker.reset()
+        self.nodes.clear()
+        self.episode = trial
+        self.log.info("new episode", trial=trial)
+
+    # -- the robot -----------------------------------------------------------------------------
+    def on_robot(self, m: dict[str, Any]) -> None:
+        g = self.g
+        if m.get("trial") != self.episode:
+            self._new_episode(int(m["trial"]))
+        now = time.time()
+        with g.batch():
+            if g.find_node(m["name"]) is None:
+                g.insert_node("robot", m["name"], {"size": [m["length"], m["width"], m["height"]],
+                                                   "footprint": [m["width"], m["length"]],
+                                                   "max_speed": m["max_speed"], "max_accel": m["max_accel"]})
+            world = g.get_node(WORLD)
+            if world.get("room_size") is None:
+                x0, y0, x1, y1 = m["bounds"]
+                g.update_node(WORLD, {"room_size": [x1 - x0, y1 - y0]})
+            if not any(n.get("kind") == "wall" for n in g.nodes("object")):
+                for i, w in enumerate(m.get("walls", [])):
+                    node = g.insert_node("object", f"wall_{self.episode}_{i}", {
+                        "kind": "wall", "shape": "box", "size": [2 * w["hx"], 2 * w["hy"], m["wall_height"]],
+                        "is_obstacle": True, "is_target": False})
+                    g.rt.set_pose2d(WORLD, node, w["x"], w["y"], w["theta"])
+            g.update_node(m["name"], {"speed": m["speed"], "stamp": m["time"], "written_at": now})
+            g.update_node(WORLD, {"sim_time": m["time"]})
+            g.rt.set_pose2d(WORLD, m["name"], m["x"], m["y"], m["heading"])
+
+    # -- detections ----------------------------------------------------------------------------
+    def on_frame(self, m: dict[str, Any]) -> None:
+        if m.get("trial") != self.episode:
+            return  # a frame of a finished trial, or before the first robot state
+        stamp = float(m["stamp"])
+        touched = self.tracker.update(stamp, m["dets"])
+        gone = self.tracker.prune(stamp)
+        now = time.time()
+        g = self.g
+        with g.batch():
+            for t in touched:
+                if self.tracker.confirmed(t):
+                    self._write(t, stamp, now)
+            for t in gone:
+                node = self.nodes.pop(t.id, None)
+                if node is not None and g.find_node(node) is not None:
+                    g.delete_node(node)
+        self.frames += 1
+
+    def _write(self, t: Track, stamp: float, now: float) -> None:
+        g = self.g
+        sx, sy, height = t.size()
+        volatile = {"stamp": stamp, "last_seen": stamp, "written_at": now, "position_sigma": t.sigma}
+        node = self.nodes.get(t.id)
+        if t.kind == PERSON:
+            volatile.update(velocity=[t.vx, t.vy])
+            if node is None:
+                node = self.nodes[t.id] = g.insert_node("person", f"person_{t.id}", {
+                    "radius": sx / 2, "eye_height": height, "track_id": t.id, "speed": self.walk_speed,
+                    **self.person_model, **volatile})
+            else:
+                g.update_node(node, volatile)
+        elif node is None:
+            node = self.nodes[t.id] = g.insert_node("object", f"{t.kind}_{t.id}", {
+                "kind": t.kind, "shape": t.shape, "size": [sx, sy, height], "is_obstacle": True,
+                "is_target": t.target, "track_id": t.id, **volatile})
+        else:
+            g.update_node(node, volatile)
+            old = g.get_node(node).get("size")
+            if old is None or max(abs(a - b) for a, b in zip(old, (sx, sy, height), strict=True)) > 0.005:
+                g.update_node(node, {"size": [sx, sy, height]})
+        g.rt.set_pose2d(WORLD, node, t.x, t.y, t.heading)
+
+
+if __name__ == "__main__":
+    main(Perception)

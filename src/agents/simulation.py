@@ -1,0 +1,137 @@
+"""The internal simulator: answers batched "imagine" requests over Zenoh against a frozen context.
+
+``python -m agents.simulation --graph G --connect EP [--rollout numpy|bullet]``
+
+It mirrors W into a scene (and, with ``--rollout bullet``, into its persistent
+PyBullet DIRECT world, moving bodies rather than re-creating them) and serves
+the queryable ``wm/<g>/sim/imagine``. A request is a msgpack map::
+
+    {"items": [ITEM, ...], "scene": SCENE?}
+
+where each ITEM is ``{"kind": "person"|"joint", "person", "target", "gaze",
+"move"?, "uncertainty"?: {"size_error", "sigma": {name: metres}, "samples", "seed"}}``
+and ``scene`` (optional) pins the context; without it the context is W as this
+replica holds it when the request arrives, frozen for the whole batch. The reply is ::
+
+    {"episode", "stamp", "written_at", "results": [{"ok": true, "result": ..., "risk": ...}
+                                                   | {"ok": false, "error": "..."}]}
+
+A malformed item gets its own error entry; a malformed request an error reply.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from dataclasses import replace
+from typing import Any
+
+from bridges import bus, keys
+from caregiving.errors import CaregivingError, RequestError
+from caregiving.fields import Fields
+from caregiving.imagine import Imagination, answer
+from caregiving.rollout import BulletRollout, NumpyRollout, Rollout
+from caregiving.robot_moves import RobotMove
+from caregiving.scene import Scene
+from caregiving.uncertainty import Risk, Uncertainty, collision_risk
+from .context import Context, read_context
+from .runtime import Agent, main
+
+MAX_ITEMS = 512
+
+
+def serve_item(scene: Scene, item: Any, rollout: Rollout) -> dict[str, Any]:
+    """Answer one item, adding the sampled collision risk when it asks for one."""
+    result = answer(scene, item, rollout)
+    f = Fields(item, "item", RequestError)
+    u = f.optional_child("uncertainty")
+    if u is None:
+        return {"ok": True, "result": result}
+    sigma = u.child("sigma", {})
+    uncertainty = Uncertainty(u.number("size_error", 0.0, non_negative=True, at_most=0.9),
+                              {k: sigma.number(k, non_negative=True) for k in item["uncertainty"].get("sigma", {})},
+                              int(u.number("samples", 64, positive=True, at_most=4096)), int(u.number("seed", 0)))
+    if "move" in result:  # a joint imagination: the person walked with the robot at the move's pose
+        walked = Imagination.from_wire(result["person"])
+        move = RobotMove.from_wire(result["move"])
+        if result["robot_reachable"] and scene.robot is not None:
+            scene = scene.with_robot(replace(scene.robot, x=move.x, y=move.y, heading=move.heading))
+    else:
+        walked = Imagination.from_wire(result)
+    return {"ok": True, "result": result, "risk": risk_to_wire(collision_risk(scene, walked, uncertainty))}
+
+
+def risk_to_wire(r: Risk) -> dict[str, Any]:
+    return {"probability": r.probability, "time": r.time, "point": list(r.point) if r.point else None,
+            "object": r.obstacle}
+
+
+def serve_batch(request: Any, context: Scene | None, rollout: Rollout) -> tuple[Scene, list[dict[str, Any]]]:
+    """The scene used and one result per item; raises :class:`RequestError` for a malformed request."""
+    f = Fields(request, "request", RequestError)
+    items = request.get("items") if isinstance(request, dict) else None
+    if not isinstance(items, list) or not items:
+        raise RequestError("request.items: expected a non-empty list")
+    if len(items) > MAX_ITEMS:
+        raise RequestError(f"request.items: at most {MAX_ITEMS} per batch, got {len(items)}")
+    pinned = f.optional_child("scene")
+    scene = Scene.from_wire(request["scene"]) if pinned is not None else context
+    if scene is None:
+        raise RequestError("no context yet: W holds no world and robot, and the request pins no scene")
+    results = []
+    for item in items:
+        try:
+            results.append(serve_item(scene, item, rollout))
+        except (CaregivingError, ValueError, TypeError, KeyError) as exc:
+            results.append({"ok": False, "error": f"{type(exc).__name__}: {exc}"})
+    return scene, results
+
+
+class Simulation(Agent):
+    """Serves imagine requests against a frozen copy of W."""
+
+    name = "simulation"
+
+    @classmethod
+    def add_arguments(cls, parser: argparse.ArgumentParser) -> None:
+        parser.add_argument("--rollout", choices=["numpy", "bullet"], default="numpy",
+                            help="walk rollouts with the vectorised numpy path or with PyBullet (default: %(default)s)")
+
+    async def setup(self) -> None:
+        self.bullet = BulletRollout.shared() if self.args.rollout == "bullet" else None
+        self.rollout: Rollout = self.bullet or NumpyRollout()
+        self.context: Context | None = None
+        self.dirty = True
+        self.served = 0
+        self.g.on(self._changed, type=["person", "object", "robot", "world", "RT"])
+        self._queryable = bus.serve(self.g.network.session, keys.imagine(self.args.graph), self.imagine)  # type: ignore[union-attr]
+        self.log.info("serving", key=keys.imagine(self.args.graph), rollout=self.args.rollout)
+
+    async def teardown(self) -> None:
+        self._queryable.undeclare()
+
+    def _changed(self, _event: object) -> None:
+        self.dirty = True
+
+    def _context(self) -> Context | None:
+        if self.dirty:
+            self.context = read_context(self.g)
+            self.dirty = False
+            if self.bullet is not None and self.context is not None:
+                s = self.context.scene
+                self.bullet.place([*s.obstacles, *(p.body() for p in s.people), *([s.robot.body()] if s.robot else [])])
+        return self.context
+
+    async def imagine(self, request: Any) -> dict[str, Any]:
+        start = time.perf_counter()
+        ctx = self._context()
+        scene, results = serve_batch(request, ctx.scene if ctx else None, self.rollout)
+        self.served += len(results)
+        pinned = ctx is None or scene is not ctx.scene
+        return {"episode": None if pinned else ctx.episode, "stamp": scene.time,
+                "written_at": None if pinned else ctx.written_at, "results": results,
+                "compute_ms": (time.perf_counter() - start) * 1e3}
+
+
+if __name__ == "__main__":
+    main(Simulation)

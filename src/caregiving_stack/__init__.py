@@ -1,0 +1,1 @@
+"""The caregiving stack as a whole: launching its processes, Experiment 1, its figures and the demo."""

@@ -1,0 +1,190 @@
+"""``wm experiment``: Experiment 1 of the paper over the full multi-process stack.
+
+For each trial the world bridge samples positions from ``--seed``, the stack
+runs closed-loop (the robot acts on what it guesses), and the harness records
+what W showed. Ground truth is the world model's exact-geometry outcome of the
+same trial with the robot idle (:func:`caregiving.world_model.run_idle`).
+
+Per trial: *predicted risky* = some ``has_intention`` was marked risky;
+*discarded* = no intention arose at all (as in the paper). Over the valid
+trials: accuracy, precision, recall, F1, F2 and the false-positive and
+false-negative rates (shares of valid trials, as the paper's Table I).
+``action_rate`` is the share of predicted-risky trials in which the robot wrote
+an intention; ``prevention_rate`` the share of truly risky trials in which
+nobody collided in the closed loop. Reaction times are wall-clock differences
+of stamps written into W by the writers (same host): the paper's definition
+(risky ``has_intention`` -> robot ``intention``) and end to end (the
+perception write behind the risky guess -> robot ``intention``).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import statistics
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+import wm
+from bridges.world.bridge import trial_for
+from caregiving.planner import GridPlanner
+from caregiving.scenario import Scenario, load_scenario
+from caregiving.world_model import run_idle
+
+from .launch import Stack
+from .trials import Harness, TrialRecord, finite
+
+PAPER = {"trials": 180, "discarded": 13, "valid": 167, "accuracy": 0.7964, "fp_rate": 0.2035, "fn_rate": 0.0,
+         "precision": 0.61, "recall": 1.0, "f1": 0.76, "f2": 0.89, "reaction_ms_mean": 747.0,
+         "reaction_ms_sd": 310.0, "action_rate": 0.8518}
+
+
+@dataclass(frozen=True)
+class Scored:
+    """One trial with its ground truth."""
+
+    record: TrialRecord
+    truly_risky: bool
+
+    @property
+    def discarded(self) -> bool:
+        return self.record.intentions == 0
+
+    @property
+    def predicted(self) -> bool:
+        return self.record.risky is not None
+
+
+def _ratio(a: float, b: float) -> float | None:
+    return a / b if b else None
+
+
+def percentile(values: list[float], q: float) -> float | None:
+    return float(np.percentile(values, q)) if values else None
+
+
+def metrics(scored: list[Scored]) -> dict[str, Any]:
+    """The figures of Table I, plus ours (see the module documentation)."""
+    valid = [s for s in scored if not s.discarded]
+    tp = sum(s.predicted and s.truly_risky for s in valid)
+    fp = sum(s.predicted and not s.truly_risky for s in valid)
+    fn = sum(not s.predicted and s.truly_risky for s in valid)
+    tn = len(valid) - tp - fp - fn
+    precision, recall = _ratio(tp, tp + fp), _ratio(tp, tp + fn)
+    f1 = f2 = None
+    if precision is not None and recall is not None and precision + recall > 0:
+        f1 = 2 * precision * recall / (precision + recall)
+        f2 = 5 * precision * recall / (4 * precision + recall)
+    reactions = finite([s.record.reaction_ms for s in scored])
+    e2e = finite([s.record.e2e_ms for s in scored])
+    detected = [s for s in scored if s.predicted]
+    risky = [s for s in scored if s.truly_risky]
+    return {
+        "trials": len(scored), "discarded": len(scored) - len(valid), "valid": len(valid),
+        "tp": tp, "fp": fp, "tn": tn, "fn": fn,
+        "accuracy": _ratio(tp + tn, len(valid)), "precision": precision, "recall": recall, "f1": f1, "f2": f2,
+        "fp_rate": _ratio(fp, len(valid)), "fn_rate": _ratio(fn, len(valid)),
+        "reaction_ms_mean": statistics.fmean(reactions) if reactions else None,
+        "reaction_ms_sd": statistics.stdev(reactions) if len(reactions) > 1 else None,
+        "reaction_ms_p50": percentile(reactions, 50), "reaction_ms_p99": percentile(reactions, 99),
+        "e2e_ms_p50": percentile(e2e, 50), "e2e_ms_p99": percentile(e2e, 99),
+        "e2e_ms_mean": statistics.fmean(e2e) if e2e else None,
+        "action_rate": _ratio(sum(s.record.action is not None for s in detected), len(detected)),
+        "prevention_rate": _ratio(sum(not s.record.collided for s in risky), len(risky)),
+        "truly_risky": len(risky), "closed_loop_collisions": sum(s.record.collided for s in scored),
+    }
+
+
+def _fmt(key: str, value: Any) -> str:
+    if value is None:
+        return "-"
+    if key.endswith("_ms_mean") or key.endswith("_ms_sd") or "_ms_" in key:
+        return f"{value:.1f} ms"
+    if key in ("accuracy", "fp_rate", "fn_rate", "action_rate", "prevention_rate"):
+        return f"{100 * value:.2f} %"
+    if isinstance(value, float):
+        return f"{value:.3f}"
+    return str(value)
+
+
+ROWS = [("Total experiments", "trials"), ("Experiments discarded", "discarded"), ("Valid experiments", "valid"),
+        ("Accuracy rate", "accuracy"), ("False positives", "fp_rate"), ("False negatives", "fn_rate"),
+        ("Precision", "precision"), ("Recall", "recall"), ("F-1 score", "f1"), ("F-2 score", "f2"),
+        ("Reaction time (mean)", "reaction_ms_mean"), ("Reaction time (deviation)", "reaction_ms_sd"),
+        ("Detected collision and action generated", "action_rate"), ("Prevented (truly risky trials)", "prevention_rate"),
+        ("End to end p50", "e2e_ms_p50"), ("End to end p99", "e2e_ms_p99")]
+
+
+def table(result: dict[str, Any]) -> Table:
+    """Table I of the paper beside ours."""
+    t = Table(title="Experiment 1 (Table I)")
+    t.add_column("Metric")
+    t.add_column("Ours", justify="right")
+    t.add_column("Paper", justify="right")
+    for label, key in ROWS:
+        t.add_row(label, _fmt(key, result.get(key)), _fmt(key, PAPER.get(key)))
+    return t
+
+
+async def run_trials(scenario: Scenario, stack: Stack, seed: int, indices: list[int | None],
+                     console: Console, graph: str) -> list[Scored]:
+    """Run the trials on a started stack, with a progress bar; returns them scored."""
+    planner = GridPlanner(scenario.scene().bounds)
+    timeout = 30.0 / stack.rate + 20.0
+    scored: list[Scored] = []
+    async with wm.connect(graph, name="experiment", connect=[stack.endpoint]) as g:
+        harness = Harness(g, graph)
+        columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+        with Progress(*columns, console=console, transient=True) as progress:
+            task = progress.add_task("trials", total=len(indices))
+            for index in indices:
+                stack.check()
+                record = await harness.run(seed, index, timeout)
+                truth = run_idle(trial_for(scenario, seed, index), planner=planner).collided
+                scored.append(Scored(record, truth))
+                progress.update(task, advance=1, description=f"trials ({sum(s.record.collided for s in scored)} collided)")
+        harness.close()
+    return scored
+
+
+def trial_json(s: Scored) -> dict[str, Any]:
+    r = s.record
+    return {"index": r.index, "truly_risky": s.truly_risky, "discarded": s.discarded, "predicted": s.predicted,
+            "acted": r.action is not None, "collided": r.collided, "reaction_ms": r.reaction_ms, "e2e_ms": r.e2e_ms,
+            "collisions": r.outcome.get("collisions", [])}
+
+
+def experiment(scenario_path: str, trials: int, seed: int, *, rate: float = 4.0, json_out: Path | None = None,
+               figures: Path | None = None, console: Console | None = None, logdir: Path | None = None,
+               nominal: bool = False) -> dict[str, Any]:
+    """Start the stack, run the trials, print Table I, write the JSON and figures; returns the results."""
+    from . import figures as figs
+
+    console = console or Console()
+    scenario = load_scenario(scenario_path)
+    graph = f"exp{int(time.time() * 1000) % 10_000_000}"
+    logs = logdir or Path(tempfile.mkdtemp(prefix="wm-experiment-"))
+    indices: list[int | None] = [None] if nominal else list(range(trials))
+    started = time.monotonic()
+    with Stack(graph, scenario_path, logs, rate=rate) as stack:
+        console.print(f"stack up: 6 processes on {stack.endpoint}, simulated clock x{rate:g}, logs in {logs}")
+        scored = asyncio.run(run_trials(scenario, stack, seed, indices, console, graph))
+    result = metrics(scored)
+    result.update(scenario=scenario.name, seed=seed, rate=rate, sensor_noise=scenario.sensors.enabled,
+                  wall_s=time.monotonic() - started, paper=PAPER)
+    console.print(table(result))
+    if figures is not None:
+        result["figures"] = [str(p) for p in figs.write_all(scored, figures)]
+    if json_out is not None:
+        json_out.parent.mkdir(parents=True, exist_ok=True)
+        json_out.write_text(json.dumps({**result, "per_trial": [trial_json(s) for s in scored]}, indent=2))
+    result["_scored"] = scored
+    return result

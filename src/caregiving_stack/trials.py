@@ -1,0 +1,160 @@
+"""Running trials over the live stack and recording what the working memory showed.
+
+The harness is itself a (passive) replica of W. For each trial it asks the
+world bridge to prepare it, waits until perception and the agents have cleared
+W for it, starts the clock, and records from its replica: whether any intention
+arose, the first risky ``has_intention`` and the robot's first ``intention``
+(with the wall-clock stamps their writers put on them), plus a snapshot of W at
+the moment of the action for the figures. The world's record of what really
+happened arrives on ``world/outcome``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import zenoh
+
+from agents.action import INTENTION
+from agents.context import WORLD, read_context
+from agents.intention import HAS_INTENTION
+from bridges import bus, keys
+from wm import Event, Graph
+
+
+class TrialError(RuntimeError):
+    """A trial could not be run (the stack did not answer or reset in time)."""
+
+
+@dataclass
+class Snapshot:
+    """What W held when the robot decided: the scene, the person's intentions and the chosen move."""
+
+    scene: dict[str, Any]
+    intentions: list[dict[str, Any]]
+    action: dict[str, Any] | None
+
+
+@dataclass
+class TrialRecord:
+    """Everything the harness saw of one trial."""
+
+    index: int | None
+    intentions: int = 0
+    risky: dict[str, Any] | None = None
+    action: dict[str, Any] | None = None
+    outcome: dict[str, Any] = field(default_factory=dict)
+    snapshot: Snapshot | None = None
+    seen_risky_at: float | None = None
+    seen_action_at: float | None = None
+
+    @property
+    def reaction_ms(self) -> float | None:
+        """Paper's definition: risky intention written -> robot intention written."""
+        if self.action is None:
+            return None
+        return (self.action["created_at"] - self.action["risk_at"]) * 1e3
+
+    @property
+    def e2e_ms(self) -> float | None:
+        """From the perception write behind the danger to the robot intention written."""
+        if self.action is None or not self.action.get("observed_at"):
+            return None
+        return (self.action["created_at"] - self.action["observed_at"]) * 1e3
+
+    @property
+    def collided(self) -> bool:
+        return bool(self.outcome.get("collisions"))
+
+
+def snapshot(g: Graph, action: dict[str, Any] | None) -> Snapshot | None:
+    """The context and intentions in ``g`` now, in plain data."""
+    ctx = read_context(g)
+    if ctx is None:
+        return None
+    names = {v: k for k, v in ctx.ids.items()}
+    intentions = [{"person": names.get(e.src), "target": names.get(e.dst), **dict(e.attrs)}
+                  for e in g.edges(type=HAS_INTENTION)]
+    return Snapshot(ctx.scene.to_wire(), intentions, action)
+
+
+class Harness:
+    """Drives trials through the world bridge and watches W."""
+
+    def __init__(self, g: Graph, graph: str) -> None:
+        self.g = g
+        self.graph = graph
+        self.session: zenoh.Session = g.network.session  # type: ignore[union-attr]
+        self._outcomes: dict[int, asyncio.Future[dict[str, Any]]] = {}
+        self._sub = bus.subscribe(self.session, keys.world_outcome(graph), self._on_outcome)
+        self._record: TrialRecord | None = None
+        self._episode = 0
+        g.on(self._on_event, type=[HAS_INTENTION, INTENTION])
+
+    def close(self) -> None:
+        self._sub.undeclare()
+
+    def _on_outcome(self, message: dict[str, Any]) -> None:
+        future = self._outcomes.get(message.get("trial", -1))
+        if future is not None and not future.done():
+            future.set_result(message)
+
+    def _on_event(self, event: Event) -> None:
+        rec = self._record
+        world = self.g.find_node(WORLD)
+        if rec is None or world is None or world.get("episode") != self._episode:
+            return
+        if event.type == HAS_INTENTION and event.kind.value in ("edge_added", "edge_updated"):
+            rec.intentions += 1
+            edge = self.g.find_edge(event.src, event.dst, HAS_INTENTION)  # type: ignore[arg-type]
+            if edge is not None and edge.get("risky") and rec.risky is None:
+                rec.risky, rec.seen_risky_at = dict(edge.attrs), time.time()
+                rec.snapshot = snapshot(self.g, None)
+        elif event.type == INTENTION and event.kind.value == "node_added" and rec.action is None:
+            node = self.g.find_node(event.id)  # type: ignore[arg-type]
+            if node is not None:
+                rec.action, rec.seen_action_at = dict(node.attrs), time.time()
+                rec.snapshot = snapshot(self.g, rec.action)
+
+    async def _ask(self, request: dict[str, Any]) -> dict[str, Any]:
+        return await bus.ask(self.session, keys.world_control(self.graph), request, timeout=10.0)
+
+    async def _cleared(self, trial: int, timeout: float) -> None:
+        def clean() -> bool:
+            world = self.g.find_node(WORLD)
+            return (world is not None and world.get("episode") == trial and not self.g.nodes("person")
+                    and not self.g.nodes(INTENTION) and not self.g.edges(type=HAS_INTENTION)
+                    and all(n.get("kind") == "wall" for n in self.g.nodes("object")))
+
+        deadline = time.monotonic() + timeout
+        while not clean():
+            if time.monotonic() > deadline:
+                raise TrialError(f"W was not cleared for trial {trial} within {timeout:g} s")
+            await asyncio.sleep(0.01)
+
+    async def run(self, seed: int, index: int | None, timeout: float) -> TrialRecord:
+        """Run one trial to its end and return what was seen."""
+        prepared = await self._ask({"op": "prepare", "seed": seed, "index": index})
+        trial = int(prepared["trial"])
+        await self._cleared(trial, 10.0)
+        record = TrialRecord(index)
+        self._record, self._episode = record, trial
+        future: asyncio.Future[dict[str, Any]] = asyncio.get_running_loop().create_future()
+        self._outcomes[trial] = future
+        try:
+            await self._ask({"op": "go"})
+            record.outcome = await asyncio.wait_for(future, timeout)
+        except TimeoutError:
+            raise TrialError(f"trial {trial} did not finish within {timeout:g} s") from None
+        finally:
+            self._outcomes.pop(trial, None)
+            self._record = None
+        return record
+
+
+def finite(values: list[float | None]) -> list[float]:
+    return [v for v in values if v is not None and math.isfinite(v)]
