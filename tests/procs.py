@@ -117,6 +117,7 @@ def spawner() -> Iterator[Callable[..., Proc]]:
     yield spawn
     for proc in reversed(procs):
         proc.stop()
+        print(f"--- output of {proc.name} (pid {proc.pid}, rc {proc.popen.returncode}) ---\n{proc.output()}")
 
 
 def wait_until(condition: Callable[[], bool], timeout: float, what: str, step: float = 0.05) -> None:

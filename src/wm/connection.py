@@ -33,6 +33,7 @@ from .zenoh_config import Endpoints, Mode, ZenohConfigError, build_config
 
 
 LOOPBACK_ANY_PORT = "tcp/127.0.0.1:0"
+DEFAULT_JOIN_WAIT = 3.0
 
 
 class ConnectError(WMError):
@@ -102,6 +103,7 @@ async def connect(
     replica: Graph | None = None,
     heartbeat_period: float = 1.0,
     catch_up: bool = True,
+    join_wait: float | None = None,
     read_only: bool = False,
 ) -> AsyncIterator[Graph]:
     """Yield a :class:`wm.Graph` replica of graph ``graph``, kept in sync with every peer.
@@ -111,7 +113,14 @@ async def connect(
     replication layer is reachable as ``g.network`` (stats, ``confirm()``).
     ``read_only=True`` joins as a monitor: it receives everything and never
     publishes (local writes stay local and are counted in ``stats.withheld``).
+
+    On entry the replica catches up from a live member. When it was told where
+    to connect (``connect`` or a config file), it waits up to ``join_wait``
+    seconds (default 3) for the network to show one; a replica that only
+    listens is the first of its graph and does not wait.
     """
+    if join_wait is None:
+        join_wait = DEFAULT_JOIN_WAIT if (connect or config is not None) else 0.0
     g = replica if replica is not None else Graph(ontology)
     session = await open_session(config, connect=connect, listen=listen, mode=mode)
     replicator = Replicator(
@@ -120,7 +129,7 @@ async def connect(
     g.network = replicator
     try:
         with sigterm_cancels_current_task():
-            await replicator.start(catch_up=catch_up)
+            await replicator.start(catch_up=catch_up, join_wait=join_wait)
             yield g
     finally:
         try:

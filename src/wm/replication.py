@@ -84,8 +84,8 @@ class Replicator:
 
     # -- lifecycle -----------------------------------------------------------
 
-    async def start(self, catch_up: bool = True) -> None:
-        """Declare everything, then catch up from a live member.
+    async def start(self, catch_up: bool = True, join_wait: float = 0.0) -> None:
+        """Declare everything, then catch up from a live member (waiting up to ``join_wait`` s for one).
 
         A read-only replica (a monitor) declares no publisher, queryable or
         liveliness token and sends no heartbeat: it only subscribes and asks.
@@ -121,7 +121,7 @@ class Replicator:
         ]
         self.graph.note_member(me, self.agent, True)
         if catch_up:
-            await self.catch_up()
+            await self.catch_up(join_wait)
         self._spawn(self._heartbeat_loop())
 
     async def stop(self) -> None:
@@ -284,14 +284,22 @@ class Replicator:
             return True
         return False
 
-    async def catch_up(self) -> str | None:
-        """Sync from one live member, the durable one first; returns its replica id."""
-        members = await self.live_members()
-        for replica in sorted(members, key=lambda r: members[r] != DURABLE_AGENT):
-            if await self.sync_from(replica):
-                self.stats.caught_up_from = replica
-                return replica
-        return None
+    async def catch_up(self, wait: float = 0.0) -> str | None:
+        """Sync from one live member, the durable one first; returns its replica id.
+
+        Right after a session opens, the network may not have told it of the
+        other members yet: ``wait`` is how long to keep asking when none answer.
+        """
+        deadline = time.monotonic() + wait
+        while True:
+            members = await self.live_members()
+            for replica in sorted(members, key=lambda r: members[r] != DURABLE_AGENT):
+                if await self.sync_from(replica):
+                    self.stats.caught_up_from = replica
+                    return replica
+            if time.monotonic() >= deadline:
+                return None
+            await asyncio.sleep(0.1)
 
     async def live_members(self) -> dict[str, str]:
         """Replica id -> agent name of the other live members, asked of the network now."""

@@ -38,7 +38,15 @@ def wait_converged(*dumps: Path, names: set[str], timeout: float = 30.0) -> dict
         current = graphs(*dumps)
         return all(g is not None for g in current) and all(g == current[0] for g in current) and names <= node_names(current[0])
 
-    wait_until(converged, timeout, f"{[d.name for d in dumps]} to converge on {len(names)} names")
+    def state() -> str:
+        return "; ".join(
+            f"{d.name}: {len(node_names(g))} nodes, stats {(read_dump(d) or {}).get('stats')}" for d, g in zip(dumps, graphs(*dumps))
+        )
+
+    try:
+        wait_until(converged, timeout, f"{[d.name for d in dumps]} to converge on {len(names)} names")
+    except BaseException as exc:
+        raise AssertionError(f"{exc}; {state()}") from None
     return graphs(*dumps)[0]  # type: ignore[return-value]
 
 
