@@ -8,16 +8,18 @@ that the first candidates are the likely ones, and stops at the first success:
 
 1. objects: the one the person would hit first, then the others by distance to
    the collision point;
-2. around each object, the stand-off poses nearest the spot on the person's
-   path just before the collision (where a robot is seen and walked around);
+2. around each object, the stand-off poses straight behind it, then straight in
+   front of it, along the person's way (a robot there is seen, and the detour
+   around it also clears the obstacle), then the others;
 3. a move whose straight-line travel time already misses the deadline is
    discarded without planning; the simulator plans the rest exactly.
 
-Candidates are imagined in small batches, each move together with every gaze
+Candidates are imagined in batches (one move first, then ``--batch``), each move together with every gaze
 class of the person's replanned walk (with perception's uncertainty sampled).
-A move removes the danger when the robot arrives ``--react-margin`` seconds
-before the predicted collision and every class then walks safely. If no move
-does, the search runs once more with the margin dropped. The first good move
+A move removes the danger when the robot arrives before the predicted collision
+and every class then walks safely; the search stops at the first such move that
+arrives ``--react-margin`` seconds early, else takes the first that arrives at
+all (or the budget ``--max-moves`` runs out). The chosen move
 becomes the robot's ``intention`` node (``move_to``, target, imagined final
 pose, ``status: proposed``), linked ``robot -has-> intention``.
 """
@@ -27,11 +29,13 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from itertools import count
+from collections.abc import Iterator
+from itertools import count, islice
 from typing import Any
 
+import numpy as np
+
 from bridges import bus, keys
-from caregiving.geometry import polyline_length, resample_by_distance
 from caregiving.robot_moves import RobotMove, standoff_moves, travel_time
 from caregiving.scenario import load_scenario
 from caregiving.scene import Scene
@@ -45,27 +49,40 @@ from .runtime import Agent, main
 
 INTENTION = "intention"
 LIVE = ("proposed", "active", "done")
-APPROACH = 0.6  # metres before the collision point where the robot is best seen
+
+
+def travel_direction(path: list[tuple[float, float]], point: tuple[float, float]) -> tuple[float, float]:
+    """Unit direction of the person's path where it comes closest to ``point``."""
+    if len(path) < 2:
+        return 1.0, 0.0
+    pts = np.asarray(path, dtype=float)
+    seg = np.diff(pts, axis=0)
+    k = int(np.argmin(np.linalg.norm(pts[:-1] + seg / 2 - np.asarray(point), axis=1)))
+    norm = float(np.hypot(*seg[k])) or 1.0
+    return float(seg[k][0] / norm), float(seg[k][1] / norm)
 
 
 def ordered_moves(scene: Scene, path: list[tuple[float, float]], point: tuple[float, float],
-                  obstacle: str) -> list[RobotMove]:
-    """Stand-off moves, most promising first (see the module documentation)."""
+                  obstacle: str) -> Iterator[RobotMove]:
+    """Stand-off moves, most promising first, generated lazily (see the module documentation).
+
+    Around the obstacle that would be hit, the poses straight behind it and
+    straight in front of it along the person's way come first: a robot there is
+    in the walker's view and the detour around it also clears the obstacle.
+    """
     objects = [o for o in scene.obstacles if o.kind != WALL_KIND]
     objects.sort(key=lambda o: (o.name != obstacle, math.hypot(o.shape.x - point[0], o.shape.y - point[1])))
-    spot = point
-    if len(path) >= 2:
-        along = polyline_length(path)
-        distances = [math.hypot(px - point[0], py - point[1]) for px, py in path]
-        nearest = min(range(len(path)), key=distances.__getitem__)
-        at = polyline_length(path[:nearest + 1]) if nearest else 0.0
-        spot = tuple(resample_by_distance(path, [min(max(at - APPROACH, 0.0), along)])[0])
-    moves = []
+    dx, dy = travel_direction(path, point)
     for o in objects:
         around = standoff_moves(scene, o.name)
-        around.sort(key=lambda m: math.hypot(m.x - spot[0], m.y - spot[1]))
-        moves.extend(around)
-    return moves
+        cx, cy = o.shape.x, o.shape.y
+
+        def key(m: RobotMove) -> tuple[float, float]:
+            norm = math.hypot(m.x - cx, m.y - cy) or 1.0
+            along = ((m.x - cx) * dx + (m.y - cy) * dy) / norm
+            return -abs(along), -along
+
+        yield from sorted(around, key=key)
 
 
 class Action(Agent):
@@ -136,25 +153,33 @@ class Action(Agent):
         p = ctx.scene.person(person)
         flat = edge.get("path", ())
         path = list(zip(flat[0::2], flat[1::2], strict=True))
-        ttc = edge.get("time_to_collision", 0.0) - max(ctx.scene.time - edge.get("stamp", ctx.scene.time), 0.0)
-        moves = ordered_moves(ctx.scene, path, tuple(edge.get("collision_point", (p.x, p.y))), obstacle)
+        ttc = edge.get("time_to_collision", 0.0) - max(ctx.scene.time - edge.get("at_time", ctx.scene.time), 0.0)
+        point = tuple(edge.get("collision_point", (p.x, p.y)))
         classes = gaze_classes(p, ctx.scene.bodies_around(person))
         robot = ctx.scene.robot
         assert robot is not None
-        for margin in (a.react_margin, 0.0):
-            deadline = ttc - margin
-            feasible = [m for m in moves if travel_time(math.hypot(m.x - robot.x, m.y - robot.y), robot.max_speed,
-                                                        robot.max_accel) < deadline][:a.max_moves]
-            for i in range(0, len(feasible), a.batch):
-                chosen = await self._first_good(ctx, person, target, feasible[i:i + a.batch], classes, deadline)
-                if chosen is not None:
-                    self._write(ctx, edge, chosen, obstacle_id=ctx.ids[chosen.target], margin=margin)
+        feasible = (m for m in ordered_moves(ctx.scene, path, point, obstacle)
+                    if travel_time(math.hypot(m.x - robot.x, m.y - robot.y), robot.max_speed, robot.max_accel) < ttc)
+        fallback: RobotMove | None = None
+        tried, size, started = 0, 1, time.perf_counter()
+        while tried < a.max_moves and (batch := list(islice(feasible, size))):
+            tried += len(batch)
+            for move, arrival in await self._safe_moves(ctx, person, target, batch, classes, ttc):
+                if arrival < ttc - a.react_margin:
+                    self._write(ctx, edge, move, a.react_margin, tried, started)
                     return
-        self.log.warning("no move removes the danger", person=person, target=target, ttc=round(ttc, 2),
-                         candidates=len(moves))
+                fallback = fallback or move
+            if fallback is not None:
+                break  # a move in time but without the margin: take it rather than search on
+            size = a.batch
+        if fallback is not None:
+            self._write(ctx, edge, fallback, 0.0, tried, started)
+            return
+        self.log.warning("no move removes the danger", person=person, target=target, ttc=round(ttc, 2), tried=tried)
 
-    async def _first_good(self, ctx: Context, person: str, target: str, moves: list[RobotMove],
-                          classes: tuple[Any, ...], deadline: float) -> RobotMove | None:
+    async def _safe_moves(self, ctx: Context, person: str, target: str, moves: list[RobotMove],
+                          classes: tuple[Any, ...], deadline: float) -> list[tuple[RobotMove, float]]:
+        """The moves (with their arrival times) after which every gaze class walks safely, in order."""
         a = self.args
         uncertainty = {"size_error": self.size_error, "sigma": ctx.sigma, "samples": a.samples, "seed": 0}
         items = [{"kind": "joint", "person": person, "target": target, "gaze": c.gaze, "move": m.to_wire(),
@@ -162,11 +187,12 @@ class Action(Agent):
         reply = await bus.ask(self.session, keys.imagine(a.graph), {"items": items})
         results = reply["results"]
         per = len(classes)
+        good = []
         for k, m in enumerate(moves):
             answers = results[k * per:(k + 1) * per]
             if all(self._safe(x, deadline) for x in answers):
-                return m
-        return None
+                good.append((m, answers[0]["result"]["robot_arrival"]))
+        return good
 
     def _safe(self, answer: dict[str, Any], deadline: float) -> bool:
         if not answer["ok"]:
@@ -177,7 +203,7 @@ class Action(Agent):
                     and walk["reachable"] and not walk["collided"]
                     and answer["risk"]["probability"] < self.args.risk_threshold)
 
-    def _write(self, ctx: Context, edge: Edge, move: RobotMove, obstacle_id: int, margin: float) -> None:
+    def _write(self, ctx: Context, edge: Edge, move: RobotMove, margin: float, tried: int, started: float) -> None:
         g = self.g
         robot = ctx.scene.robot
         assert robot is not None
@@ -185,13 +211,15 @@ class Action(Agent):
             return
         with g.batch():
             node = g.insert_node(INTENTION, f"move_to_{ctx.episode}_{next(self.names)}", {
-                "action": "move_to", "target": obstacle_id, "final_pose": [move.x, move.y, move.heading],
+                "action": "move_to", "target": ctx.ids[move.target], "final_pose": [move.x, move.y, move.heading],
                 "status": "proposed", "created_at": time.time(), "person": edge.src,
                 "observed_at": edge.get("observed_at", 0.0), "risk_at": edge.get("updated_at", 0.0),
-                "stamp": ctx.scene.time, "time_to_collision": edge.get("time_to_collision", 0.0),
+                "at_time": ctx.scene.time, "time_to_collision": edge.get("time_to_collision", 0.0),
                 "reason": f"prevents {edge.get('collision_object')} on the way to {edge.dst}; margin {margin:g} s"})
             g.insert_or_assign_edge(ctx.ids[robot.name], node, "has", {"status": "proposed", "updated_at": time.time()})
-        self.log.info("move chosen", target=move.target, x=round(move.x, 2), y=round(move.y, 2), margin=margin)
+        self.log.info("move chosen", target=move.target, x=round(move.x, 2), y=round(move.y, 2), margin=margin,
+                      tried=tried, search_ms=round((time.perf_counter() - started) * 1e3, 1),
+                      since_risk_ms=round((time.time() - edge.get("updated_at", time.time())) * 1e3, 1))
 
 
 if __name__ == "__main__":

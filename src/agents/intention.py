@@ -176,7 +176,7 @@ class Intention(Agent):
                 self.written[(src, dst)] = (x.risky, x.obstacle, ctx.scene.time)
                 attrs: dict[str, Any] = {
                     "risky": x.risky, "path": [c for pt in x.path for c in pt], "gaze": x.gaze, "action": "walk_to",
-                    "probability": x.probability, "updated_at": now, "stamp": ctx.scene.time,
+                    "probability": x.probability, "updated_at": now, "at_time": ctx.scene.time,
                     "observed_at": ctx.written_at}
                 if x.risky and x.obstacle in ctx.ids:
                     attrs.update(collision_point=list(x.point or (0.0, 0.0)), collision_object=ctx.ids[x.obstacle],

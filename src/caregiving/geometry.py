@@ -116,6 +116,10 @@ def aabb(shape: Shape) -> tuple[float, float, float, float]:
 
 def shapes_overlap(a: Shape, b: Shape, margin: float = 0.0) -> bool:
     """True when the shapes come closer than ``margin`` (exact for circles, conservative-exact for boxes)."""
+    ax0, ay0, ax1, ay1 = aabb(a)
+    bx0, by0, bx1, by1 = aabb(b)
+    if ax0 - margin > bx1 or bx0 - margin > ax1 or ay0 - margin > by1 or by0 - margin > ay1:
+        return False  # bounding boxes apart: cannot overlap
     if isinstance(a, Circle):
         return bool(signed_distance(b, (a.x, a.y))[0] < a.r + margin)
     if isinstance(b, Circle):

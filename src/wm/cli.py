@@ -1,6 +1,6 @@
 """The ``wm`` command line: serve, load, dump, watch, members, set, rm, the
 monitoring commands of :mod:`wm.monitoring_cli` (monitor, view, record, replay, reactions)
-and ``launch`` (:mod:`wm.launch_cli`).
+``launch`` (:mod:`wm.launch_cli`) and ``experiment`` (:mod:`caregiving_stack.cli`).
 
 Every command takes ``--graph``, ``--connect ENDPOINT`` (repeatable) and
 ``--config FILE``. Errors are one line on stderr and exit status 1.
@@ -17,6 +17,8 @@ from collections.abc import Sequence
 from typing import Any
 
 from .connection import connect
+from caregiving_stack import cli as experiment_cli
+
 from . import launch_cli, monitoring_cli
 from .errors import NotFoundError, UnknownAttributeError, WMError
 from .graph import Graph
@@ -75,6 +77,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("node")
     monitoring_cli.add_commands(commands, _common)
     launch_cli.add_command(commands)
+    experiment_cli.add_command(commands)
     return parser
 
 
@@ -193,6 +196,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.command == "launch":
         return launch_cli.main(args)
+    if args.command == "experiment":
+        return experiment_cli.main(args)
     logging.basicConfig(
         level=logging.INFO if args.verbose or args.command == "serve" else logging.WARNING,
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",

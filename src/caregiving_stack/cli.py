@@ -1,0 +1,43 @@
+"""``wm experiment``: the command-line face of :mod:`caregiving_stack.experiment` (imports it lazily)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+
+def add_command(commands: Any) -> None:
+    """Add ``experiment`` to the ``wm`` subcommands."""
+    p = commands.add_parser("experiment", help="Experiment 1 of the caregiving paper over the full multi-process stack")
+    p.add_argument("scenario", help="scenario file or shipped scenario name, e.g. paper_experiment1")
+    p.add_argument("--trials", type=int, default=180, help="randomised trials (default: %(default)s)")
+    p.add_argument("--seed", type=int, default=2024, help="seed of the trial sampler (default: %(default)s)")
+    p.add_argument("--rate", type=float, default=2.0,
+                   help="simulated seconds per wall second in the world bridge (default: %(default)s)")
+    p.add_argument("--json", type=Path, help="write the results here")
+    p.add_argument("--figures", type=Path, help="write the Fig. 3 style trial figure and the reaction histogram here")
+    p.add_argument("--logs", type=Path, help="directory for the processes' logs (default: a temporary one)")
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run the experiment; errors are one line on stderr and exit status 1."""
+    from caregiving.errors import ScenarioError
+
+    from .experiment import experiment
+    from .launch import LaunchError
+    from .trials import TrialError
+
+    if args.trials < 1:
+        print("wm experiment: error: --trials must be at least 1", file=sys.stderr)
+        return 1
+    try:
+        experiment(args.scenario, args.trials, args.seed, rate=args.rate, json_out=args.json, figures=args.figures,
+                   logdir=args.logs)
+    except (ScenarioError, LaunchError, TrialError) as exc:
+        print(f"wm experiment: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        return 130
+    return 0
