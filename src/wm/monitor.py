@@ -25,7 +25,7 @@ from rich.table import Table
 from rich.text import Text
 
 from .connection import ConnectError, connect
-from .events import Event
+from .events import Event, EventKind
 from .graph import Graph
 from .ontology import Ontology
 from .scene2d import root_node, world_poses
@@ -52,10 +52,12 @@ class MonitorState:
     last_heard: float = 0.0
 
     def on_event(self, event: Event, now: float | None = None) -> None:
-        """Count an event (every event) for the update rates."""
+        """Count a graph event for the update rates (membership changes only count as news)."""
         now = time.monotonic() if now is None else now
-        self.recent.append((now, event.type))
         self.last_heard = now
+        if event.kind in (EventKind.MEMBER_JOINED, EventKind.MEMBER_LEFT):
+            return
+        self.recent.append((now, event.type))
         while self.recent and self.recent[0][0] < now - RATE_WINDOW_S:
             self.recent.popleft()
 
@@ -147,7 +149,7 @@ def render(g: Graph, state: MonitorState, graph_name: str) -> RenderableType:
         f" · applied {stats.applied}, repairs {stats.repairs}, heartbeats {stats.heartbeats}" if stats else "",
     )
     log = Panel(Text("\n".join(state.log) or "(no events yet)"), title="events", title_align="left")
-    return Group(header, members_table(g), counts_table(g, state), *node_tables(g), log)
+    return Group(header, members_table(g), counts_table(g, state), log, *node_tables(g))
 
 
 def _health(g: Graph, state: MonitorState, heartbeats_seen: int) -> str:
@@ -175,6 +177,7 @@ async def monitor(
         while True:
             try:
                 async with connect(graph_name, config, "wm-monitor", connect=list(connect_to) or None, ontology=ontology, read_only=True) as g:
+                    state.last_heard = time.monotonic()
                     g.on(state.on_event)
                     g.on(state.on_logged, kind=kinds, type=types, name=names)
                     seen = 0

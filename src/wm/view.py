@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import asyncio
 import json
-import logging
 from collections.abc import Sequence
 from http import HTTPStatus
 from importlib import resources
@@ -28,7 +27,6 @@ from .connection import connect
 from .graph import Graph
 from .ontology import Ontology
 
-log = logging.getLogger(__name__)
 PAGE = resources.files("wm").joinpath("view_page.html").read_bytes()
 
 

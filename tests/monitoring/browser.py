@@ -10,7 +10,6 @@ import base64
 import itertools
 import json
 import shutil
-import subprocess
 import tempfile
 import time
 from collections.abc import Iterator
