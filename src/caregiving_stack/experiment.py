@@ -135,8 +135,11 @@ def table(result: dict[str, Any]) -> Table:
 
 
 async def run_trials(scenario: Scenario, stack: Stack, seed: int, indices: list[int | None],
-                     console: Console, graph: str) -> list[Scored]:
-    """Run the trials on a started stack, with a progress bar; returns them scored."""
+                     console: Console, graph: str, scenario_file: str | None = None) -> list[Scored]:
+    """Run the trials on a started stack, with a progress bar; returns them scored.
+
+    ``scenario_file`` switches the world bridge to that file (``scenario`` is its loaded form).
+    """
     planner = GridPlanner(scenario.scene().bounds)
     timeout = 30.0 / stack.rate + 20.0
     scored: list[Scored] = []
@@ -147,7 +150,7 @@ async def run_trials(scenario: Scenario, stack: Stack, seed: int, indices: list[
             task = progress.add_task("trials", total=len(indices))
             for index in indices:
                 stack.check()
-                record = await harness.run(seed, index, timeout)
+                record = await harness.run(seed, index, timeout, scenario_file)
                 truth = run_idle(trial_for(scenario, seed, index), planner=planner).collided
                 scored.append(Scored(record, truth))
                 progress.update(task, advance=1, description=f"trials ({sum(s.record.collided for s in scored)} collided)")

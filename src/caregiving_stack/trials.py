@@ -136,9 +136,12 @@ class Harness:
                 raise TrialError(f"W was not cleared for trial {trial} within {timeout:g} s")
             await asyncio.sleep(0.01)
 
-    async def run(self, seed: int, index: int | None, timeout: float) -> TrialRecord:
-        """Run one trial to its end and return what was seen."""
-        prepared = await self._ask({"op": "prepare", "seed": seed, "index": index})
+    async def run(self, seed: int, index: int | None, timeout: float, scenario: str | None = None) -> TrialRecord:
+        """Run one trial (of another scenario file, if given) to its end and return what was seen."""
+        request: dict[str, Any] = {"op": "prepare", "seed": seed, "index": index}
+        if scenario is not None:
+            request["scenario"] = scenario
+        prepared = await self._ask(request)
         trial = int(prepared["trial"])
         await self._cleared(trial, 10.0)
         record = TrialRecord(index)

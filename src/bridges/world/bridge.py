@@ -35,7 +35,7 @@ from caregiving.fields import Fields
 from caregiving.planner import GridPlanner
 from caregiving.robot_moves import RobotMove
 from caregiving.rollout import DT
-from caregiving.scenario import Scenario, sample_trial
+from caregiving.scenario import Scenario, load_scenario, sample_trial
 from caregiving.scene import shape_to_wire
 from caregiving.sensors import Detection, Sensors
 from caregiving.world_model import World
@@ -104,12 +104,17 @@ class WorldBridge:
 
     # -- requests ------------------------------------------------------------------------------
     async def control(self, request: Any) -> dict[str, Any]:
-        """``{"op": "prepare", "seed": S, "index": K | None}``, ``{"op": "go"}``, ``{"op": "stop"}``."""
+        """``{"op": "prepare", "seed": S, "index": K | None, "scenario": FILE?}``, ``{"op": "go"}``, ``{"op": "stop"}``.
+
+        ``scenario`` switches the room to another scenario file (same room size) from this trial on.
+        """
         f = Fields(request, "control", RequestError)
         op = f.string("op", choices=frozenset({"prepare", "go", "stop", "status"}))
         if op == "prepare":
             index = f.optional_number("index")
             self._halt()
+            if "scenario" in request:
+                self._switch(load_scenario(f.string("scenario")))
             spec = trial_for(self.scenario, int(f.number("seed", 0)), None if index is None else int(index))
             self._trials += 1
             sensor_seed = [int(f.number("seed", 0)), 0 if index is None else int(index) + 1, 1]
@@ -127,6 +132,11 @@ class WorldBridge:
         if op == "stop":
             self._halt()
         return {"trial": self.trial.number if self.trial else 0, "running": self._running()}
+
+    def _switch(self, scenario: Scenario) -> None:
+        if scenario.scene().bounds != self.scenario.scene().bounds:
+            raise RequestError(f"prepare.scenario: {scenario.name} has another room size")
+        self.scenario = scenario
 
     async def command(self, request: Any) -> dict[str, Any]:
         """``{"trial": N, "move": {target, x, y, heading} | None}``: drive there, or brake."""

@@ -1,0 +1,44 @@
+"""A module-scoped caregiving stack (world bridge + five agents, real Zenoh on loopback) and a trial runner."""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+import wm
+from caregiving_stack.launch import Stack
+from caregiving_stack.trials import Harness, TrialRecord
+
+GRAPH = "stacktest"
+
+
+@pytest.fixture(scope="module")
+def stack(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Stack]:
+    """The stack in real time, stopped by PID at the end of the module."""
+    with Stack(GRAPH, "paper_experiment1", tmp_path_factory.mktemp("stack-logs"), rate=1.0) as s:
+        yield s
+
+
+def run_trial(stack: Stack, scenario: str, seed: int = 0, index: int | None = None) -> TrialRecord:
+    """Run one trial of ``scenario`` on the stack and return what W showed and what happened."""
+
+    async def go() -> TrialRecord:
+        async with wm.connect(GRAPH, name="test-harness", connect=[stack.endpoint]) as g:
+            harness = Harness(g, GRAPH)
+            try:
+                return await harness.run(seed, index, timeout=60.0, scenario=scenario)
+            finally:
+                harness.close()
+
+    stack.check()
+    return asyncio.run(go())
+
+
+def log_of(stack: Stack, name: str) -> str:
+    return next(c.text() for c in stack.children if c.name == name)
+
+
+__all__ = ["stack", "run_trial", "log_of", "Path"]

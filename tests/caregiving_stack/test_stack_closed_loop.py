@@ -1,0 +1,33 @@
+"""The whole stack, closed loop, over real processes and real Zenoh: risky, safe and seen obstacles."""
+
+from __future__ import annotations
+
+from stack_helpers import run_trial, stack  # noqa: F401 - the fixture
+
+#: Trial 6 of seed 7: the ball is on the person's way, below their gaze, and the robot can get there in time.
+RISKY = ("paper_experiment1", 7, 6)
+
+
+def test_risky_walk_gets_flagged_the_robot_acts_and_nobody_collides(stack) -> None:  # noqa: F811
+    scenario, seed, index = RISKY
+    r = run_trial(stack, scenario, seed, index)
+    assert r.risky is not None and r.risky["risky"] is True
+    assert r.risky["time_to_collision"] > 0.0 and len(r.risky["path"]) >= 4
+    assert r.action is not None and r.action["action"] == "move_to"
+    assert r.reaction_ms is not None and r.reaction_ms > 0.0
+    assert [c for c in r.outcome["commands"] if c["accepted"]], "the executor drove the robot through the world"
+    assert r.outcome["collisions"] == []
+
+
+def test_safe_walk_gives_no_risky_intention_and_no_action(stack) -> None:  # noqa: F811
+    r = run_trial(stack, "safe_walk")
+    assert r.intentions > 0, "the person's intentions were guessed"
+    assert r.risky is None and r.action is None
+    assert r.outcome["commands"] == [] and r.outcome["collisions"] == []
+
+
+def test_person_who_sees_the_obstacle_is_not_flagged(stack) -> None:  # noqa: F811
+    r = run_trial(stack, "person_sees_obstacle")
+    assert r.intentions > 0
+    assert r.risky is None and r.action is None
+    assert r.outcome["collisions"] == []

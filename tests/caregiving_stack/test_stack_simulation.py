@@ -1,0 +1,98 @@
+"""The simulation agent as a process: replies match PyBullet ground truth; malformed requests get errors."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+
+import pytest
+from procs import PYTHON, Proc, endpoint, free_port
+
+from bridges import bus, keys
+from caregiving.imagine import imagine_joint, imagine_person
+from caregiving.robot_moves import standoff_moves
+from caregiving.rollout import BulletRollout
+from caregiving.scenario import load_scenario
+from wm.connection import close_session, open_session
+
+GRAPH = "simtest"
+GAZES = [math.radians(8), math.radians(-30)]
+
+
+@pytest.fixture(scope="module")
+def sim_endpoint():
+    port = free_port()
+    proc = Proc([PYTHON, "-m", "agents.simulation", "--graph", GRAPH, "--listen", endpoint(port), "--rollout", "bullet"],
+                "simulation")
+    try:
+        yield endpoint(port), proc
+    finally:
+        proc.stop()
+
+
+def ask(ep: str, request: object) -> dict:
+    async def go() -> dict:
+        session = await open_session(connect=[ep])
+        try:
+            for _ in range(100):  # until the agent's queryable is declared
+                try:
+                    return await bus.ask(session, keys.imagine(GRAPH), request, timeout=2.0)
+                except bus.NoReply:
+                    await asyncio.sleep(0.1)
+            raise AssertionError("the simulation agent never answered")
+        finally:
+            await close_session(session)
+
+    return asyncio.run(go())
+
+
+def test_replies_match_pybullet_on_fixed_cases(sim_endpoint) -> None:
+    ep, _ = sim_endpoint
+    scene = load_scenario("paper_experiment1").scene()
+    moves = standoff_moves(scene, "ball")[:3]
+    items = [{"kind": "person", "person": "person", "target": t, "gaze": g} for t in ("couch", "door") for g in GAZES]
+    items += [{"kind": "joint", "person": "person", "target": "couch", "gaze": GAZES[0], "move": m.to_wire()} for m in moves]
+    reply = ask(ep, {"items": items, "scene": scene.to_wire()})
+    results = reply["results"]
+    assert all(r["ok"] for r in results), results
+    bullet = BulletRollout.shared()
+    for item, r in zip(items[:4], results[:4], strict=True):
+        truth = imagine_person(scene, "person", item["target"], item["gaze"], rollout=bullet)
+        got = r["result"]
+        assert (got["collided"], got["collision_object"]) == (truth.collided, truth.collision_object)
+        assert got["collision_time"] == pytest.approx(truth.collision_time) if truth.collided else got["collision_time"] is None
+    assert results[0]["result"]["collided"] and results[0]["result"]["collision_object"] == "ball"
+    for m, r in zip(moves, results[4:], strict=True):
+        truth = imagine_joint(scene, "person", "couch", GAZES[0], m, rollout=bullet)
+        got = r["result"]
+        assert got["person"]["collided"] == truth.person.collided
+        assert got["robot_arrival"] == pytest.approx(truth.robot_arrival)
+
+
+def test_uncertainty_gives_a_collision_probability(sim_endpoint) -> None:
+    ep, _ = sim_endpoint
+    scene = load_scenario("paper_experiment1").scene()
+    item = {"kind": "person", "person": "person", "target": "couch", "gaze": GAZES[0],
+            "uncertainty": {"size_error": 0.2, "sigma": {"ball": 0.02, "person": 0.03}, "samples": 128}}
+    risk = ask(ep, {"items": [item], "scene": scene.to_wire()})["results"][0]["risk"]
+    assert risk["probability"] == pytest.approx(1.0) and risk["object"] == "ball"
+
+
+def test_malformed_requests_get_errors_and_the_service_carries_on(sim_endpoint) -> None:
+    ep, proc = sim_endpoint
+    scene = load_scenario("paper_experiment1").scene().to_wire()
+    with pytest.raises(bus.RemoteError, match="request.items"):
+        ask(ep, {"items": "nope", "scene": scene})
+    with pytest.raises(bus.RemoteError, match="RequestError"):
+        ask(ep, [1, 2, 3])
+    with pytest.raises(bus.RemoteError, match="no context"):
+        ask(ep, {"items": [{"kind": "person"}]})
+    reply = ask(ep, {"items": [{"kind": "fly", "person": "person"},
+                               {"kind": "person", "person": "nobody", "target": "couch", "gaze": 0.1},
+                               {"kind": "person", "person": "person", "target": "couch", "gaze": 0.1}],
+                     "scene": scene})
+    bad_kind, unknown, good = reply["results"]
+    assert not bad_kind["ok"] and "kind" in bad_kind["error"]
+    assert not unknown["ok"] and "unknown person 'nobody'" in unknown["error"]
+    assert good["ok"] and good["result"]["reachable"]
+    assert proc.popen.poll() is None
