@@ -8,7 +8,7 @@ from pathlib import Path
 
 from mcap.reader import make_reader
 
-from mon_helpers import GRAPH, SCENE_NAMES, dump_json, node_names, run_wm, served_scene
+from mon_helpers import GRAPH, RISKY_SCENE, SCENE_NAMES, dump_json, node_names, run_wm, served_scene
 from procs import PYTHON, REPO, WM, wait_until
 from wm.recording import CHANGES, SCENE, graph_at, iter_messages
 
@@ -73,3 +73,27 @@ def test_recording_killed_mid_file_opens_and_keeps_all_but_the_last_second(spawn
 
 def _attr(graph: dict, name: str, attr: str):
     return next(n for n in graph["nodes"] if n["name"] == name)["attrs"].get(attr)
+
+
+def test_reaction_times_pair_each_risky_intention_with_the_next_action(tmp_path: Path) -> None:
+    import wm
+    from wm.reactions import plot_svg, reactions, summary
+    from wm.record import Recorder
+    from wm.recording import RecordingWriter
+
+    g = wm.Graph()
+    writer = RecordingWriter(tmp_path / "trial.mcap", "t")
+    Recorder(g, writer)
+    g.load_json(RISKY_SCENE)  # alice -> couch turns risky (after the scene's own intention node)
+    g.insert_node("person", "bob")
+    g.insert_or_assign_edge("bob", "table", "has_intention", {"risky": True})
+    g.insert_node("intention", "robot_move_again", {"action": "move_to"})  # answers both
+    g.insert_node("person", "carol")
+    g.insert_or_assign_edge("carol", "ball", "has_intention", {"risky": True})  # never answered
+    writer.close()
+    found = reactions(tmp_path / "trial.mcap")
+    assert [(r.person, r.target, r.action) for r in found] == [
+        ("alice", "couch", "robot_move_again"), ("bob", "table", "robot_move_again"), ("carol", "ball", None)
+    ]
+    assert found[0].reaction_ms >= 0 and summary(found)["missed"] == 1
+    assert plot_svg(found).startswith("<svg") and "missed 1" in plot_svg(found)
