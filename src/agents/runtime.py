@@ -58,8 +58,6 @@ from wm.events import EventFilter
 from . import logs
 from .agent_node import AgentNode
 
-Handler = Callable[[Any, Event], Awaitable[None]]
-Periodic = Callable[[Any], Awaitable[None]]
 F = TypeVar("F", bound=Callable[..., Any])
 ON_ATTR = "_agent_on"
 EVERY_ATTR = "_agent_every"
@@ -81,7 +79,7 @@ def _tuple(value: str | Iterable[str] | None) -> str | tuple[str, ...] | None:
 
 def on(
     kind: str | Iterable[str] | None = None,
-    type: str | Iterable[str] | None = None,  # noqa: A002 - the graph's own keyword
+    type: str | Iterable[str] | None = None,
     name: str | Iterable[str] | None = None,
     *,
     maxsize: int = 1024,

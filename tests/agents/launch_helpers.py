@@ -80,7 +80,7 @@ def start_launch(spawner: Callable[..., Proc], file: Path, log_dir: Path, *args:
 
 
 def run_wm(*args: str, argv: Sequence[str] = (), check: bool = True) -> subprocess.CompletedProcess[str]:
-    result = subprocess.run([*argv, *WM, *args], capture_output=True, text=True, timeout=60, cwd=REPO)
+    result = subprocess.run([*argv, *WM, *args], capture_output=True, text=True, timeout=60, cwd=REPO, check=False)
     if check:
         assert result.returncode == 0, f"wm {' '.join(args)}: {result.stderr}"
     return result
@@ -90,6 +90,12 @@ def read_graph(graph: str, endpoint: str, argv: Sequence[str] = ()) -> dict[str,
     """The graph as ``wm dump --format json`` reads it from the network ({} when nothing answers)."""
     result = run_wm("dump", "--format", "json", "--graph", graph, "--connect", endpoint, "--timeout", "2", argv=argv, check=False)
     return json.loads(result.stdout) if result.returncode == 0 else {}
+
+
+def members(graph: str, endpoint: str, argv: Sequence[str] = ()) -> dict[str, str]:
+    """Replica id -> agent name, as ``wm members`` lists them ({} when nothing answers)."""
+    result = run_wm("members", "--graph", graph, "--connect", endpoint, argv=argv, check=False)
+    return dict(line.split() for line in result.stdout.splitlines()) if result.returncode == 0 else {}
 
 
 def agent_nodes(graph: dict[str, Any]) -> dict[str, dict[str, Any]]:

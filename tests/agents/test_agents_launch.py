@@ -6,7 +6,14 @@ import os
 import signal
 from pathlib import Path
 
-from launch_helpers import agent_nodes, load_nodes, probe_stack, read_graph, run_wm, start_launch
+from launch_helpers import (
+    agent_nodes,
+    load_nodes,
+    members,
+    probe_stack,
+    read_graph,
+    start_launch,
+)
 from procs import endpoint, free_port, wait_until
 
 GRAPH = "agents"
@@ -27,11 +34,11 @@ def test_launch_serve_and_three_agents_kill_one_and_stop(spawner, tmp_path: Path
     # every agent is a member and keeps an agent node with its pid, replica and load
     wait_until(lambda: set(agent_nodes(read_graph(GRAPH, router))) == set(AGENTS), 60, "three agent nodes")
     nodes = agent_nodes(read_graph(GRAPH, router))
-    members = dict(line.split() for line in run_wm("members", "--graph", GRAPH, "--connect", router).stdout.splitlines())
-    assert sorted(members.values()) == sorted(["serve", *AGENTS])
+    wait_until(lambda: sorted(members(GRAPH, router).values()) == sorted(["serve", *AGENTS]), 30, "wm members to list all")
+    listed = members(GRAPH, router)
     for agent in AGENTS:
         assert nodes[agent]["pid"] == pids[agent]
-        assert members[nodes[agent]["replica"]] == agent
+        assert listed[nodes[agent]["replica"]] == agent
         assert nodes[agent]["memory"] > 0 and "cpu" in nodes[agent]
 
     # the world node links every agent node
@@ -63,8 +70,9 @@ def test_launch_serve_and_three_agents_kill_one_and_stop(spawner, tmp_path: Path
     graph = read_graph(GRAPH, router)
     assert old_replica not in {n["replica"] for n in agent_nodes(graph).values()}
     assert "before-kill" in described(graph, "a2"), "the new a2 did not catch up"
-    members = run_wm("members", "--graph", GRAPH, "--connect", router).stdout
-    assert old_replica not in members and agent_nodes(graph)["a2"]["replica"] in members
+    new_replica = agent_nodes(graph)["a2"]["replica"]
+    wait_until(lambda: members(GRAPH, router).get(new_replica) == "a2", 30, "the new a2 to be a member")
+    assert old_replica not in members(GRAPH, router)
 
     # SIGTERM: everything stops, last started first; a2's crash makes the exit status 1
     assert launch.finish() == 1

@@ -6,8 +6,14 @@ import os
 from pathlib import Path
 
 import pytest
-
-from launch_helpers import agent_nodes, load_nodes, probe_stack, read_graph, run_wm, start_launch
+from launch_helpers import (
+    agent_nodes,
+    load_nodes,
+    members,
+    probe_stack,
+    read_graph,
+    start_launch,
+)
 from netns import NetnsLab, netns_unavailable
 from procs import wait_until
 
@@ -39,8 +45,8 @@ def test_agents_on_two_hosts_converge_through_the_router_host(spawner, lab: Netn
         return read_graph(GRAPH, router, argv=lab.cmd(host))
 
     wait_until(lambda: set(agent_nodes(view(2))) == {"a1", "a2"}, 60, "both agent nodes, seen from host 2")
-    members = run_wm("members", "--graph", GRAPH, "--connect", router, argv=lab.cmd(1)).stdout
-    assert sorted(line.split()[1] for line in members.splitlines()) == ["a1", "a2", "serve"]
+    wait_until(lambda: sorted(members(GRAPH, router, lab.cmd(1)).values()) == ["a1", "a2", "serve"], 30,
+               "wm members on host 1 to list serve, a1 and a2")
 
     load_nodes(tmp_path, GRAPH, router, ("object", "from-host-1"), argv=lab.cmd(1))
     wait_until(

@@ -12,10 +12,10 @@ import subprocess
 from pathlib import Path
 
 import pytest
-
-import wm
 from launch_helpers import PROBE, PROBE_PATH
 from procs import PYTHON, REPO, WM, endpoint, free_port
+
+import wm
 from wm.zenoh_config import template_path
 
 GRAPH = "secure"
