@@ -43,7 +43,7 @@ from caregiving.visibility import WALL_KIND, gaze_classes
 from wm import Edge
 
 from .context import Context, read_context
-from .intention import HAS_INTENTION
+from .intention import HAS_INTENTION, KNOWS
 from .loop import Coalescer
 from .runtime import Agent, main
 
@@ -182,9 +182,14 @@ class Action(Agent):
         """The moves (with their arrival times) after which every gaze class walks safely, in order."""
         a = self.args
         uncertainty = {"size_error": self.size_error, "sigma": ctx.sigma, "samples": a.samples, "seed": 0}
+        pid = ctx.ids[person]
+        known = sorted({self.g.get_node(e.dst).name for e in self.g.edges(type=KNOWS, src=pid)})
         items = [{"kind": "joint", "person": person, "target": target, "gaze": c.gaze, "move": m.to_wire(),
-                  "uncertainty": uncertainty} for m in moves for c in classes]
+                  "known": known, "uncertainty": uncertainty} for m in moves for c in classes]
+        asked = time.perf_counter()
         reply = await bus.ask(self.session, keys.imagine(a.graph), {"items": items})
+        self.log.debug("imagined", items=len(items), rpc_ms=round((time.perf_counter() - asked) * 1e3, 1),
+                       compute_ms=round(reply["compute_ms"], 1))
         results = reply["results"]
         per = len(classes)
         good = []

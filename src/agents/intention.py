@@ -9,6 +9,10 @@ range is split exactly into the classes that see the same objects
 One batched request asks the simulator to imagine every (target, gaze class)
 walk and to sample perception's uncertainty around it.
 
+Objects a person sees in every gaze class are surely seen: they are marked
+``knows`` person -> object in W and the person is imagined to remember them
+(plan around them) even once they are out of view.
+
 A walking person's heading tells where they are going: a target whose imagined
 path starts more than ``--heading-gate-deg`` away from it is not their intention.
 An intention is risky when the nominal walk collides or the sampled collision
@@ -30,7 +34,7 @@ from typing import Any
 from bridges import bus, keys
 from caregiving.geometry import resample_by_distance
 from caregiving.scenario import load_scenario
-from caregiving.visibility import candidate_targets, gaze_classes
+from caregiving.visibility import GazeClass, candidate_targets, gaze_classes
 
 from .context import Context, read_context
 from .loop import Coalescer
@@ -38,6 +42,7 @@ from .runtime import Agent, main
 
 HAS_INTENTION = "has_intention"
 COLLISION = "collision"
+KNOWS = "knows"
 HEADING_PROBE = 0.4  # metres along the imagined path where its direction is measured
 
 
@@ -102,6 +107,8 @@ class Intention(Agent):
         parser.add_argument("--moving-speed", type=float, default=0.2, help="m/s above which a person walks")
         parser.add_argument("--min-track", type=float, default=0.3, help="seconds a person is tracked before guessing")
         parser.add_argument("--refresh", type=float, default=0.5, help="simulated seconds between unchanged rewrites")
+        parser.add_argument("--period", type=float, default=0.1,
+                            help="simulated seconds between evaluations at most (default: %(default)s)")
 
     async def setup(self) -> None:
         a = self.args
@@ -111,6 +118,7 @@ class Intention(Agent):
         self.first_seen: dict[int, float] = {}
         self.written: dict[tuple[int, int], tuple[bool, str | None, float]] = {}
         self.evaluations = 0
+        self.last_time = -1.0
         self.session = self.g.network.session  # type: ignore[union-attr]
         self.loop = Coalescer(self.evaluate, self.log, "evaluation")
         self.g.on(self.loop.poke, type="person", kind=["node_added", "node_updated"])
@@ -121,8 +129,9 @@ class Intention(Agent):
 
     async def evaluate(self) -> None:
         ctx = read_context(self.g)
-        if ctx is None:
+        if ctx is None or 0.0 <= ctx.scene.time - self.last_time < self.args.period:
             return
+        self.last_time = ctx.scene.time
         a = self.args
         items, eligible = [], []
         for p in ctx.scene.people:
@@ -133,16 +142,33 @@ class Intention(Agent):
             eligible.append(p.name)
             around = ctx.scene.bodies_around(p.name)
             classes = gaze_classes(p, around)
+            known = self._remember(ctx, p.name, classes)
             for t in candidate_targets(p, ctx.scene.obstacles):
                 for c in classes:
                     items.append({"kind": "person", "person": p.name, "target": t.name, "gaze": c.gaze,
-                                  "uncertainty": {"size_error": self.size_error, "sigma": ctx.sigma,
-                                                  "samples": a.samples, "seed": 0}})
+                                  "known": known, "uncertainty": {"size_error": self.size_error, "sigma": ctx.sigma,
+                                                                  "samples": a.samples, "seed": 0}})
         if not eligible:
             return
         reply = await bus.ask(self.session, keys.imagine(a.graph), {"items": items}) if items else {"results": []}
         self.evaluations += 1
         self._write(ctx, eligible, self._guesses(ctx, items, reply["results"]))
+
+    def _remember(self, ctx: Context, person: str, classes: tuple[GazeClass, ...]) -> list[str]:
+        """Objects the person sees in every gaze class are surely seen: mark them ``knows`` in W, for good.
+
+        The person plans around them later too, even once they are out of view (as people do).
+        """
+        pid = ctx.ids[person]
+        sure = frozenset.intersection(*(c.visible for c in classes)) if classes else frozenset()
+        known = {self.g.get_node(e.dst).name for e in self.g.edges(type=KNOWS, src=pid)}
+        fresh = [n for n in sure if n in ctx.ids and n not in known and ctx.ids[n] != pid
+                 and self.g.find_node(ctx.ids[n]) is not None and self.g.get_node(ctx.ids[n]).type == "object"]
+        if fresh:
+            with self.g.batch():
+                for name in fresh:
+                    self.g.insert_or_assign_edge(pid, ctx.ids[name], KNOWS, {"updated_at": time.time()})
+        return sorted(known | set(fresh))
 
     def _guesses(self, ctx: Context, items: list[dict[str, Any]], results: list[dict[str, Any]]) -> list[Guess]:
         grouped: dict[tuple[str, str], list[dict[str, Any]]] = {}

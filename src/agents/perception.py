@@ -11,7 +11,10 @@ It keeps, all placed by an RT edge from the ``world`` node:
   the tracked velocity, position uncertainty, sensor stamp and write time;
 * an ``object`` node per confirmed object track: kind, shape, size, target flag.
 
-Poses and the other high-rate attributes are volatile. Ids persist for as long
+Poses and the other high-rate attributes are volatile. An object's pose and size
+are rewritten only when their estimate has moved by ``--object-step`` (1 cm): the
+estimate converges, and unchanged shapes keep the planners' inflated-mask caches
+valid in every agent. Ids persist for as long
 as a track lives; a track unseen for ``--forget`` seconds is deleted. When the
 world starts a new trial every person and object node is cleared first.
 """
@@ -45,6 +48,8 @@ class Perception(Agent):
         parser.add_argument("--gaze-deg", type=float, nargs=2, help="people's vertical gaze range (default 6 10)")
         parser.add_argument("--walk-speed", type=float, help="assumed walking speed, m/s (default 0.5)")
         parser.add_argument("--forget", type=float, default=1.0, help="seconds before an unseen track is dropped")
+        parser.add_argument("--object-step", type=float, default=0.01,
+                            help="metres an object's position or size estimate must change before it is rewritten")
 
     async def setup(self) -> None:
         a = self.args
@@ -153,8 +158,11 @@ class Perception(Agent):
         else:
             g.update_node(node, volatile)
             old = g.get_node(node).get("size")
-            if old is None or max(abs(a - b) for a, b in zip(old, (sx, sy, height), strict=True)) > 0.005:
+            if old is None or max(abs(a - b) for a, b in zip(old, (sx, sy, height), strict=True)) > self.args.object_step:
                 g.update_node(node, {"size": [sx, sy, height]})
+            x, y, yaw = g.rt.pose2d(WORLD, node)
+            if math.hypot(t.x - x, t.y - y) <= self.args.object_step and abs(t.heading - yaw) <= 0.02:
+                return  # an object's estimate only moves in steps, so the planners' cached masks stay valid
         g.rt.set_pose2d(WORLD, node, t.x, t.y, t.heading)
 
 

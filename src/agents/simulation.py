@@ -17,13 +17,17 @@ replica holds it when the request arrives, frozen for the whole batch. The reply
                                                    | {"ok": false, "error": "..."}]}
 
 A malformed item gets its own error entry; a malformed request an error reply.
+Items are served one at a time; batches holding robot moves (Algorithm 2, where
+the reaction time is spent) go before batches of person-only imaginations.
 """
 
 from __future__ import annotations
 
 import argparse
+import asyncio
 import time
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
+from itertools import count
 from typing import Any
 
 from bridges import bus, keys
@@ -66,8 +70,8 @@ def risk_to_wire(r: Risk) -> dict[str, Any]:
             "object": r.obstacle}
 
 
-def serve_batch(request: Any, context: Scene | None, rollout: Rollout) -> tuple[Scene, list[dict[str, Any]]]:
-    """The scene used and one result per item; raises :class:`RequestError` for a malformed request."""
+def batch_scene(request: Any, context: Scene | None) -> tuple[Scene, list[Any]]:
+    """The frozen scene of a request and its items; raises :class:`RequestError` when malformed."""
     f = Fields(request, "request", RequestError)
     items = request.get("items") if isinstance(request, dict) else None
     if not isinstance(items, list) or not items:
@@ -78,13 +82,33 @@ def serve_batch(request: Any, context: Scene | None, rollout: Rollout) -> tuple[
     scene = Scene.from_wire(request["scene"]) if pinned is not None else context
     if scene is None:
         raise RequestError("no context yet: W holds no world and robot, and the request pins no scene")
-    results = []
-    for item in items:
-        try:
-            results.append(serve_item(scene, item, rollout))
-        except (CaregivingError, ValueError, TypeError, KeyError) as exc:
-            results.append({"ok": False, "error": f"{type(exc).__name__}: {exc}"})
-    return scene, results
+    return scene, items
+
+
+def serve_one(scene: Scene, item: Any, rollout: Rollout) -> dict[str, Any]:
+    """One item's result; a malformed or unanswerable item gets an error entry."""
+    try:
+        return serve_item(scene, item, rollout)
+    except (CaregivingError, ValueError, TypeError, KeyError) as exc:
+        return {"ok": False, "error": f"{type(exc).__name__}: {exc}"}
+
+
+def serve_batch(request: Any, context: Scene | None, rollout: Rollout) -> tuple[Scene, list[dict[str, Any]]]:
+    """The scene used and one result per item; raises :class:`RequestError` for a malformed request."""
+    scene, items = batch_scene(request, context)
+    return scene, [serve_one(scene, item, rollout) for item in items]
+
+
+@dataclass
+class _Job:
+    """A batch being served: its frozen scene, items, results so far and the future to resolve."""
+
+    priority: int
+    seq: int
+    scene: Scene
+    items: list[Any]
+    done: asyncio.Future[list[dict[str, Any]]]
+    results: list[dict[str, Any]] = field(default_factory=list)
 
 
 class Simulation(Agent):
@@ -103,12 +127,17 @@ class Simulation(Agent):
         self.context: Context | None = None
         self.dirty = True
         self.served = 0
+        self.jobs: list[_Job] = []
+        self._seq = count()
+        self._wake = asyncio.Event()
+        self._worker = asyncio.get_running_loop().create_task(self._work(), name="imagine-worker")
         self.g.on(self._changed, type=["person", "object", "robot", "world", "RT"])
         self._queryable = bus.serve(self.g.network.session, keys.imagine(self.args.graph), self.imagine)  # type: ignore[union-attr]
         self.log.info("serving", key=keys.imagine(self.args.graph), rollout=self.args.rollout)
 
     async def teardown(self) -> None:
         self._queryable.undeclare()
+        self._worker.cancel()
 
     def _changed(self, _event: object) -> None:
         self.dirty = True
@@ -123,14 +152,39 @@ class Simulation(Agent):
         return self.context
 
     async def imagine(self, request: Any) -> dict[str, Any]:
+        """Freeze the context now, queue the batch, and answer when its last item is done."""
         start = time.perf_counter()
         ctx = self._context()
-        scene, results = serve_batch(request, ctx.scene if ctx else None, self.rollout)
+        scene, items = batch_scene(request, ctx.scene if ctx else None)
+        joint = any(isinstance(i, dict) and i.get("kind") == "joint" for i in items)
+        job = _Job(0 if joint else 1, next(self._seq), scene, items, asyncio.get_running_loop().create_future())
+        self.jobs.append(job)
+        self._wake.set()
+        results = await job.done
         self.served += len(results)
         pinned = ctx is None or scene is not ctx.scene
         return {"episode": None if pinned else ctx.episode, "stamp": scene.time,
                 "written_at": None if pinned else ctx.written_at, "results": results,
                 "compute_ms": (time.perf_counter() - start) * 1e3}
+
+    async def _work(self) -> None:
+        """Serve queued items one at a time, robot-move batches (Algorithm 2) before the others.
+
+        Between items the loop yields, so a batch that arrives meanwhile is queued
+        at once and, if it has priority, served next rather than after the current batch.
+        """
+        while True:
+            if not self.jobs:
+                self._wake.clear()
+                await self._wake.wait()
+                continue
+            job = min(self.jobs, key=lambda j: (j.priority, j.seq))
+            job.results.append(serve_one(job.scene, job.items[len(job.results)], self.rollout))
+            if len(job.results) == len(job.items):
+                self.jobs.remove(job)
+                if not job.done.done():
+                    job.done.set_result(job.results)
+            await asyncio.sleep(0)
 
 
 if __name__ == "__main__":

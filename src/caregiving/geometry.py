@@ -109,9 +109,9 @@ def aabb(shape: Shape) -> tuple[float, float, float, float]:
     """Axis-aligned bounds ``(xmin, ymin, xmax, ymax)``."""
     if isinstance(shape, Circle):
         return (shape.x - shape.r, shape.y - shape.r, shape.x + shape.r, shape.y + shape.r)
-    pts = corners(shape)
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    return (float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+    c, s = abs(math.cos(shape.theta)), abs(math.sin(shape.theta))
+    ex, ey = shape.hx * c + shape.hy * s, shape.hx * s + shape.hy * c
+    return (shape.x - ex, shape.y - ey, shape.x + ex, shape.y + ey)
 
 
 def shapes_overlap(a: Shape, b: Shape, margin: float = 0.0) -> bool:

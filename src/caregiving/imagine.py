@@ -1,7 +1,8 @@
 """The two "imagine" requests the simulation agent serves, as pure functions of a frozen scene.
 
 * :func:`imagine_person` (Algorithm 1): the person plans a path to the target with
-  only what they see at the given gaze, then walks it in the full scene.
+  only what they see at the given gaze (plus what they are known to remember),
+  then walks it in the full scene.
 * :func:`imagine_joint` (Algorithm 2): the robot drives to a move's pose (its
   arrival time follows its speed and acceleration limits); the person, who now
   sees the robot at that pose if it is in view, plans again and walks.
@@ -14,6 +15,7 @@ dicts); :func:`answer` dispatches a wire request. Malformed requests raise
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -23,7 +25,7 @@ from .planner import GridPlanner
 from .robot_moves import RobotMove, robot_arrival
 from .rollout import NumpyRollout, Rollout
 from .scene import Scene
-from .visibility import visible
+from .visibility import can_see
 
 _PLANNERS: dict[tuple[float, float, float, float], GridPlanner] = {}
 _NUMPY = NumpyRollout()
@@ -120,14 +122,18 @@ class JointImagination:
 
 
 def imagine_person(scene: Scene, person: str, target: str, gaze: float, rollout: Rollout | None = None,
-                   planner: GridPlanner | None = None) -> Imagination:
-    """Plan with only what ``person`` sees at ``gaze``, then walk the plan in the full scene."""
+                   planner: GridPlanner | None = None, known: Iterable[str] = ()) -> Imagination:
+    """Plan with only what ``person`` sees at ``gaze`` (and the objects ``known`` to them), then walk the plan.
+
+    ``known`` names objects the person is sure to have seen before (out of view now, still remembered).
+    """
     if isinstance(gaze, bool) or not isinstance(gaze, (int, float)) or not -math.pi / 2 <= gaze <= math.pi / 2:
         raise RequestError(f"gaze: expected a pitch in [-pi/2, pi/2] rad, got {gaze!r}")
     p = scene.person(person)
     goal = scene.obstacle(target)
     around = scene.bodies_around(person)
-    seen = visible(p, around, gaze)
+    remembered = set(known)
+    seen = tuple(o for o in around if o.name in remembered or can_see(p, o, gaze))
     plan = (planner or planner_for(scene.bounds)).plan_to_object((p.x, p.y), goal, seen, p.radius)
     names = tuple(o.name for o in seen)
     if not plan.reachable:
@@ -140,23 +146,25 @@ def imagine_person(scene: Scene, person: str, target: str, gaze: float, rollout:
 
 
 def imagine_joint(scene: Scene, person: str, target: str, gaze: float, move: RobotMove,
-                  rollout: Rollout | None = None, planner: GridPlanner | None = None) -> JointImagination:
+                  rollout: Rollout | None = None, planner: GridPlanner | None = None,
+                  known: Iterable[str] = ()) -> JointImagination:
     """Imagine the robot at the move's pose and the person re-planning with it (if seen) in the scene."""
     planner = planner or planner_for(scene.bounds)
     arrival = robot_arrival(scene, move, planner)
     robot = scene.robot
     assert robot is not None  # robot_arrival raised otherwise
     moved = scene.with_robot(replace(robot, x=move.x, y=move.y, heading=move.heading))
-    result = imagine_person(moved if arrival.reachable else scene, person, target, gaze, rollout, planner)
+    result = imagine_person(moved if arrival.reachable else scene, person, target, gaze, rollout, planner, known)
     return JointImagination(move, arrival.reachable, arrival.time, robot.name in result.seen, result)
 
 
 def answer(scene: Scene, request: object, rollout: Rollout | None = None) -> dict[str, Any]:
-    """Serve one wire request: ``{"kind": "person"|"joint", "person", "target", "gaze"[, "move"]}``."""
+    """Serve one wire request: ``{"kind": "person"|"joint", "person", "target", "gaze"[, "move"][, "known"]}``."""
     f = Fields(request, "request", RequestError)
     kind = f.string("kind", choices=frozenset({"person", "joint"}))
     person, target, gaze = f.string("person"), f.string("target"), f.number("gaze")
+    known = f.strings("known", [])
     if kind == "person":
-        return imagine_person(scene, person, target, gaze, rollout).to_wire()
+        return imagine_person(scene, person, target, gaze, rollout, known=known).to_wire()
     move = RobotMove.from_fields(f.child("move"))
-    return imagine_joint(scene, person, target, gaze, move, rollout).to_wire()
+    return imagine_joint(scene, person, target, gaze, move, rollout, known=known).to_wire()

@@ -15,7 +15,7 @@ from typing import Any
 
 from .errors import RequestError
 from .fields import Fields
-from .geometry import Box, corners, shapes_overlap, signed_distance
+from .geometry import Box, Circle, corners, shapes_overlap, signed_distance
 from .planner import GridPlanner
 from .scene import Obstacle, RobotState, Scene
 from .visibility import WALL_KIND
@@ -69,7 +69,7 @@ def standoff_moves(scene: Scene, target: str, gap: float = 0.1, count: int = 8) 
     for k in range(count):
         angle = 2 * math.pi * k / count
         dx, dy = math.cos(angle), math.sin(angle)
-        t = 0.0
+        t = shape.r + gap + half if isinstance(shape, Circle) else 0.0  # a circle's offset is exact at once
         for _ in range(20):  # march out to the offset boundary (signed distance is 1-Lipschitz)
             d = float(signed_distance(shape, (shape.x + dx * t, shape.y + dy * t))[0])
             if abs(d - (gap + half)) < 1e-4:
