@@ -44,6 +44,9 @@ class RawChanges:
     edges_added: list[str] = field(default_factory=list)
     edges_removed: list[str] = field(default_factory=list)
     edge_attrs: dict[str, set[str]] = field(default_factory=dict)
+    # pycrdt occasionally reports a nested change with no keys (seen when concurrent
+    # writes to one key are merged); the index then re-checks every node's name.
+    unreliable: bool = False
 
     def __bool__(self) -> bool:
         return bool(
@@ -100,7 +103,10 @@ class CrdtStore:
                     if action in ("add", "update"):
                         self.pending.nodes_added.append(key)
             else:
-                self.pending.node_attrs.setdefault(str(path[0]), set()).update(event.keys)
+                changed = event.keys
+                if not changed:
+                    self.pending.unreliable = True
+                self.pending.node_attrs.setdefault(str(path[0]), set()).update(changed)
 
     def _on_edges(self, event: Any) -> None:
         for key, change in event.keys.items():
@@ -115,6 +121,10 @@ class CrdtStore:
             self.pending.edge_attrs.setdefault(key, set()).add(attr)
 
     # -- reads ---------------------------------------------------------------
+
+    def node_names(self) -> dict[str, str]:
+        """Every node key with its stored name (a full scan: for repairs only)."""
+        return {key: str(node.get(NAME_KEY)) for key, node in self.nodes.items() if isinstance(node, Map)}
 
     def node_map(self, key: str) -> Map | None:
         value = self.nodes.get(key)

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 import msgpack
 
 from . import scene_json
-from .crdt_store import NAME_KEY, CrdtStore
+from .crdt_store import NAME_KEY, CrdtStore, RawChanges
 from .errors import (
     DecodeError,
     EdgeNotFoundError,
@@ -48,9 +48,10 @@ SNAPSHOT_VERSION = 1
 class Graph:
     """A typed graph replica: nodes with unique names, edges keyed by (src, dst, type)."""
 
-    def __init__(self, ontology: Ontology | None = None, *, replica_id: str | None = None) -> None:
+    def __init__(self, ontology: Ontology | None = None, *, replica_id: str | None = None, id_prefix: int | None = None) -> None:
+        """``id_prefix`` fixes the creator prefix of new ids (reproducible tests); by default it is random."""
         self.ontology = ontology if ontology is not None else Ontology.default()
-        self._ids = IdAllocator()
+        self._ids = IdAllocator(id_prefix)
         self.replica_id = replica_id or f"{self._ids.prefix:08x}"
         self._store = CrdtStore()
         self._index = GraphIndex()
@@ -120,6 +121,22 @@ class Graph:
     def _settle(self, writer: str, local: bool) -> None:
         """Turn what the last transaction touched into index updates and events, then repair."""
         changes = self._store.take_changes()
+        self._apply_to_index(changes, writer, local)
+        if not local and (changes.unreliable or self._index.out_of_step(self._store)):
+            self._apply_to_index(self._index.missed_changes(self._store), writer, local)
+        if local:
+            for listener in self._write_listeners:
+                listener()
+        if self._depth == 0:
+            self._flush_events()
+
+    def reconcile(self) -> None:
+        """Compare the whole index with the document and publish what differed (replication calls it now and then)."""
+        self._apply_to_index(self._index.missed_changes(self._store), "reconcile", local=False)
+        if self._depth == 0:
+            self._flush_events()
+
+    def _apply_to_index(self, changes: RawChanges, writer: str, local: bool) -> None:
         if changes:
             result = self._index.apply(self._store, changes, writer, local, self._volatile_attr_names)
             for node_id in result.removed_nodes:
@@ -131,11 +148,6 @@ class Graph:
                 self._delete_dangling(result.dangling_edges)
             if result.name_conflicts:
                 self._rename_losers(result.name_conflicts)
-        if local:
-            for listener in self._write_listeners:
-                listener()
-        if self._depth == 0:
-            self._flush_events()
 
     def _flush_events(self) -> None:
         events, self._pending = self._pending, []

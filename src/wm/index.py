@@ -195,6 +195,28 @@ class GraphIndex:
             if not known:
                 del self.edge_attr_names[key]
 
+    def out_of_step(self, store: CrdtStore) -> bool:
+        """Whether the document holds a different number of nodes or edge markers than the index."""
+        return len(store.nodes) != len(self.node_meta) or len(store.edges) != len(self.markers)
+
+    def missed_changes(self, store: CrdtStore) -> RawChanges:
+        """Everything in which the document and the index differ, as changes to apply (a full scan).
+
+        pycrdt does not report every change of a remote transaction: deletions
+        it held back until their items arrived, and some merges of concurrent
+        writes to one key, change the document without an event.
+        """
+        names = store.node_names()
+        known = {str(node_id): name for node_id, (_, name) in self.node_meta.items()}
+        markers = set(store.edges.keys())
+        return RawChanges(
+            nodes_added=[key for key in names if key not in known],
+            nodes_removed=[key for key in known if key not in names],
+            node_attrs={key: {NAME_KEY} for key, name in names.items() if key in known and known[key] != name},
+            edges_added=[key for key in markers if key not in self.markers],
+            edges_removed=[key for key in self.markers if key not in markers],
+        )
+
     def _attribute_updates(
         self,
         store: CrdtStore,

@@ -32,6 +32,7 @@ from .graph import Graph
 
 log = logging.getLogger(__name__)
 DURABLE_AGENT = "serve"
+RECONCILE_EVERY = 10  # heartbeats between full index-versus-document checks (Graph.reconcile)
 
 
 @dataclass
@@ -346,6 +347,7 @@ class Replicator:
 
     async def _heartbeat_loop(self) -> None:
         key = keys.heartbeat(self.name, self.graph.replica_id)
+        beats = 0
         while True:
             await asyncio.sleep(self.heartbeat_period)
             self._flush()
@@ -353,3 +355,6 @@ class Replicator:
                 message = proto.Heartbeat(self.graph.replica_id, self.seq, self.graph.state_vector())
                 self.session.put(key, proto.encode(message))
             self.graph.prune_volatile()
+            beats += 1
+            if beats % RECONCILE_EVERY == 0:
+                self.graph.reconcile()
