@@ -118,6 +118,17 @@ async def _joined(g: Graph, graph_name: str, timeout: float) -> None:
     raise CommandError(f"no replica of graph {graph_name!r} answered within {timeout:g} s (is `wm serve` or an agent running?)")
 
 
+async def _live_members(g: Graph, graph_name: str, timeout: float) -> dict[str, str]:
+    """The other live members, asking again until one answers or ``timeout`` passes."""
+    assert g.network is not None
+    deadline = asyncio.get_running_loop().time() + timeout
+    while not (members := await g.network.live_members()):
+        if asyncio.get_running_loop().time() >= deadline:
+            raise CommandError(f"no replica of graph {graph_name!r} answered within {timeout:g} s")
+        await asyncio.sleep(0.1)
+    return members
+
+
 async def _confirmed(g: Graph, timeout: float) -> None:
     assert g.network is not None
     if not await g.network.confirm(timeout):
@@ -151,9 +162,7 @@ async def run(args: argparse.Namespace) -> int:
         return await monitoring_cli.run(args, ontology)
     async with connect(args.graph, args.config, f"wm-{args.command}", connect=args.connect or None, ontology=ontology) as g:
         if args.command == "members":
-            members = await g.network.live_members()  # type: ignore[union-attr]
-            if not members:
-                raise CommandError(f"no replica of graph {args.graph!r} answered within {args.timeout:g} s")
+            members = await _live_members(g, args.graph, args.timeout)
             for replica, agent in sorted(members.items(), key=lambda m: (m[1], m[0])):
                 print(f"{replica} {agent}")
             return 0
