@@ -11,7 +11,12 @@ trials: accuracy, precision, recall, F1, F2 and the false-positive and
 false-negative rates (shares of valid trials, as the paper's Table I).
 ``action_rate`` is the share of predicted-risky trials in which the robot wrote
 an intention; ``prevention_rate`` the share of truly risky trials in which
-nobody collided in the closed loop. Reaction times are wall-clock differences
+nobody collided in the closed loop. Since some trials cannot be saved by any
+``move_to`` of a robot with these limits (the person starts next to the ball),
+an oracle (:func:`preventable`) replays each truly risky trial in the ground
+truth with every stand-off move commanded at the pipeline's decision time, and
+``prevention_rate_of_preventable`` is the prevention rate over the trials one
+of them saves. Reaction times are wall-clock differences
 of stamps written into W by the writers (same host): the paper's definition
 (risky ``has_intention`` -> robot ``intention``) and end to end (the
 perception write behind the risky guess -> robot ``intention``).
@@ -37,11 +42,15 @@ import wm
 from bridges.world.bridge import trial_for
 from caregiving.planner import GridPlanner
 from caregiving.scenario import Scenario, load_scenario
-from caregiving.world_model import run_idle
+from caregiving.robot_moves import standoff_moves
+from caregiving.visibility import WALL_KIND
+from caregiving.world_model import World, run_idle
 
 from .launch import Stack
 from .trials import Harness, TrialRecord, finite
 
+#: When no risky intention arose, the oracle acts at the time the pipeline typically does.
+ORACLE_AT = 0.5
 PAPER = {"trials": 180, "discarded": 13, "valid": 167, "accuracy": 0.7964, "fp_rate": 0.2035, "fn_rate": 0.0,
          "precision": 0.61, "recall": 1.0, "f1": 0.76, "f2": 0.89, "reaction_ms_mean": 747.0,
          "reaction_ms_sd": 310.0, "action_rate": 0.8518}
@@ -49,10 +58,11 @@ PAPER = {"trials": 180, "discarded": 13, "valid": 167, "accuracy": 0.7964, "fp_r
 
 @dataclass(frozen=True)
 class Scored:
-    """One trial with its ground truth."""
+    """One trial with its ground truth (and, for truly risky trials, whether any move could save it)."""
 
     record: TrialRecord
     truly_risky: bool
+    preventable: bool | None = None
 
     @property
     def discarded(self) -> bool:
@@ -99,8 +109,35 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "e2e_ms_mean": statistics.fmean(e2e) if e2e else None,
         "action_rate": _ratio(sum(s.record.action is not None for s in detected), len(detected)),
         "prevention_rate": _ratio(sum(not s.record.collided for s in risky), len(risky)),
+        "preventable": sum(bool(s.preventable) for s in risky) if any(s.preventable is not None for s in risky)
+        else None,
+        "prevention_rate_of_preventable": _ratio(sum(not s.record.collided for s in risky if s.preventable),
+                                                 sum(bool(s.preventable) for s in risky)),
         "truly_risky": len(risky), "closed_loop_collisions": sum(s.record.collided for s in scored),
     }
+
+
+def preventable(trial: Scenario, at: float, planner: GridPlanner) -> bool:
+    """Oracle: does any stand-off move, commanded in the ground truth at time ``at``, avoid every collision?
+
+    This bounds what any robot with these motion limits and the ``move_to`` action could
+    do in the trial once the danger is known; it is not part of the pipeline.
+    """
+    start = World(trial, planner=planner)
+    while start.time < at - 1e-9 and not start.done:
+        start.step()
+    scene = start.scene()
+    moves = [m for o in scene.obstacles if o.kind != WALL_KIND for m in standoff_moves(scene, o.name)]
+    for move in moves:
+        world = World(trial, planner=planner)
+        while world.time < at - 1e-9 and not world.done:
+            world.step()
+        if world.done:
+            return not world.outcome().collided
+        world.command_robot(move)
+        if not world.run(30.0).collided:
+            return True
+    return False
 
 
 def _fmt(key: str, value: Any) -> str:
@@ -108,7 +145,7 @@ def _fmt(key: str, value: Any) -> str:
         return "-"
     if key.endswith("_ms_mean") or key.endswith("_ms_sd") or "_ms_" in key:
         return f"{value:.1f} ms"
-    if key in ("accuracy", "fp_rate", "fn_rate", "action_rate", "prevention_rate"):
+    if key in ("accuracy", "fp_rate", "fn_rate", "action_rate", "prevention_rate", "prevention_rate_of_preventable"):
         return f"{100 * value:.2f} %"
     if isinstance(value, float):
         return f"{value:.3f}"
@@ -120,6 +157,8 @@ ROWS = [("Total experiments", "trials"), ("Experiments discarded", "discarded"),
         ("Precision", "precision"), ("Recall", "recall"), ("F-1 score", "f1"), ("F-2 score", "f2"),
         ("Reaction time (mean)", "reaction_ms_mean"), ("Reaction time (deviation)", "reaction_ms_sd"),
         ("Detected collision and action generated", "action_rate"), ("Prevented (truly risky trials)", "prevention_rate"),
+        ("Truly risky trials any move could save", "preventable"),
+        ("Prevented (of those)", "prevention_rate_of_preventable"),
         ("End to end p50", "e2e_ms_p50"), ("End to end p99", "e2e_ms_p99")]
 
 
@@ -158,10 +197,22 @@ async def run_trials(scenario: Scenario, stack: Stack, seed: int, indices: list[
     return scored
 
 
+def with_oracle(scenario: Scenario, seed: int, scored: list[Scored], console: Console) -> list[Scored]:
+    """Add the :func:`preventable` oracle to the truly risky trials (at the pipeline's own decision time)."""
+    planner = GridPlanner(scenario.scene().bounds)
+    out = []
+    with console.status("oracle: could any move have saved the truly risky trials?"):
+        for s in scored:
+            at = (s.record.risky or {}).get("at_time", ORACLE_AT)
+            can = preventable(trial_for(scenario, seed, s.record.index), at, planner) if s.truly_risky else None
+            out.append(Scored(s.record, s.truly_risky, can))
+    return out
+
+
 def trial_json(s: Scored) -> dict[str, Any]:
     r = s.record
     return {"index": r.index, "truly_risky": s.truly_risky, "discarded": s.discarded, "predicted": s.predicted,
-            "acted": r.action is not None, "collided": r.collided, "reaction_ms": r.reaction_ms, "e2e_ms": r.e2e_ms,
+            "acted": r.action is not None, "collided": r.collided, "preventable": s.preventable, "reaction_ms": r.reaction_ms, "e2e_ms": r.e2e_ms,
             "collisions": r.outcome.get("collisions", [])}
 
 
@@ -180,6 +231,7 @@ def experiment(scenario_path: str, trials: int, seed: int, *, rate: float = 4.0,
     with Stack(graph, scenario_path, logs, rate=rate) as stack:
         console.print(f"stack up: 6 processes on {stack.endpoint}, simulated clock x{rate:g}, logs in {logs}")
         scored = asyncio.run(run_trials(scenario, stack, seed, indices, console, graph))
+    scored = with_oracle(scenario, seed, scored, console)
     result = metrics(scored)
     result.update(scenario=scenario.name, seed=seed, rate=rate, sensor_noise=scenario.sensors.enabled,
                   wall_s=time.monotonic() - started, paper=PAPER)
