@@ -77,7 +77,7 @@ def ordered_moves(scene: Scene, path: list[tuple[float, float]], point: tuple[fl
         around = standoff_moves(scene, o.name)
         cx, cy = o.shape.x, o.shape.y
 
-        def key(m: RobotMove) -> tuple[float, float]:
+        def key(m: RobotMove, cx: float = cx, cy: float = cy) -> tuple[float, float]:
             norm = math.hypot(m.x - cx, m.y - cy) or 1.0
             along = ((m.x - cx) * dx + (m.y - cy) * dy) / norm
             return -abs(along), -along

@@ -16,7 +16,6 @@ from dataclasses import dataclass
 from caregiving.geometry import Box, Circle, Shape
 from caregiving.scenario import RoomSpec
 from caregiving.scene import Obstacle, PersonState, RobotState, Scene
-from caregiving.visibility import WALL_KIND
 from wm import Graph, Node
 
 WORLD = "world"
@@ -104,6 +103,3 @@ def _pose(g: Graph, node: Node) -> tuple[float, float, float] | None:
     rot = edge.get("rt_rotation_euler_xyz", (0.0, 0.0, 0.0))
     return float(t[0]), float(t[1]), float(rot[2])
 
-
-def is_wall(o: Obstacle) -> bool:
-    return o.kind == WALL_KIND

@@ -34,10 +34,11 @@ from bridges import bus, keys
 from caregiving.errors import CaregivingError, RequestError
 from caregiving.fields import Fields
 from caregiving.imagine import Imagination, answer
-from caregiving.rollout import BulletRollout, NumpyRollout, Rollout
 from caregiving.robot_moves import RobotMove
+from caregiving.rollout import BulletRollout, NumpyRollout, Rollout
 from caregiving.scene import Scene
 from caregiving.uncertainty import Risk, Uncertainty, collision_risk
+
 from .context import Context, read_context
 from .runtime import Agent, main
 

@@ -41,8 +41,8 @@ from rich.table import Table
 import wm
 from bridges.world.bridge import trial_for
 from caregiving.planner import GridPlanner
-from caregiving.scenario import Scenario, load_scenario
 from caregiving.robot_moves import standoff_moves
+from caregiving.scenario import Scenario, load_scenario
 from caregiving.visibility import WALL_KIND
 from caregiving.world_model import World, run_idle
 
@@ -143,7 +143,7 @@ def preventable(trial: Scenario, at: float, planner: GridPlanner) -> bool:
 def _fmt(key: str, value: Any) -> str:
     if value is None:
         return "-"
-    if key.endswith("_ms_mean") or key.endswith("_ms_sd") or "_ms_" in key:
+    if "_ms_" in key:
         return f"{value:.1f} ms"
     if key in ("accuracy", "fp_rate", "fn_rate", "action_rate", "prevention_rate", "prevention_rate_of_preventable"):
         return f"{100 * value:.2f} %"

@@ -15,14 +15,14 @@ from typing import TYPE_CHECKING, Any
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.patches import Circle as CirclePatch  # noqa: E402
-from matplotlib.patches import Polygon, Wedge  # noqa: E402
+import matplotlib.pyplot as plt
+from matplotlib.patches import Circle as CirclePatch
+from matplotlib.patches import Polygon, Wedge
 
-from caregiving.geometry import Box, Circle, corners  # noqa: E402
-from caregiving.scene import Scene  # noqa: E402
+from caregiving.geometry import Box, Circle, corners
+from caregiving.scene import Scene
 
-from .trials import TrialRecord, finite  # noqa: E402
+from .trials import TrialRecord, finite
 
 if TYPE_CHECKING:
     from .experiment import Scored

@@ -16,6 +16,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Self
 
 READY = {"world": "world: ready", "agent": " running "}
 
@@ -80,7 +81,7 @@ class Stack:
                 raise LaunchError(f"{child.name} not ready within {timeout:g} s:\n{child.text()[-2000:]}")
             time.sleep(0.05)
 
-    def start(self, timeout: float = 60.0) -> Stack:
+    def start(self, timeout: float = 60.0) -> Self:
         """Start the world bridge, then the five agents; wait until all are ready."""
         self.port = self.port or free_port()
         py = sys.executable
@@ -115,7 +116,7 @@ class Stack:
             if child.popen.poll() is not None:
                 raise LaunchError(f"{child.name} exited with status {child.popen.returncode}:\n{child.text()[-2000:]}")
 
-    def __enter__(self) -> Stack:
+    def __enter__(self) -> Self:
         try:
             return self.start()
         except BaseException:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import asyncio
 from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
 
@@ -35,10 +34,3 @@ def run_trial(stack: Stack, scenario: str, seed: int = 0, index: int | None = No
 
     stack.check()
     return asyncio.run(go())
-
-
-def log_of(stack: Stack, name: str) -> str:
-    return next(c.text() for c in stack.children if c.name == name)
-
-
-__all__ = ["stack", "run_trial", "log_of", "Path"]

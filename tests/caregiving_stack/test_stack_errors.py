@@ -28,7 +28,7 @@ randomisation: {}
 def test_experiment_with_a_bad_scenario_file_fails_clearly(tmp_path: Path) -> None:
     bad = tmp_path / "broken.yaml"
     bad.write_text(BROKEN)
-    result = subprocess.run([*WM, "experiment", str(bad), "--trials", "1"], capture_output=True, text=True,
+    result = subprocess.run([*WM, "experiment", str(bad), "--trials", "1"], check=False, capture_output=True, text=True,
                             timeout=60, cwd=REPO)
     assert result.returncode == 1
     assert "wm experiment: error: people[0].speed" in result.stderr
@@ -36,7 +36,7 @@ def test_experiment_with_a_bad_scenario_file_fails_clearly(tmp_path: Path) -> No
 
 def test_world_bridge_refuses_a_bad_scenario(tmp_path: Path) -> None:
     result = subprocess.run([PYTHON, "-m", "bridges.world", "--scenario", str(tmp_path / "missing.yaml")],
-                            capture_output=True, text=True, timeout=60, cwd=REPO)
+                            check=False, capture_output=True, text=True, timeout=60, cwd=REPO)
     assert result.returncode == 1 and "world: error: <file>: cannot read" in result.stderr
 
 
