@@ -157,6 +157,19 @@ def test_dsr_symbols_as_a_list_import() -> None:
     assert g.load_json(scene).nodes == 4
 
 
+def test_dsr_byte_vectors_import_as_bytes() -> None:
+    ontology = wm.Ontology.from_dict(
+        {"attributes": {"blob": {"type": "bytes"}}, "nodes": {"camera": {"attributes": ["blob"]}}}
+    )
+    symbol = {"id": "7", "name": "cam", "type": "camera", "attribute": {"blob": {"type": 5, "value": [0, 1, 255]}}, "links": []}
+    g = wm.Graph(ontology)
+    g.load_json({"DSRModel": {"symbols": {"7": symbol}}})
+    assert g.get_node("cam").attrs["blob"] == b"\x00\x01\xff"
+    symbol["attribute"]["blob"]["value"] = [256]
+    with pytest.raises(wm.SceneFormatError):
+        wm.Graph(ontology).load_json({"DSRModel": {"symbols": {"7": symbol}}})
+
+
 def _bad_scenes() -> list[tuple[object, type]]:
     good = sample_graph().to_dict()
     dup_name = json.loads(json.dumps(good))

@@ -28,7 +28,7 @@ from pycrdt import merge_updates
 
 from .errors import DecodeError
 from .graph import Graph
-from .volatile import Record
+from .volatile import Record, check_records
 
 log = logging.getLogger(__name__)
 _HEADER = struct.Struct("<II")
@@ -62,7 +62,7 @@ class DiskLog:
                 if update:
                     graph.apply_update(update, DISK_WRITER)
                 if records:
-                    graph.merge_volatile([(o, a, tuple(v) if isinstance(v, list) else v, c, w) for o, a, v, c, w in records], DISK_WRITER)
+                    graph.merge_volatile(check_records(records), DISK_WRITER)
             except (DecodeError, ValueError, TypeError) as exc:
                 log.error("%s: skipping an unreadable record at byte %d: %s", self.log_path, position, exc)
             position += _HEADER.size + length

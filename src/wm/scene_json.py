@@ -33,6 +33,7 @@ if TYPE_CHECKING:
 FORMAT = "cortex-wm"
 VERSION = 1
 _DSR_INT_TYPES = {1, 6, 7}  # int, uint, uint64 (DSR writes the 64-bit ones as strings)
+_DSR_BYTES_TYPE = 5  # a vector of uint8, written as a list of numbers
 
 
 @dataclass
@@ -131,6 +132,8 @@ def _dsr_attrs(graph: Graph, raw: Any, element_kind: str, element_type: str, whe
         value = entry.get("value") if isinstance(entry, Mapping) else entry
         if isinstance(entry, Mapping) and entry.get("type") in _DSR_INT_TYPES and isinstance(value, str):
             value = int(value)
+        elif isinstance(entry, Mapping) and entry.get("type") == _DSR_BYTES_TYPE and isinstance(value, list):
+            value = bytes(value)
         try:
             ontology.attribute_for(element, name)
         except UnknownAttributeError:

@@ -28,7 +28,7 @@ import msgpack
 from pycrdt import merge_updates
 
 from .errors import DecodeError
-from .volatile import Record
+from .volatile import Record, check_records
 
 if TYPE_CHECKING:
     from .graph import Graph
@@ -130,30 +130,11 @@ def decode(data: bytes) -> Message:
         if not isinstance(value, types) or (isinstance(value, bool) and int in types):
             raise DecodeError(f"{kind.name}.{name}: wrong type {type(value).__name__}")
         if name == "volatile":
-            value = _check_records(value)
+            value = check_records(value)
         elif name == "state_vector":
             parse_state_vector(value)
         values[name] = value
     return cls(sender=sender, **values)
-
-
-def _check_records(items: list[Any]) -> list[Record]:
-    records = []
-    for item in items:
-        if (
-            not isinstance(item, list)
-            or len(item) != 5
-            or not isinstance(item[0], str)
-            or item[0][:2] not in ("n:", "e:")
-            or not isinstance(item[1], str)
-            or not isinstance(item[3], int)
-            or isinstance(item[3], bool)
-            or not isinstance(item[4], str)
-        ):
-            raise DecodeError("a volatile record is [owner, attr, value, clock, writer]")
-        value = tuple(item[2]) if isinstance(item[2], list) else item[2]
-        records.append((item[0], item[1], value, item[3], item[4]))
-    return records
 
 
 # -- state vectors -------------------------------------------------------------
