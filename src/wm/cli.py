@@ -1,6 +1,6 @@
 """The ``wm`` command line: serve, load, dump, watch, members, set, rm, the
-monitoring commands of :mod:`wm.monitoring_cli` (monitor, view, record, replay, reactions)
-``launch`` (:mod:`wm.launch_cli`) and ``experiment`` (:mod:`caregiving_stack.cli`).
+monitoring commands of :mod:`wm.monitoring.cli` (monitor, view, record, replay, reactions)
+``launch`` (:mod:`wm.launch.cli`) and ``experiment`` (:mod:`caregiving_stack.cli`).
 
 Every command takes ``--graph``, ``--connect ENDPOINT`` (repeatable) and
 ``--config FILE``. Errors are one line on stderr and exit status 1.
@@ -19,7 +19,8 @@ from typing import Any
 from .connection import connect
 from caregiving_stack import cli as experiment_cli
 
-from . import launch_cli, monitoring_cli
+from .launch import cli as launch_cli
+from .monitoring import cli as monitoring_cli
 from .errors import NotFoundError, UnknownAttributeError, WMError
 from .graph import Graph
 from .ontology import Ontology

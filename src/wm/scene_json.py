@@ -53,7 +53,7 @@ class _Scene:
     skipped: list[str]
 
 
-def _encode_value(value: Any) -> Any:
+def encode_value(value: Any) -> Any:
     if isinstance(value, bytes):
         return {"$bytes": base64.b64encode(value).decode("ascii")}
     if isinstance(value, tuple):
@@ -72,11 +72,11 @@ def graph_to_dict(graph: Graph) -> dict[str, Any]:
         "format": FORMAT,
         "version": VERSION,
         "nodes": [
-            {"id": n.id, "type": n.type, "name": n.name, "attrs": {k: _encode_value(v) for k, v in sorted(n.attrs.items())}}
+            {"id": n.id, "type": n.type, "name": n.name, "attrs": {k: encode_value(v) for k, v in sorted(n.attrs.items())}}
             for n in graph.nodes()
         ],
         "edges": [
-            {"src": e.src, "dst": e.dst, "type": e.type, "attrs": {k: _encode_value(v) for k, v in sorted(e.attrs.items())}}
+            {"src": e.src, "dst": e.dst, "type": e.type, "attrs": {k: encode_value(v) for k, v in sorted(e.attrs.items())}}
             for e in graph.edges()
         ],
     }

@@ -14,7 +14,7 @@ import wm
 from mon_helpers import GRAPH, RISKY_SCENE, SCENE_NAMES, run_wm
 from procs import REPO, WM, endpoint, free_port, wait_until
 from wm.events import Event, EventKind
-from wm.monitor import MonitorState, render
+from wm.monitoring.monitor import MonitorState, render
 
 
 def screen(g: wm.Graph, state: MonitorState) -> str:

@@ -1,4 +1,4 @@
-"""The 2D scene (:mod:`wm.scene2d`) as a Foxglove ``foxglove.SceneUpdate`` in JSON.
+"""The 2D scene (:mod:`wm.monitoring.scene2d`) as a Foxglove ``foxglove.SceneUpdate`` in JSON.
 
 Foxglove's 3D panel draws a ``/wm/scene`` channel of a recording as it is:
 bodies as boxes or cylinders with their names, field-of-view cones as
@@ -120,7 +120,7 @@ def _shape(item: dict[str, Any], color: dict[str, float], height: float) -> tupl
 
 
 def scene_update(scene: dict[str, Any], t_ns: int) -> dict[str, Any]:
-    """A ``foxglove.SceneUpdate`` drawing ``scene`` (from :func:`wm.scene2d.build`) at time ``t_ns``."""
+    """A ``foxglove.SceneUpdate`` drawing ``scene`` (from :func:`wm.monitoring.scene2d.build`) at time ``t_ns``."""
     frame = scene.get("frame") or "world"
     stamp = _stamp(t_ns)
 

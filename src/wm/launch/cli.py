@@ -1,4 +1,4 @@
-"""``wm launch FILE``: the command line of :mod:`wm.launcher` (see :mod:`wm.launch_file` for the format).
+"""``wm launch FILE``: the command line of :mod:`wm.launch.supervisor` (see :mod:`wm.launch.spec` for the format).
 
     wm launch deploy/launch/one-host.toml
     wm launch --check deploy/launch/caregiving.toml --set router=tcp/10.0.0.1:7447
@@ -16,7 +16,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from .launch_file import LaunchFileError, load
+from .spec import LaunchFileError, load
 
 
 def add_command(commands: Any) -> None:
@@ -48,6 +48,6 @@ def main(args: argparse.Namespace) -> int:
         return 0
     if args.log_dir:
         spec = replace(spec, log_dir=Path(args.log_dir))
-    from .launcher import Launcher  # rich is loaded only when something is launched
+    from .supervisor import Launcher  # rich is loaded only when something is launched
 
     return asyncio.run(Launcher(spec, live_table=not args.no_table).run())

@@ -3,7 +3,7 @@
 One port serves the page (``/``, a self-contained HTML/JS/SVG file shipped
 with the package) and a websocket (``/ws``). The viewer is a read-only replica:
 every change of the graph marks it dirty, and at most every ``min_interval``
-seconds the whole state (graph, 2D scene from :mod:`wm.scene2d`, members) goes
+seconds the whole state (graph, 2D scene from :mod:`wm.monitoring.scene2d`, members) goes
 to every open page as one JSON message; a page that connects gets it at once.
 """
 
@@ -23,11 +23,11 @@ from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request, Response
 
 from . import scene2d
-from .connection import connect
-from .graph import Graph
-from .ontology import Ontology
+from ..connection import connect
+from ..graph import Graph
+from ..ontology import Ontology
 
-PAGE = resources.files("wm").joinpath("view_page.html").read_bytes()
+PAGE = resources.files("wm.monitoring").joinpath("view_page.html").read_bytes()
 
 
 class ViewServer:

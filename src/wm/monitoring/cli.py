@@ -10,7 +10,7 @@ import json
 from collections.abc import Callable
 from pathlib import Path
 
-from .ontology import Ontology
+from ..ontology import Ontology
 
 COMMANDS = ("monitor", "view", "record", "replay", "reactions")
 RUN_UNTIL_STOPPED = ("monitor", "view", "record")
@@ -62,7 +62,7 @@ async def run(args: argparse.Namespace, ontology: Ontology | None) -> int:
         if args.format == "json":
             print(g.to_json())
         else:
-            from .cli import _print_text
+            from ..cli import _print_text
 
             _print_text(g)
     elif args.command == "monitor":

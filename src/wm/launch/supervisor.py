@@ -26,8 +26,8 @@ import time
 from pathlib import Path
 from typing import IO
 
-from .launch_console import LaunchConsole, ProcessState
-from .launch_file import LaunchSpec, ProcessSpec
+from .console import LaunchConsole, ProcessState
+from .spec import LaunchSpec, ProcessSpec
 
 LINE_LIMIT = 1 << 20
 PUMP_GRACE = 1.0  # seconds to drain output after the process exits

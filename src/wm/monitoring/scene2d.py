@@ -2,8 +2,8 @@
 
 :func:`build` places every node of the RT tree in the frame of its root (the
 ``world`` node when there is one) and returns plain data, shared by the
-browser view (:mod:`wm.view`) and the Foxglove channel of a recording
-(:mod:`wm.foxglove`):
+browser view (:mod:`wm.monitoring.view`) and the Foxglove channel of a recording
+(:mod:`wm.monitoring.foxglove`):
 
 ``bodies``  one per placed node: pose, type, and a footprint (box or circle)
             from ``footprint``/``size``/``shape``/``radius`` when present;
@@ -24,10 +24,10 @@ from typing import Any
 
 import numpy as np
 
-from .errors import WMError
-from .graph import Graph
-from .model import Node
-from .rt import RT, homogeneous, matrix_to_se2
+from ..errors import WMError
+from ..graph import Graph
+from ..model import Node
+from ..rt import RT, homogeneous, matrix_to_se2
 
 CONE_RANGE_M = 2.0
 DEFAULT_RADIUS_M = 0.15

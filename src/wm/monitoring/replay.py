@@ -13,13 +13,13 @@ import asyncio
 from collections.abc import Sequence
 from pathlib import Path
 
-from .connection import connect
-from .errors import NotFoundError
-from .graph import Graph
-from .model import parse_edge_key
-from .ontology import Ontology
+from ..connection import connect
+from ..errors import NotFoundError
+from ..graph import Graph
+from ..model import parse_edge_key
+from ..ontology import Ontology
 from .recording import iter_updates
-from .volatile import Record
+from ..volatile import Record
 
 
 def write_volatile(g: Graph, records: list[Record]) -> None:

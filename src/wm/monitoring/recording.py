@@ -29,9 +29,9 @@ from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
 from . import foxglove
-from .graph import Graph
-from .ontology import Ontology
-from .volatile import Record, check_records
+from ..graph import Graph
+from ..ontology import Ontology
+from ..volatile import Record, check_records
 
 UPDATES = "/wm/updates"
 CHANGES = "/wm/changes"

@@ -24,10 +24,10 @@ from rich.panel import Panel
 from rich.table import Table
 from rich.text import Text
 
-from .connection import ConnectError, connect
-from .events import Event, EventKind
-from .graph import Graph
-from .ontology import Ontology
+from ..connection import ConnectError, connect
+from ..events import Event, EventKind
+from ..graph import Graph
+from ..ontology import Ontology
 from .scene2d import root_node, world_poses
 
 RATE_WINDOW_S = 5.0

@@ -19,12 +19,12 @@ from typing import Any
 from pycrdt import merge_updates
 
 from . import foxglove, scene2d
-from .connection import connect
-from .events import Event
-from .graph import Graph
-from .ontology import Ontology
+from ..connection import connect
+from ..events import Event
+from ..graph import Graph
+from ..ontology import Ontology
 from .recording import RecordingWriter
-from .scene_json import _encode_value as encode_value
+from ..scene_json import encode_value
 
 
 def change_of(g: Graph, event: Event) -> dict[str, Any]:

@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .errors import WMError
+from ..errors import WMError
 
 RESTART_POLICIES = ("never", "on-failure", "always")
 TOP_KEYS = {"log_dir", "stop_timeout", "vars", "defaults", "process"}
