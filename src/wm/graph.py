@@ -455,10 +455,14 @@ class Graph:
     def merge_volatile(self, records: Iterable[Record], writer: str) -> None:
         """Merge volatile registers received from ``writer`` (records of deleted nodes are ignored)."""
         accepted = []
+        live = self._index.node_meta
         for record in records:
             owner = record[0]
-            if owner.startswith("n:") and self._store.is_deleted(owner[2:]):
-                continue
+            if owner.startswith("n:"):
+                ident = owner[2:]
+                # a live node is not deleted; only others need the (slower) look-up in the document
+                if not (ident.isdecimal() and int(ident) in live) and self._store.is_deleted(ident):
+                    continue
             accepted.append(record)
         changed = self._volatile.merge(accepted)
         if changed:

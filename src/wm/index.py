@@ -133,18 +133,20 @@ class GraphIndex:
         removed_nodes: list[Event] = []
         gone_names: dict[int, str] = {}
 
-        for key in dict.fromkeys(changes.nodes_added + changes.nodes_removed):
+        touched_nodes = list(dict.fromkeys(changes.nodes_added + changes.nodes_removed))
+        heads = store.node_heads(touched_nodes)
+        for key in touched_nodes:
             node_id = int(key)
             before = node_id in self.node_meta
-            node = store.node_map(key)
-            if node is not None and not before:
-                node_type, name = str(node.get(TYPE_KEY)), str(node.get(NAME_KEY))
+            head = heads.get(key)
+            if head is not None and not before:
+                node_type, name, attr_names = head
                 self._add_node(node_id, node_type, name)
-                attrs = frozenset(k for k in node.keys() if not k.startswith("@")) | frozenset(volatile_attrs(f"n:{key}"))
+                attrs = frozenset(attr_names) | frozenset(volatile_attrs(f"n:{key}"))
                 added_nodes.append(Event(EventKind.NODE_ADDED, node_type, writer, local, attrs, node_id, name))
                 if len(self.names[name]) > 1:
                     result.name_conflicts.append(name)
-            elif node is None and before:
+            elif head is None and before:
                 node_type, name = self._remove_node(node_id)
                 gone_names[node_id] = name
                 result.removed_nodes.append(node_id)
