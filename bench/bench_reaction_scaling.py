@@ -1,8 +1,8 @@
 """Reaction time of the multi-process caregiving stack as people and objects grow, up to 5 x 20.
 
-For each size it writes a scenario with that many people walking to the couch
-and that many objects strewn about (one ball on the first person's way, below
-their gaze), runs a few trials on one live stack (world bridge, perception,
+For each size it writes a scenario with that many people (the first walks to
+the couch, the others to the door) and that many objects strewn about (one ball
+on the first person's way, below their gaze, where the robot can get in time), runs a few trials on one live stack (world bridge, perception,
 simulation, intention, action, executor; sensor noise on) and reports, from the
 stamps the agents write into W, the paper's reaction time (risky intention ->
 robot action) and the end-to-end time (perception write -> robot action), with
@@ -47,18 +47,19 @@ def scenario_dict(people: int, objects: int, seed: int) -> dict[str, Any]:
         {"name": "door", "kind": "door", "shape": {"type": "box", "size": [1.0, 0.1]}, "height": 2.0,
          "pose": [1.5, 2.95, 0.0], "target": True},
         {"name": "ball", "kind": "ball", "shape": {"type": "circle", "radius": 0.11}, "height": 0.22,
-         "pose": [0.0, 0.0, 0.0]}]
-    placed = [(3.5, 0.0, 1.2), (1.5, 2.95, 0.6), (0.0, 0.0, 0.5)]
+         "pose": [0.8, 0.0, 0.0]}]
+    placed = [(3.5, 0.0, 1.2), (1.5, 2.95, 0.6), (0.8, 0.0, 0.5)]
     ys = np.linspace(-2.2, 2.2, people) if people > 1 else np.array([0.0])
     walkers = []
     for i, y in enumerate(ys):
         x = -2.5 if i == 0 else -3.3
         y = 0.0 if i == 0 else float(y)
         placed.append((x, y, 0.5))
-        walkers.append({"name": f"p{i}", "pose": [x, y, 0.0], "target": "couch", "speed": 0.5, "radius": 0.25,
+        walkers.append({"name": f"p{i}", "pose": [x, y, 0.0], "target": "couch" if i == 0 else "door",
+                        "speed": 0.5, "radius": 0.25,
                         "eye_height": 1.6, "hfov_deg": 120.0, "vfov_deg": 40.0, "gaze_range_deg": [6.0, 10.0],
                         "gaze_deg": 8.0})
-    placed.append((0.0, -2.0, 0.5))
+    placed.append((1.2, -1.5, 0.6))
     k = 0
     while len(objs) < objects:
         kind, shape, size, height = CLUTTER[k % len(CLUTTER)]
@@ -72,7 +73,7 @@ def scenario_dict(people: int, objects: int, seed: int) -> dict[str, Any]:
         k += 1
     return {"name": f"scale_{people}x{objects}", "description": "scaling benchmark", "room": {"size": [8.0, 6.0]},
             "objects": objs, "people": walkers,
-            "robot": {"name": "robot", "pose": [0.0, -2.0, 90.0], "footprint": [0.5, 0.4], "height": 1.5,
+            "robot": {"name": "robot", "pose": [1.2, -1.5, 90.0], "footprint": [0.5, 0.4], "height": 1.5,
                       "max_speed": 0.8, "max_accel": 0.6},
             "sensors": {"enabled": True, "rate_hz": 15.0, "position_sigma": 0.05, "heading_sigma_deg": 5.0,
                         "size_error": 0.2, "dropout": 0.05, "latency": 0.05},

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .geometry import Box, Circle, closest_boundary_point, polyline_length, signed_distance
+from .geometry import Box, Circle, closest_boundary_point, polyline_length
 from .imagine import Imagination
 from .rollout import DT, trajectory
 from .scene import ROBOT_KIND, Scene
@@ -95,16 +95,18 @@ def collision_risk(scene: Scene, im: Imagination, u: Uncertainty, dt: float = DT
 
 
 def _clearances(shape: Circle | Box, walkers: np.ndarray, offset: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """Signed distance from every sampled walker position to the sampled (moved, resized) shape."""
+    """Signed distance from every sampled walker position to the sampled (moved, resized) shape, vectorised."""
+    centre = np.array([shape.x, shape.y])[None, None, :] + offset[:, None, :]
+    rel = walkers - centre  # (n, steps, 2)
     if isinstance(shape, Circle):
-        centre = np.array([shape.x, shape.y])[None, None, :] + offset[:, None, :]
-        return np.linalg.norm(walkers - centre, axis=2) - (shape.r * scale)[:, None]
-    out = np.empty(walkers.shape[:2])
-    for i in range(len(walkers)):
-        box = Box(shape.x + offset[i, 0], shape.y + offset[i, 1], shape.hx * scale[i], shape.hy * scale[i],
-                  shape.theta)
-        out[i] = signed_distance(box, walkers[i])
-    return out
+        return np.linalg.norm(rel, axis=2) - (shape.r * scale)[:, None]
+    c, s = math.cos(shape.theta), math.sin(shape.theta)
+    local = np.stack((rel[..., 0] * c + rel[..., 1] * s, -rel[..., 0] * s + rel[..., 1] * c), axis=2)
+    half = np.stack((shape.hx * scale, shape.hy * scale), axis=1)[:, None, :]  # (n, 1, 2)
+    q = np.abs(local) - half
+    outside = np.linalg.norm(np.maximum(q, 0.0), axis=2)
+    inside = np.minimum(np.maximum(q[..., 0], q[..., 1]), 0.0)
+    return outside + inside
 
 
 def risk_horizon(risk: Risk, im: Imagination) -> float:

@@ -1,0 +1,40 @@
+"""Sampled collision risk: vectorised shapes, unseen versus seen obstacles, remembered objects."""
+
+import math
+
+import numpy as np
+import pytest
+
+from caregiving.geometry import Box, signed_distance
+from caregiving.imagine import imagine_person
+from caregiving.scenario import load_scenario
+from caregiving.uncertainty import Uncertainty, _clearances, collision_risk
+
+GAZE = math.radians(8)
+
+
+def test_vectorised_box_clearances_match_signed_distance() -> None:
+    rng = np.random.default_rng(3)
+    box = Box(0.3, -0.2, 0.4, 0.15, 0.7)
+    walkers = rng.uniform(-1, 1, (6, 40, 2))
+    offset, scale = rng.normal(0, 0.05, (6, 2)), rng.uniform(0.8, 1.2, 6)
+    expected = np.stack([signed_distance(Box(box.x + offset[i, 0], box.y + offset[i, 1], box.hx * scale[i],
+                                             box.hy * scale[i], box.theta), walkers[i]) for i in range(6)])
+    assert np.allclose(_clearances(box, walkers, offset, scale), expected)
+
+
+def test_unseen_ball_on_the_way_is_a_near_certain_collision() -> None:
+    scene = load_scenario("paper_experiment1").scene()
+    im = imagine_person(scene, "person", "couch", GAZE)
+    risk = collision_risk(scene, im, Uncertainty(0.2, {"ball": 0.02, "person": 0.03}, samples=128))
+    assert risk.probability == pytest.approx(1.0) and risk.obstacle == "ball"
+    assert risk.time == pytest.approx(im.collision_time, abs=0.3)
+
+
+def test_seen_or_remembered_obstacles_are_not_a_risk() -> None:
+    scene = load_scenario("person_sees_obstacle").scene()
+    im = imagine_person(scene, "person", "couch", GAZE)
+    assert "plant" in im.seen and not im.collided
+    assert collision_risk(scene, im, Uncertainty(0.2, {"plant": 0.05, "person": 0.05})).probability == 0.0
+    looking_up = imagine_person(scene, "person", "couch", math.radians(60), known=["plant"])
+    assert "plant" in looking_up.seen and not looking_up.collided
