@@ -31,6 +31,7 @@ from pycrdt import Doc, Map, TransactionEvent
 from .errors import DecodeError
 
 TYPE_KEY = "@type"
+EMPTY_STATE_VECTOR = b"\x00"
 NAME_KEY = "@name"
 
 
@@ -69,11 +70,24 @@ class CrdtStore:
         self.deleted: Map = self.doc.get("deleted", type=Map)
         self.pending = RawChanges()
         self.current_origin: Any = None
+        self._subscriptions: list[Any] = []
+        self._observe()
+
+    def _observe(self) -> None:
         self._subscriptions = [
             self.nodes.observe_deep(self._on_nodes),
             self.edges.observe(self._on_edges),
             self.edge_attrs.observe(self._on_edge_attrs),
         ]
+
+    def _unobserve(self) -> None:
+        for root, subscription in zip((self.nodes, self.edges, self.edge_attrs), self._subscriptions):
+            root.unobserve(subscription)
+        self._subscriptions = []
+
+    def is_empty(self) -> bool:
+        """Whether nothing was ever written to or applied on this document."""
+        return self.doc.get_state() == EMPTY_STATE_VECTOR
 
     # -- change capture ------------------------------------------------------
 
@@ -125,6 +139,9 @@ class CrdtStore:
     def node_names(self) -> dict[str, str]:
         """Every node key with its stored name (a full scan: for repairs only)."""
         return {key: str(node.get(NAME_KEY)) for key, node in self.nodes.items() if isinstance(node, Map)}
+
+    def has_node(self, key: str) -> bool:
+        return key in self.nodes
 
     def node_map(self, key: str) -> Map | None:
         value = self.nodes.get(key)
@@ -222,6 +239,15 @@ class CrdtStore:
             if isinstance(exc, Exception) or _is_panic(exc):
                 raise DecodeError(f"malformed CRDT update: {exc}") from None
             raise
+
+    def apply_unobserved(self, update: bytes, origin: Any) -> None:
+        """Apply an update without recording which keys it touched (the caller rebuilds the index)."""
+        self._unobserve()
+        try:
+            self.apply(update, origin)
+        finally:
+            self._observe()
+            self.pending = RawChanges()
 
     def observe_updates(self, callback: Callable[[bytes, Any], None]) -> Any:
         """Call ``callback(update, origin)`` after every transaction that changed the document."""

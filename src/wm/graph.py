@@ -32,7 +32,7 @@ from .errors import (
 )
 from .events import Event, EventFilter, EventHub, EventKind, EventStream, Subscription
 from .ids import IdAllocator
-from .index import GraphIndex
+from .index import GraphIndex, IndexResult
 from .model import Edge, Node, edge_key, freeze
 from .ontology import ElementType, Ontology, Value
 from .rt import RTApi
@@ -121,9 +121,10 @@ class Graph:
     def _settle(self, writer: str, local: bool) -> None:
         """Turn what the last transaction touched into index updates and events, then repair."""
         changes = self._store.take_changes()
-        self._apply_to_index(changes, writer, local)
+        repairs = [self._apply_to_index(changes, writer, local)]
         if not local and (changes.unreliable or self._index.out_of_step(self._store)):
-            self._apply_to_index(self._index.missed_changes(self._store), writer, local)
+            repairs.append(self._apply_to_index(self._index.missed_changes(self._store), writer, local))
+        self._repair(repairs)
         if local:
             for listener in self._write_listeners:
                 listener()
@@ -132,26 +133,34 @@ class Graph:
 
     def reconcile(self) -> None:
         """Compare the whole index with the document and publish what differed (replication calls it now and then)."""
-        self._apply_to_index(self._index.missed_changes(self._store), "reconcile", local=False)
+        self._repair([self._apply_to_index(self._index.missed_changes(self._store), "reconcile", local=False)])
         if self._depth == 0:
             self._flush_events()
 
-    def _apply_to_index(self, changes: RawChanges, writer: str, local: bool) -> None:
-        if changes:
-            result = self._index.apply(self._store, changes, writer, local, self._volatile_attr_names)
-            for node_id in result.removed_nodes:
-                self._volatile.drop_owner(node_owner(node_id))
-            for key in result.removed_edges:
-                self._volatile.drop_owner(edge_owner(key))
-            self._pending.extend(result.events)
-            if result.dangling_edges:
-                self._delete_dangling(result.dangling_edges)
-            if result.name_conflicts:
-                self._rename_losers(result.name_conflicts)
+    def _apply_to_index(self, changes: RawChanges, writer: str, local: bool) -> IndexResult | None:
+        """Update the index and queue the events; the repairs it calls for come after, from :meth:`_repair`."""
+        if not changes:
+            return None
+        result = self._index.apply(self._store, changes, writer, local, self._volatile_attr_names)
+        for node_id in result.removed_nodes:
+            self._volatile.drop_owner(node_owner(node_id))
+        for key in result.removed_edges:
+            self._volatile.drop_owner(edge_owner(key))
+        self._pending.extend(result.events)
+        return result
+
+    def _repair(self, results: list[IndexResult | None]) -> None:
+        """Delete dangling edge markers and rename the losers of name conflicts, once the index is right."""
+        dangling = [key for r in results if r for key in r.dangling_edges]
+        conflicts = [name for r in results if r for name in r.name_conflicts]
+        if dangling:
+            self._delete_dangling(dangling)
+        if conflicts:
+            self._rename_losers(conflicts)
 
     def _flush_events(self) -> None:
         events, self._pending = self._pending, []
-        if events:
+        if events and self._hub.has_consumers:
             self._hub.publish(_coalesce(events))
 
     def _volatile_attr_names(self, owner: str) -> Iterable[str]:
@@ -239,6 +248,8 @@ class Graph:
         node_id = self.resolve(ref)
         values = self.ontology.check_attrs(self.ontology.node_type(self._index.node_meta[node_id][0]), attrs)
         durable, volatile = self._split(values)
+        if durable:
+            self._check_in_document(node_id)
         with self._transaction(crdt=bool(durable)):
             if durable:
                 self._store.set_node_attrs(str(node_id), _to_crdt(durable))
@@ -250,6 +261,8 @@ class Graph:
         node_id = self.resolve(ref)
         element = self.ontology.node_type(self._index.node_meta[node_id][0])
         spec = self.ontology.attribute_for(element, attr)
+        if not spec.volatile:
+            self._check_in_document(node_id)
         with self._transaction(crdt=not spec.volatile):
             if spec.volatile:
                 if self._volatile.has(node_owner(node_id), attr):
@@ -260,16 +273,24 @@ class Graph:
     def rename_node(self, ref: NodeRef, new_name: str) -> None:
         node_id = self.resolve(ref)
         self.check_new_name(new_name)
+        self._check_in_document(node_id)
         with self._transaction(structural=True):
             self._store.set_node_attrs(str(node_id), {NAME_KEY: new_name})
 
     def delete_node(self, ref: NodeRef) -> None:
         """Delete a node and every edge to or from it. The id is never used again."""
         node_id = self.resolve(ref)
+        self._check_in_document(node_id)
         with self._transaction(structural=True):
             for key in self._index.edges_of(node_id):
                 self._store.delete_edge(key, self._index.edge_attr_names.get(key, set()))
             self._store.delete_node(str(node_id))
+
+    def _check_in_document(self, node_id: int) -> None:
+        """Before writing into a node's map: if a remote change removed it unreported, catch up and refuse."""
+        if not self._store.has_node(str(node_id)):
+            self.reconcile()
+            raise NodeNotFoundError(f"node {node_id} was deleted")
 
     def resolve(self, ref: NodeRef) -> int:
         """The id of a live node given its id or name."""
@@ -434,6 +455,34 @@ class Graph:
     def add_write_listener(self, listener: Callable[[], None]) -> None:
         """Call ``listener()`` after every local write (durable or volatile)."""
         self._write_listeners.append(listener)
+
+    def is_fresh(self) -> bool:
+        """Whether this replica holds nothing yet (no write made, no update applied)."""
+        return self._store.is_empty()
+
+    def index_heads(self) -> tuple[list[list[Any]], list[list[Any]]]:
+        """This replica's index, for a fresh replica's catch-up (see :meth:`load_fresh`)."""
+        return self._index.heads()
+
+    def load_fresh(self, update: bytes, heads: tuple[list[list[Any]], list[list[Any]]], writer: str) -> None:
+        """Catch a fresh replica up: apply a full update and install the sender's index as is.
+
+        Reading thousands of new nodes back out of the document costs more than
+        applying them; the sender's index says the same in a few lists. The
+        added events carry no attribute names. The counts are checked after,
+        and a full reconcile runs if they disagree.
+        """
+        if not self.is_fresh():
+            self.apply_update(update, writer)
+            return
+        self._store.apply_unobserved(update, writer)
+        events = self._index.install(*heads, writer)
+        if self._hub.has_consumers:
+            self._pending.extend(events)
+        if self._index.out_of_step(self._store):
+            self._apply_to_index(self._index.missed_changes(self._store), writer, local=False)
+        if self._depth == 0:
+            self._flush_events()
 
     def observe_updates(self, callback: Callable[[bytes, Any], None]) -> Any:
         """``callback(update, origin)`` after every transaction; origin is the writer's replica id."""

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import Any
 
 from .crdt_store import NAME_KEY, TYPE_KEY, CrdtStore, RawChanges
 from .events import Event, EventKind
@@ -59,6 +60,35 @@ class GraphIndex:
     def node_name(self, node_id: int) -> str | None:
         meta = self.node_meta.get(node_id)
         return meta[1] if meta else None
+
+    # -- heads: the index itself, for a replica that starts from nothing ---
+
+    def heads(self) -> tuple[list[list[Any]], list[list[Any]]]:
+        """What a fresh replica needs to rebuild this index without reading the document.
+
+        Nodes as ``[id, type, name]``, edge markers as ``[key, [durable attribute names]]``.
+        """
+        nodes = [[node_id, node_type, name] for node_id, (node_type, name) in self.node_meta.items()]
+        edges = [[key, sorted(self.edge_attr_names.get(key, ()))] for key in self.markers]
+        return nodes, edges
+
+    def install(self, nodes: list[list[Any]], edges: list[list[Any]], writer: str) -> list[Event]:
+        """Fill an empty index from :meth:`heads` of a peer; returns the *added* events (without attribute names)."""
+        events = []
+        for node_id, node_type, name in nodes:
+            self._add_node(node_id, node_type, name)
+            events.append(Event(EventKind.NODE_ADDED, node_type, writer, False, frozenset(), node_id, name))
+        for key, attrs in edges:
+            src, dst, edge_type = self._add_marker(key)
+            if attrs:
+                self.edge_attr_names[key] = set(attrs)
+            if src in self.node_meta and dst in self.node_meta:
+                self._set_visible(key, True)
+                events.append(
+                    Event(EventKind.EDGE_ADDED, edge_type, writer, False, frozenset(attrs), None, None,
+                          src, dst, self.node_name(src), self.node_name(dst))
+                )
+        return events
 
     # -- maintenance ---------------------------------------------------------
 
