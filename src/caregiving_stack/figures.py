@@ -113,10 +113,13 @@ def draw_reactions(records: list[TrialRecord], path: Path) -> Path:
 
 
 def write_all(scored: list[Scored], directory: Path) -> list[Path]:
-    """The Fig. 3 of the first trial where the robot acted, and the reaction histogram."""
+    """The Fig. 3 of the first truly risky trial the robot saved (else where it acted), and the histogram."""
     out = []
-    chosen = next((s for s in scored if s.record.action is not None and s.record.snapshot is not None), None)
-    chosen = chosen or next((s for s in scored if s.record.snapshot is not None), None)
+    drawable = [s for s in scored if s.record.snapshot is not None]
+    chosen = next((s for s in drawable if s.truly_risky and s.record.action is not None and not s.record.collided),
+                  None)
+    chosen = chosen or next((s for s in drawable if s.record.action is not None), None)
+    chosen = chosen or next(iter(drawable), None)
     if chosen is not None:
         out.append(draw_trial(chosen.record, directory / "fig3_trial.png",
                               f"Trial {chosen.record.index}: W at the robot's decision"))
