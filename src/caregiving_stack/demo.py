@@ -21,6 +21,18 @@ from .launch import Stack
 SCENARIO = "paper_experiment1"
 #: A trial of seed 7 in which the person cannot see the ball and the robot can get there in time.
 RISKY = (7, 6)
+#: Simulated seconds per wall-clock second.
+RATE = 3.0
+
+
+def demo_stack(logdir: Path, rate: float = RATE) -> Stack:
+    """The demo's stack (graph ``demo``, scenario :data:`SCENARIO`), not started yet."""
+    return Stack("demo", SCENARIO, logdir, rate=rate)
+
+
+def risky_trial(stack: Stack, console: Console) -> Scored:
+    """Run the demo's risky trial (:data:`RISKY`) on a started :func:`demo_stack` and score it."""
+    return asyncio.run(run_trials(load_scenario(SCENARIO), stack, RISKY[0], [RISKY[1]], console, stack.graph))[0]
 
 
 def narrate(s: Scored, console: Console) -> None:
@@ -53,19 +65,19 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--out", type=Path, default=Path("build/demo"), help="where the figure goes")
     parser.add_argument("--trials", type=int, default=30)
-    parser.add_argument("--rate", type=float, default=3.0)
+    parser.add_argument("--rate", type=float, default=RATE)
     args = parser.parse_args()
     console = Console()
     scenario = load_scenario(SCENARIO)
     logs = Path(tempfile.mkdtemp(prefix="wm-demo-"))
-    with Stack("demo", SCENARIO, logs, rate=args.rate) as stack:
+    with demo_stack(logs, args.rate) as stack:
         console.print(f"stack: world bridge + perception, simulation, intention, action, executor on {stack.endpoint}")
-        one = asyncio.run(run_trials(scenario, stack, RISKY[0], [RISKY[1]], console, "demo"))[0]
+        one = risky_trial(stack, console)
         narrate(one, console)
         if one.record.snapshot is not None:
             path = draw_trial(one.record, args.out / "risky_trial.png", "Risky trial: W at the robot's decision")
             console.print(f"figure: {path}")
-        scored = asyncio.run(run_trials(scenario, stack, 2024, list(range(args.trials)), console, "demo"))
+        scored = asyncio.run(run_trials(scenario, stack, 2024, list(range(args.trials)), console, stack.graph))
     console.print(table(metrics(scored)))
 
 

@@ -97,6 +97,12 @@ class Stack:
             self._wait_ready(child, READY["agent"], timeout)
         return self
 
+    def add(self, name: str, argv: list[str], ready: str, timeout: float = 30.0) -> Child:
+        """Start one more process beside the stack (stopped with it, by PID); return once its log shows ``ready``."""
+        child = self._spawn(name, argv)
+        self._wait_ready(child, ready, timeout)
+        return child
+
     def stop(self) -> None:
         """SIGTERM every child by PID (newest first), then SIGKILL the ones still there."""
         for child in reversed(self.children):

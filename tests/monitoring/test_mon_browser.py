@@ -5,9 +5,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from browser import chromium
+import pytest
 from mon_helpers import SCENE_NAMES, run_wm, served_scene, start_view
 from procs import REPO
+
+from wm.monitoring.chromium import CHROMIUM, available, chromium
 
 ARTIFACTS = REPO / "artifacts"
 GRAPH_NAMES = "JSON.stringify([...document.querySelectorAll('#graph .gnode')].map(e => e.dataset.name).sort())"
@@ -20,6 +22,8 @@ def js_names(names: set[str]) -> str:
 
 
 def test_page_shows_the_live_graph_and_follows_changes(spawner, tmp_path: Path) -> None:
+    if not available():
+        pytest.skip(f"{CHROMIUM} is missing: `make system-deps` installs Debian's chromium and chromium-driver (needs root)")
     where = served_scene(spawner, tmp_path / "data")
     _, url = start_view(spawner, where)
     with chromium(url) as page:
