@@ -185,10 +185,14 @@ class CrdtStore:
     def create_node(self, key: str, node_type: str, name: str, attrs: dict[str, Any]) -> None:
         self.nodes[key] = Map({TYPE_KEY: node_type, NAME_KEY: name, **attrs})
 
-    def set_node_attrs(self, key: str, attrs: dict[str, Any]) -> None:
-        node = self.nodes[key]
+    def set_node_attrs(self, key: str, attrs: dict[str, Any]) -> bool:
+        """Write attributes into a node's map; False if the document holds no such node."""
+        node = self.nodes.get(key)
+        if not isinstance(node, Map):
+            return False
         for attr, value in attrs.items():
             node[attr] = value
+        return True
 
     def delete_node_attr(self, key: str, attr: str) -> None:
         node = self.nodes[key]

@@ -248,13 +248,14 @@ class Graph:
         node_id = self.resolve(ref)
         values = self.ontology.check_attrs(self.ontology.node_type(self._index.node_meta[node_id][0]), attrs)
         durable, volatile = self._split(values)
-        if durable:
-            self._check_in_document(node_id)
+        written = True
         with self._transaction(crdt=bool(durable)):
             if durable:
-                self._store.set_node_attrs(str(node_id), _to_crdt(durable))
-            if volatile:
+                written = self._store.set_node_attrs(str(node_id), _to_crdt(durable))
+            if volatile and written:
                 self._write_volatile(node_owner(node_id), volatile)
+        if not written:
+            self._lost_node(node_id)
 
     def delete_attr(self, ref: NodeRef, attr: str) -> None:
         """Remove one attribute of a node (a no-op if it is not set)."""
@@ -289,8 +290,11 @@ class Graph:
     def _check_in_document(self, node_id: int) -> None:
         """Before writing into a node's map: if a remote change removed it unreported, catch up and refuse."""
         if not self._store.has_node(str(node_id)):
-            self.reconcile()
-            raise NodeNotFoundError(f"node {node_id} was deleted")
+            self._lost_node(node_id)
+
+    def _lost_node(self, node_id: int) -> None:
+        self.reconcile()
+        raise NodeNotFoundError(f"node {node_id} was deleted")
 
     def resolve(self, ref: NodeRef) -> int:
         """The id of a live node given its id or name."""
