@@ -11,7 +11,7 @@ Three channels, each message stamped with the time the recorder applied it:
                  2D scene, for Foxglove's 3D panel.
 
 The writer closes an uncompressed chunk at every :meth:`RecordingWriter.flush`
-(the recorder flushes at least every second), so a file cut off by ``kill -9``
+(the recorder flushes every 0.5 s by default), so a file cut off by ``kill -9``
 holds every flushed chunk; :func:`iter_messages` reads up to the torn end.
 """
 
