@@ -2,7 +2,11 @@
 
 ``python -m agents.action --graph G --connect EP [--scenario S]``
 
-Triggered by a risky ``has_intention`` edge. The robot's only action is
+Triggered by each risky ``has_intention`` edge as it lands in W: only the
+edges added or updated since the last search are searched, the most urgent
+(shortest time to collision) first. A danger whose collision is already due is
+skipped at once, and one no move removed is searched again only after
+``--retry`` simulated seconds. The robot's only action is
 ``move_to(object)`` to a stand-off pose around it. The search is ordered so
 that the first candidates are the likely ones, and stops at the first success:
 
@@ -11,8 +15,9 @@ that the first candidates are the likely ones, and stops at the first success:
 2. around each object, the stand-off poses straight behind it, then straight in
    front of it, along the person's way (a robot there is seen, and the detour
    around it also clears the obstacle), then the others;
-3. a move whose straight-line travel time already misses the deadline is
-   discarded without planning; the simulator plans the rest exactly.
+3. an object whose nearest stand-off pose the robot cannot reach before the
+   deadline in a straight line is skipped, and so is a move whose straight-line
+   travel time misses it, without planning; the simulator plans the rest exactly.
 
 Candidates are imagined in batches (one move first, then ``--batch``), each move together with every gaze
 class of the person's replanned walk (with perception's uncertainty sampled).
@@ -30,16 +35,18 @@ import argparse
 import math
 import time
 from collections.abc import Iterator
+from dataclasses import dataclass
 from itertools import count, islice
 from typing import Any
 
 import numpy as np
 
 from bridges import bus, keys
+from caregiving.geometry import bounding_radius
 from caregiving.robot_moves import RobotMove, standoff_moves, travel_time
 from caregiving.scenario import load_scenario
-from caregiving.scene import Scene
-from caregiving.visibility import WALL_KIND, gaze_classes
+from caregiving.scene import Obstacle, Scene
+from caregiving.visibility import WALL_KIND, GazeClass, gaze_classes
 from wm import Edge
 
 from .context import Context, read_context
@@ -63,14 +70,22 @@ def travel_direction(path: list[tuple[float, float]], point: tuple[float, float]
 
 
 def ordered_moves(scene: Scene, path: list[tuple[float, float]], point: tuple[float, float],
-                  obstacle: str) -> Iterator[RobotMove]:
+                  obstacle: str, deadline: float) -> Iterator[RobotMove]:
     """Stand-off moves, most promising first, generated lazily (see the module documentation).
 
     Around the obstacle that would be hit, the poses straight behind it and
     straight in front of it along the person's way come first: a robot there is
     in the walker's view and the detour around it also clears the obstacle.
     """
-    objects = [o for o in scene.obstacles if o.kind != WALL_KIND]
+    robot = scene.robot
+    assert robot is not None
+
+    def reachable(o: Obstacle) -> bool:
+        gap = math.hypot(o.shape.x - robot.x, o.shape.y - robot.y) - bounding_radius(o.shape) - max(robot.length,
+                                                                                                     robot.width)
+        return travel_time(max(gap, 0.0), robot.max_speed, robot.max_accel) < deadline
+
+    objects = [o for o in scene.obstacles if o.kind != WALL_KIND and reachable(o)]
     objects.sort(key=lambda o: (o.name != obstacle, math.hypot(o.shape.x - point[0], o.shape.y - point[1])))
     dx, dy = travel_direction(path, point)
     for o in objects:
@@ -83,6 +98,23 @@ def ordered_moves(scene: Scene, path: list[tuple[float, float]], point: tuple[fl
             return -abs(along), -along
 
         yield from sorted(around, key=key)
+
+
+@dataclass
+class _Search:
+    """The search for a move that removes one danger: its intention, candidates and what was found so far."""
+
+    edge: Edge
+    danger: tuple[int, int, str]
+    person: str
+    target: str
+    ttc: float
+    classes: tuple[GazeClass, ...]
+    known: list[str]
+    moves: Iterator[RobotMove]
+    tried: int = 0
+    chosen: RobotMove | None = None
+    margin: float = 0.0
 
 
 class Action(Agent):
@@ -100,6 +132,8 @@ class Action(Agent):
                             help="seconds the robot should be in place before the collision")
         parser.add_argument("--batch", type=int, default=3, help="moves imagined per request")
         parser.add_argument("--max-moves", type=int, default=24, help="moves tried per danger at most")
+        parser.add_argument("--retry", type=float, default=1.0,
+                            help="simulated seconds before a danger no move removed is searched again")
 
     async def setup(self) -> None:
         a = self.args
@@ -110,16 +144,24 @@ class Action(Agent):
         self.episode: int | None = None
         self.names = count(1)
         self.searches = 0
+        self.pending: set[tuple[int, int]] = set()
+        self.new_episode = True
+        self.failed: dict[tuple[int, int, str], float] = {}
         self.loop = Coalescer(self.search, self.log, "search")
-        self.g.on(self.loop.poke, type=HAS_INTENTION, kind=["edge_added", "edge_updated"])
+        self.g.on(self._intention_changed, type=HAS_INTENTION, kind=["edge_added", "edge_updated"])
         self.g.on(self._world_changed, type="world")
         self.log.info("acting", size_error=self.size_error, react_margin=a.react_margin)
 
     async def teardown(self) -> None:
         self.loop.cancel()
 
+    def _intention_changed(self, event: Any) -> None:
+        self.pending.add((event.src, event.dst))
+        self.loop.poke()
+
     def _world_changed(self, event: Any) -> None:
         if "episode" in event.attrs:
+            self.new_episode = True
             self.loop.poke()
 
     def _clear(self, episode: int) -> None:
@@ -128,75 +170,107 @@ class Action(Agent):
             for node in self.g.nodes(INTENTION):
                 self.g.delete_node(node.id)
         self.episode = episode
+        self.failed.clear()
 
     async def search(self) -> None:
+        """Search the risky intentions that landed since the last search, breadth first across them."""
+        if not self.pending and not self.new_episode:
+            return
+        self.new_episode = False
         ctx = read_context(self.g)
         if ctx is None:
             return
         if ctx.episode != self.episode:
             self._clear(ctx.episode)
-        for edge in self.g.edges(type=HAS_INTENTION):
-            if not edge.get("risky") or self._handled(edge.src):
-                continue
-            await self._act(ctx, edge)
+        landed = [self.g.find_edge(src, dst, HAS_INTENTION) for src, dst in self.pending]
+        self.pending.clear()
+        risky = sorted((e for e in landed if e is not None and e.get("risky") and not self._handled(e.src)),
+                       key=lambda e: self._deadline(ctx, e))
+        searches = [s for e in risky if (s := self._start(ctx, e)) is not None]
+        size, started = 1, time.perf_counter()
+        served: set[int] = set()  # people a move was written for
+        while searches:
+            rounds = [(s, list(islice(s.moves, size))) for s in searches]
+            asked = [(s, moves) for s, moves in rounds if moves]
+            answers = await self._safe_moves(ctx, asked) if asked else []
+            for (s, moves), good in zip(asked, answers, strict=True):
+                s.tried += len(moves)
+                for move, arrival in good:
+                    if arrival < s.ttc - self.args.react_margin:
+                        s.chosen, s.margin = move, self.args.react_margin
+                        break
+                    s.chosen = s.chosen or move  # in time but without the margin: take it rather than search on
+            for s, moves in rounds:
+                if s.edge.src not in served and (s.chosen is not None or not moves or s.tried >= self.args.max_moves):
+                    self._finish(ctx, s, started)
+                    served |= {s.edge.src} if s.chosen is not None else set()
+            searches = [s for s, moves in rounds if s.chosen is None and moves and s.tried < self.args.max_moves
+                        and s.edge.src not in served]
+            size = self.args.batch
+
+    @staticmethod
+    def _deadline(ctx: Context, edge: Edge) -> float:
+        """Simulated seconds left before the intention's predicted collision."""
+        return edge.get("time_to_collision", 0.0) - max(ctx.scene.time - edge.get("at_time", ctx.scene.time), 0.0)
 
     def _handled(self, person: int) -> bool:
         return any(n.get("person") == person and n.get("status") in LIVE for n in self.g.nodes(INTENTION))
 
-    async def _act(self, ctx: Context, edge: Edge) -> None:
-        a = self.args
+    def _start(self, ctx: Context, edge: Edge) -> _Search | None:
+        """The search for one danger, or None when it is due already or failed too recently."""
         names = {v: k for k, v in ctx.ids.items()}
         person, target, obstacle = names.get(edge.src), names.get(edge.dst), names.get(edge.get("collision_object"))
         if person is None or target is None or obstacle is None:
-            return
+            return None
+        ttc = self._deadline(ctx, edge)
+        danger = (edge.src, edge.dst, obstacle)
+        if ttc <= 0.0 or ctx.scene.time - self.failed.get(danger, -math.inf) < self.args.retry:
+            return None
         self.searches += 1
         p = ctx.scene.person(person)
         flat = edge.get("path", ())
         path = list(zip(flat[0::2], flat[1::2], strict=True))
-        ttc = edge.get("time_to_collision", 0.0) - max(ctx.scene.time - edge.get("at_time", ctx.scene.time), 0.0)
         point = tuple(edge.get("collision_point", (p.x, p.y)))
-        classes = gaze_classes(p, ctx.scene.bodies_around(person))
         robot = ctx.scene.robot
         assert robot is not None
-        feasible = (m for m in ordered_moves(ctx.scene, path, point, obstacle)
+        feasible = (m for m in ordered_moves(ctx.scene, path, point, obstacle, ttc)
                     if travel_time(math.hypot(m.x - robot.x, m.y - robot.y), robot.max_speed, robot.max_accel) < ttc)
-        fallback: RobotMove | None = None
-        tried, size, started = 0, 1, time.perf_counter()
-        while tried < a.max_moves and (batch := list(islice(feasible, size))):
-            tried += len(batch)
-            for move, arrival in await self._safe_moves(ctx, person, target, batch, classes, ttc):
-                if arrival < ttc - a.react_margin:
-                    self._write(ctx, edge, move, a.react_margin, tried, started)
-                    return
-                fallback = fallback or move
-            if fallback is not None:
-                break  # a move in time but without the margin: take it rather than search on
-            size = a.batch
-        if fallback is not None:
-            self._write(ctx, edge, fallback, 0.0, tried, started)
-            return
-        self.log.warning("no move removes the danger", person=person, target=target, ttc=round(ttc, 2), tried=tried)
-
-    async def _safe_moves(self, ctx: Context, person: str, target: str, moves: list[RobotMove],
-                          classes: tuple[Any, ...], deadline: float) -> list[tuple[RobotMove, float]]:
-        """The moves (with their arrival times) after which every gaze class walks safely, in order."""
-        a = self.args
-        uncertainty = {"size_error": self.size_error, "sigma": ctx.sigma, "samples": a.samples, "seed": 0}
         pid = ctx.ids[person]
         known = sorted({self.g.get_node(e.dst).name for e in self.g.edges(type=KNOWS, src=pid)})
-        items = [{"kind": "joint", "person": person, "target": target, "gaze": c.gaze, "move": m.to_wire(),
-                  "known": known, "uncertainty": uncertainty} for m in moves for c in classes]
-        asked = time.perf_counter()
+        return _Search(edge, danger, person, target, ttc, gaze_classes(p, ctx.scene.bodies_around(person)), known,
+                       feasible)
+
+    def _finish(self, ctx: Context, s: _Search, started: float) -> None:
+        """Write the chosen move, or remember that no move removed the danger."""
+        if s.chosen is not None:
+            self._write(ctx, s.edge, s.chosen, s.margin, s.tried, started)
+            return
+        self.failed[s.danger] = ctx.scene.time
+        self.log.warning("no move removes the danger", person=s.person, target=s.target, ttc=round(s.ttc, 2),
+                         tried=s.tried)
+
+    async def _safe_moves(self, ctx: Context, asked: list[tuple[_Search, list[RobotMove]]]
+                          ) -> list[list[tuple[RobotMove, float]]]:
+        """For each search, the moves (with arrival times) after which every gaze class walks safely, in order.
+
+        One request holds every search's moves, each with every gaze class of its person.
+        """
+        a = self.args
+        uncertainty = {"size_error": self.size_error, "sigma": ctx.sigma, "samples": a.samples, "seed": 0}
+        items = [{"kind": "joint", "person": s.person, "target": s.target, "gaze": c.gaze, "move": m.to_wire(),
+                  "known": s.known, "uncertainty": uncertainty} for s, moves in asked for m in moves for c in s.classes]
+        sent = time.perf_counter()
         reply = await bus.ask(self.session, keys.imagine(a.graph), {"items": items})
-        self.log.debug("imagined", items=len(items), rpc_ms=round((time.perf_counter() - asked) * 1e3, 1),
+        self.log.debug("imagined", items=len(items), rpc_ms=round((time.perf_counter() - sent) * 1e3, 1),
                        compute_ms=round(reply["compute_ms"], 1))
-        results = reply["results"]
-        per = len(classes)
-        good = []
-        for k, m in enumerate(moves):
-            answers = results[k * per:(k + 1) * per]
-            if all(self._safe(x, deadline) for x in answers):
-                good.append((m, answers[0]["result"]["robot_arrival"]))
+        results = iter(reply["results"])
+        good: list[list[tuple[RobotMove, float]]] = []
+        for s, moves in asked:
+            good.append([])
+            for m in moves:
+                answers = list(islice(results, len(s.classes)))
+                if all(self._safe(x, s.ttc) for x in answers):
+                    good[-1].append((m, answers[0]["result"]["robot_arrival"]))
         return good
 
     def _safe(self, answer: dict[str, Any], deadline: float) -> bool:

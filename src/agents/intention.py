@@ -6,8 +6,12 @@ Whenever a person moves in W: for each person tracked long enough, the targets
 are the target objects inside their horizontal field of view; the vertical gaze
 range is split exactly into the classes that see the same objects
 (:func:`caregiving.visibility.gaze_classes`), which covers every sampled gaze.
-One batched request asks the simulator to imagine every (target, gaze class)
-walk and to sample perception's uncertainty around it.
+Algorithm 1 is incremental: a (target, gaze class) walk is imagined again only
+when its inputs moved beyond a tolerance (:mod:`agents.imagination_cache`);
+the others are reused, their times brought forward by their age. Each person's
+walks to imagine go in one request (the simulator samples perception's
+uncertainty around each), all people at once, and each person's intentions are
+written as soon as their reply lands.
 
 Objects a person sees in every gaze class are surely seen: they are marked
 ``knows`` person -> object in W and the person is imagined to remember them
@@ -26,8 +30,10 @@ changes (or every ``--refresh`` simulated seconds), and deleted when they stop h
 from __future__ import annotations
 
 import argparse
+import asyncio
 import math
 import time
+from collections.abc import Awaitable
 from dataclasses import dataclass
 from typing import Any
 
@@ -37,6 +43,7 @@ from caregiving.scenario import load_scenario
 from caregiving.visibility import GazeClass, candidate_targets, gaze_classes
 
 from .context import Context, read_context
+from .imagination_cache import ImaginationCache, Key, footing
 from .loop import Coalescer
 from .runtime import Agent, main
 
@@ -62,14 +69,17 @@ class Guess:
 
 
 def summarise(person: str, target: str, answers: list[dict[str, Any]], threshold: float) -> Guess:
-    """Fold the gaze classes of one intention: risky if any class is; report the earliest danger."""
+    """Fold the gaze classes of one intention: risky if any class is; report the earliest danger.
+
+    An answer reused from the cache carries its ``age`` (simulated seconds), which its times are brought forward by.
+    """
     worst: Guess | None = None
     first: Guess | None = None
     for a in answers:
         r, risk = a["result"], a["risk"]
         nominal = r["collided"]
         risky = nominal or risk["probability"] >= threshold
-        times = [t for t in (r["collision_time"], risk["time"]) if t is not None]
+        times = [max(t - a.get("age", 0.0), 0.0) for t in (r["collision_time"], risk["time"]) if t is not None]
         ttc = min(times) if risky and times else None
         point = (r["collision_point"] if nominal else risk["point"]) if risky else None
         obstacle = (r["collision_object"] if nominal else risk["object"]) if risky else None
@@ -109,6 +119,10 @@ class Intention(Agent):
         parser.add_argument("--refresh", type=float, default=0.5, help="simulated seconds between unchanged rewrites")
         parser.add_argument("--period", type=float, default=0.1,
                             help="simulated seconds between evaluations at most (default: %(default)s)")
+        parser.add_argument("--move-tol", type=float, default=0.1,
+                            help="metres a person or nearby body moves before its imaginations are redone")
+        parser.add_argument("--max-age", type=float, default=1.0,
+                            help="simulated seconds an unchanged imagination is reused at most")
 
     async def setup(self) -> None:
         a = self.args
@@ -119,6 +133,8 @@ class Intention(Agent):
         self.written: dict[tuple[int, int], tuple[bool, str | None, float]] = {}
         self.evaluations = 0
         self.last_time = -1.0
+        self.episode: int | None = None
+        self.cache = ImaginationCache(move_tol=a.move_tol, max_age=a.max_age)
         self.session = self.g.network.session  # type: ignore[union-attr]
         self.loop = Coalescer(self.evaluate, self.log, "evaluation")
         self.g.on(self.loop.poke, type="person", kind=["node_added", "node_updated"])
@@ -128,31 +144,56 @@ class Intention(Agent):
         self.loop.cancel()
 
     async def evaluate(self) -> None:
+        """One pass of Algorithm 1: every person tracked long enough, each in its own request, written as it lands."""
         ctx = read_context(self.g)
         if ctx is None or 0.0 <= ctx.scene.time - self.last_time < self.args.period:
             return
         self.last_time = ctx.scene.time
-        a = self.args
-        items, eligible = [], []
+        if ctx.episode != self.episode:
+            self.cache.clear()
+            self.episode = ctx.episode
+        people = []
         for p in ctx.scene.people:
-            pid = ctx.ids[p.name]
-            first = self.first_seen.setdefault(pid, ctx.scene.time)
-            if ctx.scene.time - first < a.min_track:
-                continue
-            eligible.append(p.name)
-            around = ctx.scene.bodies_around(p.name)
-            classes = gaze_classes(p, around)
-            known = self._remember(ctx, p.name, classes)
-            for t in candidate_targets(p, ctx.scene.obstacles):
-                for c in classes:
-                    items.append({"kind": "person", "person": p.name, "target": t.name, "gaze": c.gaze,
-                                  "known": known, "uncertainty": {"size_error": self.size_error, "sigma": ctx.sigma,
-                                                                  "samples": a.samples, "seed": 0}})
-        if not eligible:
-            return
-        reply = await bus.ask(self.session, keys.imagine(a.graph), {"items": items}) if items else {"results": []}
-        self.evaluations += 1
-        self._write(ctx, eligible, self._guesses(ctx, items, reply["results"]))
+            first = self.first_seen.setdefault(ctx.ids[p.name], ctx.scene.time)
+            if ctx.scene.time - first >= self.args.min_track:
+                people.append(p.name)
+        work = [self._evaluate_person(ctx, name) for name in people]
+        self.cache.sweep()
+        await asyncio.gather(*work)
+        if people:
+            self.evaluations += 1
+            self.log.debug("evaluated", people=len(people), hits=self.cache.hits, misses=self.cache.misses)
+
+    def _evaluate_person(self, ctx: Context, person: str) -> Awaitable[None]:
+        """Look up ``person``'s imaginations in the cache now; the returned awaitable imagines the rest and writes."""
+        a = self.args
+        uncertainty = {"size_error": self.size_error, "sigma": ctx.sigma, "samples": a.samples, "seed": 0}
+        p = ctx.scene.person(person)
+        classes = gaze_classes(p, ctx.scene.bodies_around(person))
+        known = self._remember(ctx, person, classes)
+        now = footing(ctx.scene, person, ctx.sigma)
+        items: list[dict[str, Any]] = []
+        answers: list[dict[str, Any] | None] = []
+        pending: list[tuple[int, Key]] = []  # (index in items, cache key) of what must be imagined
+        for t in candidate_targets(p, ctx.scene.obstacles):
+            for c in classes:
+                key = (person, t.name, c.visible | frozenset(known))
+                cached = self.cache.lookup(key, now)
+                if cached is None:
+                    pending.append((len(items), key))
+                items.append({"kind": "person", "person": person, "target": t.name, "gaze": c.gaze,
+                              "known": known, "uncertainty": uncertainty})
+                answers.append(cached)
+
+        async def finish() -> None:
+            if pending:
+                reply = await bus.ask(self.session, keys.imagine(a.graph), {"items": [items[i] for i, _ in pending]})
+                for (i, key), res in zip(pending, reply["results"], strict=True):
+                    self.cache.store(key, now, res)
+                    answers[i] = res
+            self._write(ctx, [person], self._guesses(ctx, items, [x for x in answers if x is not None]))
+
+        return finish()
 
     def _remember(self, ctx: Context, person: str, classes: tuple[GazeClass, ...]) -> list[str]:
         """Objects the person sees in every gaze class are surely seen: mark them ``knows`` in W, for good.

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
+from functools import lru_cache
 from typing import Any
 
 from .errors import RequestError
@@ -29,6 +30,8 @@ from .visibility import can_see
 
 _PLANNERS: dict[tuple[float, float, float, float], GridPlanner] = {}
 _NUMPY = NumpyRollout()
+#: A batch imagines each move once per gaze class: the robot's drive is planned once.
+_arrival = lru_cache(maxsize=64)(robot_arrival)
 
 
 def planner_for(bounds: tuple[float, float, float, float]) -> GridPlanner:
@@ -150,7 +153,7 @@ def imagine_joint(scene: Scene, person: str, target: str, gaze: float, move: Rob
                   known: Iterable[str] = ()) -> JointImagination:
     """Imagine the robot at the move's pose and the person re-planning with it (if seen) in the scene."""
     planner = planner or planner_for(scene.bounds)
-    arrival = robot_arrival(scene, move, planner)
+    arrival = _arrival(scene, move, planner)
     robot = scene.robot
     assert robot is not None  # robot_arrival raised otherwise
     moved = scene.with_robot(replace(robot, x=move.x, y=move.y, heading=move.heading))

@@ -90,3 +90,16 @@ def test_blocked_grid_and_cells() -> None:
     assert grid[planner.cell_of(0.0, 0.0)] and not grid[planner.cell_of(1.0, 0.0)]
     assert planner.cell_of(-10, 10) == (0, 119)
     assert planner.centres(np.array([[0, 0]])).tolist() == [[-3.975, -2.975]]
+
+
+def test_replanning_in_the_same_grid_descends_the_cached_field_to_equally_short_paths() -> None:
+    cached = GridPlanner(BOUNDS)
+    starts = [(-2.5, 0.0), (-2.4, 0.3), (-1.0, -1.5), (-0.4, 0.05), (3.6, 1.4)]
+    for start in starts:  # the first plan runs A*; the later ones use the cost-to-go field
+        got = cached.plan_to_object(start, COUCH, [*walls(), BALL], 0.25)
+        fresh = GridPlanner(BOUNDS).plan_to_object(start, COUCH, [*walls(), BALL], 0.25)
+        assert got.reachable == fresh.reachable
+        assert got.length == pytest.approx(fresh.length, abs=2 * cached.resolution)
+    boxed = [*walls(), Obstacle("pen", "box", Box(3.5, 0.0, 0.9, 1.5), 1.0)]
+    for _ in range(2):
+        assert not cached.plan_to_object((-2.5, 0.0), COUCH, boxed, 0.25).reachable

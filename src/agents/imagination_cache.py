@@ -1,0 +1,142 @@
+"""Incremental Algorithm 1: reuse an imagination until its inputs move beyond a tolerance.
+
+An imagined walk of a person to a target under one gaze class depends on the
+person's position, speed and tracked sigma, on what they see (the class's
+visible set and the objects they remember, which is the cache key together
+with person and target), and on the bodies near the walk. A cached answer is
+reused while
+
+* the person stays within ``move_tol`` of where it was imagined, with the same
+  speed, radius and sigma (to ``size_tol``);
+* every body within ``reach`` of the imagined path, before or now (and the
+  target wherever it is), moved less than ``move_tol`` and kept its size,
+  orientation and sigma to ``size_tol``, and none appeared or vanished there;
+* it is younger than ``max_age`` simulated seconds.
+
+A body that stays farther than ``reach`` from the path neither touches the walk
+nor shapes its plan. Entries not looked up in an evaluation are dropped, so a
+changed visible set (a new key) also forgets the old answer.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from caregiving.geometry import (
+    Circle,
+    Shape,
+    bounding_radius,
+    polyline_length,
+    resample_by_distance,
+)
+from caregiving.scene import Scene
+from caregiving.visibility import WALL_KIND
+
+Key = tuple[str, str, frozenset[str]]
+STEP = 0.05  # metres between the path points bodies are measured against
+
+
+@dataclass(frozen=True)
+class Body:
+    """A body's position, its other shape parameters (sizes, yaw), extent and tracked sigma."""
+
+    x: float
+    y: float
+    params: tuple[float, ...]
+    extent: float
+    sigma: float
+
+
+@dataclass(frozen=True)
+class Footing:
+    """The inputs of one person's imaginations at one moment."""
+
+    time: float
+    person: Body
+    bodies: dict[str, Body]
+
+
+@dataclass
+class _Entry:
+    footing: Footing
+    path: np.ndarray
+    answer: dict[str, Any]
+
+
+def body_of(shape: Shape, sigma: float, extra: tuple[float, ...] = ()) -> Body:
+    """The :class:`Body` of a footprint (``extra`` adds parameters compared like sizes)."""
+    params = (shape.r,) if isinstance(shape, Circle) else (shape.hx, shape.hy, shape.theta)
+    return Body(shape.x, shape.y, params + extra, bounding_radius(shape), sigma)
+
+
+def footing(scene: Scene, person: str, sigma: dict[str, float]) -> Footing:
+    """What ``person``'s imaginations in ``scene`` depend on."""
+    p = scene.person(person)
+    me = Body(p.x, p.y, (p.speed, p.radius), p.radius, sigma.get(person, 0.0))
+    bodies = {o.name: body_of(o.shape, sigma.get(o.name, 0.0))
+              for o in scene.bodies_around(person) if o.kind != WALL_KIND}
+    return Footing(scene.time, me, bodies)
+
+
+class ImaginationCache:
+    """Answers of the simulator, reused while their inputs stay within tolerance (see the module docs)."""
+
+    def __init__(self, move_tol: float = 0.1, size_tol: float = 0.02, reach: float = 0.6,
+                 max_age: float = 1.0) -> None:
+        self.move_tol, self.size_tol, self.reach, self.max_age = move_tol, size_tol, reach, max_age
+        self._entries: dict[Key, _Entry] = {}
+        self._used: set[Key] = set()
+        self.hits = 0
+        self.misses = 0
+
+    def lookup(self, key: Key, now: Footing) -> dict[str, Any] | None:
+        """The cached answer for ``key`` with its ``age`` (simulated s), or None when it must be imagined."""
+        self._used.add(key)
+        e = self._entries.get(key)
+        if e is None or not 0.0 <= now.time - e.footing.time <= self.max_age or \
+                self._differs(e.footing.person, now.person) or self._bodies_changed(e, now, key[1]):
+            self.misses += 1
+            return None
+        self.hits += 1
+        return {**e.answer, "age": now.time - e.footing.time}
+
+    def store(self, key: Key, at: Footing, answer: dict[str, Any]) -> None:
+        """Remember the simulator's ``answer`` for ``key`` imagined on ``at``."""
+        path = answer.get("result", {}).get("path") if answer.get("ok") else None
+        pts = np.asarray(path if path else [(at.person.x, at.person.y)], dtype=float).reshape(-1, 2)
+        dense = resample_by_distance(pts, np.append(np.arange(0.0, polyline_length(pts), STEP), np.inf))
+        self._entries[key] = _Entry(at, dense, answer)
+
+    def sweep(self) -> None:
+        """Forget the entries not looked up since the last sweep."""
+        self._entries = {k: v for k, v in self._entries.items() if k in self._used}
+        self._used = set()
+
+    def clear(self) -> None:
+        """Forget everything (a new trial)."""
+        self._entries.clear()
+        self._used.clear()
+
+    def _differs(self, a: Body, b: Body) -> bool:
+        return (math.hypot(a.x - b.x, a.y - b.y) > self.move_tol or len(a.params) != len(b.params)
+                or any(abs(u - v) > self.size_tol for u, v in zip(a.params, b.params, strict=True))
+                or abs(a.sigma - b.sigma) > self.size_tol)
+
+    def _near(self, path: np.ndarray, body: Body | None) -> bool:
+        if body is None:
+            return False
+        gap = float(np.min(np.hypot(path[:, 0] - body.x, path[:, 1] - body.y))) - body.extent
+        return gap <= self.reach
+
+    def _bodies_changed(self, e: _Entry, now: Footing, target: str) -> bool:
+        for name in e.footing.bodies.keys() | now.bodies.keys():
+            old, new = e.footing.bodies.get(name), now.bodies.get(name)
+            if old == new or not (name == target or self._near(e.path, old) or self._near(e.path, new)):
+                continue
+            if old is None or new is None or self._differs(old, new):
+                return True
+        return False
