@@ -7,7 +7,7 @@ from pathlib import Path
 
 import msgpack
 import pytest
-from graph_helpers import Recorder, assert_refused, state_of
+from graph_helpers import Recorder, assert_refused
 
 import wm
 

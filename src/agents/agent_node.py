@@ -13,7 +13,6 @@ a network partition) is re-created at the next refresh.
 
 from __future__ import annotations
 
-import asyncio
 import os
 import socket
 import time
@@ -92,11 +91,6 @@ class AgentNode:
             return
         if self.g.find_edge(worlds[0].id, self.name, LINK_TYPE) is None:
             self.g.insert_or_assign_edge(worlds[0].id, self.name, LINK_TYPE, {"updated_at": time.time()})
-
-    async def refresh_forever(self) -> None:
-        while True:
-            await asyncio.sleep(self.period)
-            await self.ensure()
 
     async def remove(self) -> None:
         """Delete our node and wait (briefly) until a peer has it."""

@@ -94,10 +94,6 @@ def serve_one(scene: Scene, item: Any, rollout: Rollout) -> dict[str, Any]:
         return {"ok": False, "error": f"{type(exc).__name__}: {exc}"}
 
 
-def serve_batch(request: Any, context: Scene | None, rollout: Rollout) -> tuple[Scene, list[dict[str, Any]]]:
-    """The scene used and one result per item; raises :class:`RequestError` for a malformed request."""
-    scene, items = batch_scene(request, context)
-    return scene, [serve_one(scene, item, rollout) for item in items]
 
 
 @dataclass

@@ -126,7 +126,3 @@ def _clearances(shape: Circle | Box, walkers: np.ndarray, offset: np.ndarray, sc
     return outside + inside
 
 
-def risk_horizon(risk: Risk, im: Imagination) -> float:
-    """The earliest predicted contact: nominal or sampled, whichever comes first (inf if none)."""
-    times = [t for t in (risk.time, im.collision_time) if t is not None]
-    return min(times) if times else math.inf

@@ -20,11 +20,6 @@ def new_prefix() -> int:
     return secrets.randbits(PREFIX_BITS) or 1
 
 
-def creator_prefix(node_id: int) -> int:
-    """The prefix of the replica that created ``node_id``."""
-    return node_id >> COUNTER_BITS
-
-
 class IdAllocator:
     """Hands out fresh node ids for one replica; draws a new prefix when a counter runs out."""
 
