@@ -480,9 +480,7 @@ class Graph:
             self.apply_update(update, writer)
             return
         self._store.apply_unobserved(update, writer)
-        events = self._index.install(*heads, writer)
-        if self._hub.has_consumers:
-            self._pending.extend(events)
+        self._pending.extend(self._index.install(*heads, writer, with_events=self._hub.has_consumers))
         if self._index.out_of_step(self._store):
             self._apply_to_index(self._index.missed_changes(self._store), writer, local=False)
         if self._depth == 0:

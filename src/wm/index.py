@@ -72,22 +72,24 @@ class GraphIndex:
         edges = [[key, sorted(self.edge_attr_names.get(key, ()))] for key in self.markers]
         return nodes, edges
 
-    def install(self, nodes: list[list[Any]], edges: list[list[Any]], writer: str) -> list[Event]:
+    def install(self, nodes: list[list[Any]], edges: list[list[Any]], writer: str, with_events: bool) -> list[Event]:
         """Fill an empty index from :meth:`heads` of a peer; returns the *added* events (without attribute names)."""
         events = []
         for node_id, node_type, name in nodes:
             self._add_node(node_id, node_type, name)
-            events.append(Event(EventKind.NODE_ADDED, node_type, writer, False, frozenset(), node_id, name))
+            if with_events:
+                events.append(Event(EventKind.NODE_ADDED, node_type, writer, False, frozenset(), node_id, name))
         for key, attrs in edges:
             src, dst, edge_type = self._add_marker(key)
             if attrs:
                 self.edge_attr_names[key] = set(attrs)
             if src in self.node_meta and dst in self.node_meta:
                 self._set_visible(key, True)
-                events.append(
-                    Event(EventKind.EDGE_ADDED, edge_type, writer, False, frozenset(attrs), None, None,
-                          src, dst, self.node_name(src), self.node_name(dst))
-                )
+                if with_events:
+                    events.append(
+                        Event(EventKind.EDGE_ADDED, edge_type, writer, False, frozenset(attrs), None, None,
+                              src, dst, self.node_name(src), self.node_name(dst))
+                    )
         return events
 
     # -- maintenance ---------------------------------------------------------
