@@ -423,7 +423,8 @@ class Graph:
     def _write_volatile(self, owner: str, values: Mapping[str, Any]) -> None:
         for attr, value in values.items():
             self._volatile.write(owner, attr, value)
-        self._pending.extend(self._index.volatile_events([(owner, a) for a in values], self.replica_id, True))
+        if self._hub.has_consumers:
+            self._pending.extend(self._index.volatile_events([(owner, a) for a in values], self.replica_id, True))
 
 
     def _delete_dangling(self, keys: list[str]) -> None:
@@ -516,7 +517,7 @@ class Graph:
                     continue
             accepted.append(record)
         changed = self._volatile.merge(accepted)
-        if changed:
+        if changed and self._hub.has_consumers:
             self._pending.extend(self._index.volatile_events(changed, writer, False))
             if self._depth == 0:
                 self._flush_events()
