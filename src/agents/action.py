@@ -144,6 +144,7 @@ class Action(Agent):
         self.episode: int | None = None
         self.names = count(1)
         self.searches = 0
+        self.rpc_ms = self.sim_ms = 0.0  # the current search's imagine round trips, and their time in the simulator
         self.pending: set[tuple[int, int]] = set()
         self.new_episode = True
         self.failed: dict[tuple[int, int, str], float] = {}
@@ -188,6 +189,7 @@ class Action(Agent):
                        key=lambda e: self._deadline(ctx, e))
         searches = [s for e in risky if (s := self._start(ctx, e)) is not None]
         size, started = 1, time.perf_counter()
+        self.rpc_ms = self.sim_ms = 0.0
         served: set[int] = set()  # people a move was written for
         while searches:
             rounds = [(s, list(islice(s.moves, size))) for s in searches]
@@ -261,8 +263,8 @@ class Action(Agent):
                   "known": s.known, "uncertainty": uncertainty} for s, moves in asked for m in moves for c in s.classes]
         sent = time.perf_counter()
         reply = await bus.ask(self.session, keys.imagine(a.graph), {"items": items})
-        self.log.debug("imagined", items=len(items), rpc_ms=round((time.perf_counter() - sent) * 1e3, 1),
-                       compute_ms=round(reply["compute_ms"], 1))
+        self.rpc_ms += (time.perf_counter() - sent) * 1e3
+        self.sim_ms += reply["compute_ms"]
         results = iter(reply["results"])
         good: list[list[tuple[RobotMove, float]]] = []
         for s, moves in asked:
@@ -298,6 +300,7 @@ class Action(Agent):
             g.insert_or_assign_edge(ctx.ids[robot.name], node, "has", {"status": "proposed", "updated_at": time.time()})
         self.log.info("move chosen", target=move.target, x=round(move.x, 2), y=round(move.y, 2), margin=margin,
                       tried=tried, search_ms=round((time.perf_counter() - started) * 1e3, 1),
+                      rpc_ms=round(self.rpc_ms, 1), sim_ms=round(self.sim_ms, 1),
                       since_risk_ms=round((time.time() - edge.get("updated_at", time.time())) * 1e3, 1))
 
 

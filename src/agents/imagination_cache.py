@@ -6,12 +6,20 @@ visible set and the objects they remember, which is the cache key together
 with person and target), and on the bodies near the walk. A cached answer is
 reused while
 
-* the person stays within ``move_tol`` of where it was imagined, with the same
-  speed, radius and sigma (to ``size_tol``);
+* the person is still on the imagined walk: within ``move_tol`` of its path,
+  with the same speed, radius and sigma (to ``size_tol``). The answer then
+  carries ``advance``, the seconds of the walk already behind them (arc length
+  to their nearest point on the path over their speed), which its times are
+  brought forward by, and its path starts where they are now; a person
+  standing at the start has advanced by nothing;
 * every body within ``reach`` of the imagined path, before or now (and the
   target wherever it is), moved less than ``move_tol`` and kept its size,
   orientation and sigma to ``size_tol``, and none appeared or vanished there;
 * it is younger than ``max_age`` simulated seconds.
+
+An answer stored as *aside* (a walk the person is plainly not taking: its path
+sets off far from where they head) is kept instead while the person stays
+within ``aside_tol`` of where it was imagined and turns less than ``turn_tol``.
 
 A body that stays farther than ``reach`` from the path neither touches the walk
 nor shapes its plan. Entries not looked up in an evaluation are dropped, so a
@@ -37,7 +45,7 @@ from caregiving.scene import Scene
 from caregiving.visibility import WALL_KIND
 
 Key = tuple[str, str, frozenset[str]]
-STEP = 0.05  # metres between the path points bodies are measured against
+STEP = 0.05  # metres between the path points bodies and the person are measured against
 
 
 @dataclass(frozen=True)
@@ -53,9 +61,10 @@ class Body:
 
 @dataclass(frozen=True)
 class Footing:
-    """The inputs of one person's imaginations at one moment."""
+    """The inputs of one person's imaginations at one moment (``person.params`` is speed and radius)."""
 
     time: float
+    heading: float
     person: Body
     bodies: dict[str, Body]
 
@@ -63,14 +72,15 @@ class Footing:
 @dataclass
 class _Entry:
     footing: Footing
-    path: np.ndarray
+    path: np.ndarray  # dense points, STEP apart
     answer: dict[str, Any]
+    aside: bool
 
 
-def body_of(shape: Shape, sigma: float, extra: tuple[float, ...] = ()) -> Body:
-    """The :class:`Body` of a footprint (``extra`` adds parameters compared like sizes)."""
+def body_of(shape: Shape, sigma: float) -> Body:
+    """The :class:`Body` of a footprint."""
     params = (shape.r,) if isinstance(shape, Circle) else (shape.hx, shape.hy, shape.theta)
-    return Body(shape.x, shape.y, params + extra, bounding_radius(shape), sigma)
+    return Body(shape.x, shape.y, params, bounding_radius(shape), sigma)
 
 
 def footing(scene: Scene, person: str, sigma: dict[str, float]) -> Footing:
@@ -79,37 +89,51 @@ def footing(scene: Scene, person: str, sigma: dict[str, float]) -> Footing:
     me = Body(p.x, p.y, (p.speed, p.radius), p.radius, sigma.get(person, 0.0))
     bodies = {o.name: body_of(o.shape, sigma.get(o.name, 0.0))
               for o in scene.bodies_around(person) if o.kind != WALL_KIND}
-    return Footing(scene.time, me, bodies)
+    return Footing(scene.time, p.heading, me, bodies)
+
+
+def remaining(path: list[list[float]], walked: float) -> list[list[float]]:
+    """The polyline ``path`` from arc length ``walked`` on."""
+    pts = np.asarray(path, dtype=float)
+    cum = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))))
+    start = resample_by_distance(pts, [walked])[0]
+    return [start.tolist(), *pts[cum > walked].tolist()] if cum[-1] > walked else [pts[-1].tolist()] * 2
 
 
 class ImaginationCache:
     """Answers of the simulator, reused while their inputs stay within tolerance (see the module docs)."""
 
-    def __init__(self, move_tol: float = 0.1, size_tol: float = 0.02, reach: float = 0.6,
-                 max_age: float = 1.0) -> None:
+    def __init__(self, move_tol: float = 0.1, size_tol: float = 0.02, reach: float = 0.6, max_age: float = 3.0,
+                 aside_tol: float = 0.5, turn_tol: float = math.radians(15)) -> None:
         self.move_tol, self.size_tol, self.reach, self.max_age = move_tol, size_tol, reach, max_age
+        self.aside_tol, self.turn_tol = aside_tol, turn_tol
         self._entries: dict[Key, _Entry] = {}
         self._used: set[Key] = set()
         self.hits = 0
         self.misses = 0
 
     def lookup(self, key: Key, now: Footing) -> dict[str, Any] | None:
-        """The cached answer for ``key`` with its ``age`` (simulated s), or None when it must be imagined."""
+        """The cached answer for ``key`` with its ``advance`` (s), or None when it must be imagined."""
         self._used.add(key)
         e = self._entries.get(key)
-        if e is None or not 0.0 <= now.time - e.footing.time <= self.max_age or \
-                self._differs(e.footing.person, now.person) or self._bodies_changed(e, now, key[1]):
+        advance = None if e is None else self._advance(e, now)
+        if e is None or advance is None or not 0.0 <= now.time - e.footing.time <= self.max_age or \
+                self._differs(e.footing.person, now.person, math.inf) or self._bodies_changed(e, now, key[1]):
             self.misses += 1
             return None
         self.hits += 1
-        return {**e.answer, "age": now.time - e.footing.time}
+        if not advance:
+            return {**e.answer, "advance": advance}
+        result = e.answer["result"]
+        return {**e.answer, "advance": advance,
+                "result": {**result, "path": remaining(result["path"], advance * now.person.params[0])}}
 
-    def store(self, key: Key, at: Footing, answer: dict[str, Any]) -> None:
-        """Remember the simulator's ``answer`` for ``key`` imagined on ``at``."""
+    def store(self, key: Key, at: Footing, answer: dict[str, Any], aside: bool = False) -> None:
+        """Remember the simulator's ``answer`` for ``key`` imagined on ``at``; see the module docs for ``aside``."""
         path = answer.get("result", {}).get("path") if answer.get("ok") else None
         pts = np.asarray(path if path else [(at.person.x, at.person.y)], dtype=float).reshape(-1, 2)
         dense = resample_by_distance(pts, np.append(np.arange(0.0, polyline_length(pts), STEP), np.inf))
-        self._entries[key] = _Entry(at, dense, answer)
+        self._entries[key] = _Entry(at, dense, answer, aside)
 
     def sweep(self) -> None:
         """Forget the entries not looked up since the last sweep."""
@@ -121,8 +145,20 @@ class ImaginationCache:
         self._entries.clear()
         self._used.clear()
 
-    def _differs(self, a: Body, b: Body) -> bool:
-        return (math.hypot(a.x - b.x, a.y - b.y) > self.move_tol or len(a.params) != len(b.params)
+    def _advance(self, e: _Entry, now: Footing) -> float | None:
+        """Seconds of the imagined walk behind the person, or None when they left it."""
+        was, me = e.footing, now.person
+        if e.aside:
+            turned = abs((now.heading - was.heading + math.pi) % (2 * math.pi) - math.pi)
+            moved = math.hypot(me.x - was.person.x, me.y - was.person.y)
+            return 0.0 if moved <= self.aside_tol and turned <= self.turn_tol else None
+        gaps = np.hypot(e.path[:, 0] - me.x, e.path[:, 1] - me.y)
+        k = int(np.argmin(gaps))
+        return k * STEP / max(me.params[0], 1e-3) if gaps[k] <= self.move_tol else None
+
+    def _differs(self, a: Body, b: Body, move_tol: float | None = None) -> bool:
+        tol = self.move_tol if move_tol is None else move_tol
+        return (math.hypot(a.x - b.x, a.y - b.y) > tol or len(a.params) != len(b.params)
                 or any(abs(u - v) > self.size_tol for u, v in zip(a.params, b.params, strict=True))
                 or abs(a.sigma - b.sigma) > self.size_tol)
 
@@ -140,3 +176,4 @@ class ImaginationCache:
             if old is None or new is None or self._differs(old, new):
                 return True
         return False
+

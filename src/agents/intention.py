@@ -71,7 +71,8 @@ class Guess:
 def summarise(person: str, target: str, answers: list[dict[str, Any]], threshold: float) -> Guess:
     """Fold the gaze classes of one intention: risky if any class is; report the earliest danger.
 
-    An answer reused from the cache carries its ``age`` (simulated seconds), which its times are brought forward by.
+    An answer reused from the cache carries its ``advance`` (seconds of the walk behind the person), which its
+    times are brought forward by.
     """
     worst: Guess | None = None
     first: Guess | None = None
@@ -79,7 +80,7 @@ def summarise(person: str, target: str, answers: list[dict[str, Any]], threshold
         r, risk = a["result"], a["risk"]
         nominal = r["collided"]
         risky = nominal or risk["probability"] >= threshold
-        times = [max(t - a.get("age", 0.0), 0.0) for t in (r["collision_time"], risk["time"]) if t is not None]
+        times = [max(t - a.get("advance", 0.0), 0.0) for t in (r["collision_time"], risk["time"]) if t is not None]
         ttc = min(times) if risky and times else None
         point = (r["collision_point"] if nominal else risk["point"]) if risky else None
         obstacle = (r["collision_object"] if nominal else risk["object"]) if risky else None
@@ -121,7 +122,7 @@ class Intention(Agent):
                             help="simulated seconds between evaluations at most (default: %(default)s)")
         parser.add_argument("--move-tol", type=float, default=0.1,
                             help="metres a person or nearby body moves before its imaginations are redone")
-        parser.add_argument("--max-age", type=float, default=1.0,
+        parser.add_argument("--max-age", type=float, default=3.0,
                             help="simulated seconds an unchanged imagination is reused at most")
 
     async def setup(self) -> None:
@@ -188,12 +189,19 @@ class Intention(Agent):
         async def finish() -> None:
             if pending:
                 reply = await bus.ask(self.session, keys.imagine(a.graph), {"items": [items[i] for i, _ in pending]})
+                walking = ctx.speed(person) > a.moving_speed
                 for (i, key), res in zip(pending, reply["results"], strict=True):
-                    self.cache.store(key, now, res)
+                    self.cache.store(key, now, res, aside=walking and self._aside(res, p.heading))
                     answers[i] = res
             self._write(ctx, [person], self._guesses(ctx, items, [x for x in answers if x is not None]))
 
         return finish()
+
+    def _aside(self, answer: dict[str, Any], heading: float) -> bool:
+        """Whether an imagined walk sets off so far from the heading (twice the gate) that it is plainly not taken."""
+        r = answer["result"] if answer["ok"] else None
+        path = tuple(map(tuple, r["path"])) if r is not None and r["reachable"] else ()
+        return bool(path) and heading_error(path, heading) > 2 * math.radians(self.args.heading_gate_deg)
 
     def _remember(self, ctx: Context, person: str, classes: tuple[GazeClass, ...]) -> list[str]:
         """Objects the person sees in every gaze class are surely seen: mark them ``knows`` in W, for good.

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 from agents.imagination_cache import ImaginationCache, footing
@@ -17,17 +18,14 @@ KEY = ("p", "couch", frozenset({"couch"}))
 ANSWER = {"ok": True, "result": {"path": [[-2.0, 0.0], [2.25, 0.0]]}, "risk": {}}
 
 
-def cached(scene: Scene) -> ImaginationCache:
+def lookup(scene: Scene, sigma: dict[str, float] | None = None, aside: bool = False) -> dict | None:
     cache = ImaginationCache(move_tol=0.1, reach=0.6, max_age=1.0)
-    cache.store(KEY, footing(SCENE, "p", {}), ANSWER)
-    cache.lookup(KEY, footing(scene, "p", {}))
-    return cache
+    cache.store(KEY, footing(SCENE, "p", {}), ANSWER, aside=aside)
+    return cache.lookup(KEY, footing(scene, "p", sigma or {}))
 
 
 def hit(scene: Scene, sigma: dict[str, float] | None = None) -> bool:
-    cache = ImaginationCache(move_tol=0.1, reach=0.6, max_age=1.0)
-    cache.store(KEY, footing(SCENE, "p", {}), ANSWER)
-    return cache.lookup(KEY, footing(scene, "p", sigma or {})) is not None
+    return lookup(scene, sigma) is not None
 
 
 def moved(obstacle: Obstacle, dx: float, dy: float) -> Obstacle:
@@ -40,19 +38,28 @@ def with_obstacles(*obstacles: Obstacle, time: float = 1.2) -> Scene:
     return replace(SCENE, obstacles=obstacles, time=time)
 
 
-def test_small_moves_reuse_and_report_the_age() -> None:
-    cache = ImaginationCache(move_tol=0.1)
-    cache.store(KEY, footing(SCENE, "p", {}), ANSWER)
-    scene = replace(SCENE, people=(replace(PERSON, x=-1.95, heading=0.3),), time=1.3)
-    got = cache.lookup(KEY, footing(scene, "p", {}))
-    assert got is not None and abs(got["age"] - 0.3) < 1e-9
-    assert cache.hits == 1 and cache.misses == 0
+def at(x: float, y: float, heading: float = 0.0, time: float = 1.3) -> Scene:
+    return replace(SCENE, people=(replace(PERSON, x=x, y=y, heading=heading),), time=time)
 
 
-def test_person_moving_or_changing_sigma_or_ageing_redoes_it() -> None:
-    assert not hit(replace(SCENE, people=(replace(PERSON, x=-1.85),)))
+def test_a_person_walking_along_the_imagined_path_reuses_it_advanced() -> None:
+    got = lookup(at(-1.5, 0.04, heading=0.3))
+    assert got is not None and math.isclose(got["advance"], 1.0, abs_tol=0.11)  # 0.5 m at 0.5 m/s
+    assert got["result"]["path"] == [[-1.5, 0.0], [2.25, 0.0]]  # the rest of the walk, from where they are
+    standing = lookup(at(-2.0, 0.0, time=1.9))
+    assert standing is not None and standing["advance"] == 0.0
+
+
+def test_leaving_the_path_or_changing_sigma_or_ageing_redoes_it() -> None:
+    assert not hit(at(-1.5, 0.2))
     assert not hit(SCENE, {"p": 0.05})
     assert not hit(replace(SCENE, time=2.5))
+
+
+def test_a_walk_aside_is_kept_until_the_person_moves_far_or_turns() -> None:
+    assert lookup(at(-1.7, 0.3), aside=True) is not None
+    assert lookup(at(-1.4, 0.5), aside=True) is None
+    assert lookup(at(-2.0, 0.0, heading=0.4), aside=True) is None
 
 
 def test_only_bodies_near_the_path_or_the_target_matter() -> None:
@@ -65,7 +72,8 @@ def test_only_bodies_near_the_path_or_the_target_matter() -> None:
 
 
 def test_sweep_forgets_what_was_not_looked_up() -> None:
-    cache = cached(SCENE)
-    cache.sweep()
+    cache = ImaginationCache()
+    cache.store(KEY, footing(SCENE, "p", {}), ANSWER)
     cache.sweep()
     assert cache.lookup(KEY, footing(SCENE, "p", {})) is None
+    assert cache.hits == 0 and cache.misses == 1
