@@ -61,9 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = commands.add_parser("watch", help="print live events, one per line")
     _common(p)
-    p.add_argument("--type", action="append", help="only this node/edge type (repeatable)")
-    p.add_argument("--kind", action="append", help="only this event kind, e.g. node_added (repeatable)")
-    p.add_argument("--name", action="append", help="only events about this node name (repeatable)")
+    monitoring_cli.add_event_filters(p, "print")
 
     p = commands.add_parser("members", help="list the live replicas and their agent names")
     _common(p)

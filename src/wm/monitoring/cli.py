@@ -16,13 +16,18 @@ COMMANDS = ("monitor", "view", "record", "replay", "reactions")
 RUN_UNTIL_STOPPED = ("monitor", "view", "record")
 
 
+def add_event_filters(parser: argparse.ArgumentParser, verb: str) -> None:
+    """``--type``, ``--kind`` and ``--name``, as ``wm watch`` and ``wm monitor`` take them."""
+    parser.add_argument("--type", action="append", help=f"{verb} only this node/edge type (repeatable)")
+    parser.add_argument("--kind", action="append", help=f"{verb} only this event kind, e.g. node_added (repeatable)")
+    parser.add_argument("--name", action="append", help=f"{verb} only events about this node name (repeatable)")
+
+
 def add_commands(commands: argparse._SubParsersAction, common: Callable[[argparse.ArgumentParser], None]) -> None:
     """Add the monitoring subcommands to the ``wm`` parser."""
     p = commands.add_parser("monitor", help="live terminal view of a graph (read-only)")
     common(p)
-    p.add_argument("--type", action="append", help="log only this node/edge type (repeatable)")
-    p.add_argument("--kind", action="append", help="log only this event kind, e.g. node_added (repeatable)")
-    p.add_argument("--name", action="append", help="log only events about this node name (repeatable)")
+    add_event_filters(p, "log")
 
     p = commands.add_parser("view", help="live browser view of a graph (read-only), on http://HOST:PORT/")
     common(p)
