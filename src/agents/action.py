@@ -44,7 +44,6 @@ import numpy as np
 from bridges import bus, keys
 from caregiving.geometry import bounding_radius
 from caregiving.robot_moves import RobotMove, standoff_moves, travel_time
-from caregiving.scenario import load_scenario
 from caregiving.scene import Obstacle, Scene
 from caregiving.visibility import WALL_KIND, GazeClass, gaze_classes
 from wm import Edge
@@ -52,6 +51,7 @@ from wm import Edge
 from .context import Context, read_context
 from .intention import HAS_INTENTION, KNOWS
 from .loop import Coalescer
+from .risk_options import add_risk_arguments, size_error
 from .runtime import Agent, main
 
 INTENTION = "intention"
@@ -124,10 +124,7 @@ class Action(Agent):
 
     @classmethod
     def add_arguments(cls, parser: argparse.ArgumentParser) -> None:
-        parser.add_argument("--scenario", help="take the sensors' size error from this scenario")
-        parser.add_argument("--size-error", type=float, help="bound of the object size bias (default 0.2)")
-        parser.add_argument("--samples", type=int, default=64, help="sampled worlds per imagined walk")
-        parser.add_argument("--risk-threshold", type=float, default=0.05, help="collision probability deemed risky")
+        add_risk_arguments(parser)
         parser.add_argument("--react-margin", type=float, default=1.0,
                             help="seconds the robot should be in place before the collision")
         parser.add_argument("--batch", type=int, default=3, help="moves imagined per request")
@@ -137,9 +134,7 @@ class Action(Agent):
 
     async def setup(self) -> None:
         a = self.args
-        spec = load_scenario(a.scenario) if a.scenario else None
-        self.size_error = a.size_error if a.size_error is not None else \
-            (spec.sensors.size_error if spec and spec.sensors.enabled else 0.2)
+        self.size_error = size_error(a)
         self.session = self.g.network.session  # type: ignore[union-attr]
         self.episode: int | None = None
         self.names = count(1)

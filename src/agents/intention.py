@@ -39,12 +39,12 @@ from typing import Any
 
 from bridges import bus, keys
 from caregiving.geometry import resample_by_distance
-from caregiving.scenario import load_scenario
 from caregiving.visibility import GazeClass, candidate_targets, gaze_classes
 
 from .context import Context, read_context
 from .imagination_cache import ImaginationCache, Key, footing
 from .loop import Coalescer
+from .risk_options import add_risk_arguments, size_error
 from .runtime import Agent, main
 
 HAS_INTENTION = "has_intention"
@@ -109,10 +109,7 @@ class Intention(Agent):
 
     @classmethod
     def add_arguments(cls, parser: argparse.ArgumentParser) -> None:
-        parser.add_argument("--scenario", help="take the sensors' size error from this scenario")
-        parser.add_argument("--size-error", type=float, help="bound of the object size bias (default 0.2)")
-        parser.add_argument("--samples", type=int, default=64, help="sampled worlds per imagined walk")
-        parser.add_argument("--risk-threshold", type=float, default=0.05, help="collision probability deemed risky")
+        add_risk_arguments(parser)
         parser.add_argument("--heading-gate-deg", type=float, default=20.0,
                             help="a walking person's heading must match the path's start within this")
         parser.add_argument("--moving-speed", type=float, default=0.2, help="m/s above which a person walks")
@@ -127,9 +124,7 @@ class Intention(Agent):
 
     async def setup(self) -> None:
         a = self.args
-        spec = load_scenario(a.scenario) if a.scenario else None
-        self.size_error = a.size_error if a.size_error is not None else \
-            (spec.sensors.size_error if spec and spec.sensors.enabled else 0.2)
+        self.size_error = size_error(a)
         self.first_seen: dict[int, float] = {}
         self.written: dict[tuple[int, int], tuple[bool, str | None, float]] = {}
         self.evaluations = 0

@@ -1,0 +1,24 @@
+"""Command-line options of the agents that judge risk under sensor noise (intention and action)."""
+
+from __future__ import annotations
+
+import argparse
+
+from caregiving.scenario import load_scenario
+
+DEFAULT_SIZE_ERROR = 0.2
+
+
+def add_risk_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--scenario", help="take the sensors' size error from this scenario")
+    parser.add_argument("--size-error", type=float, help=f"bound of the object size bias (default {DEFAULT_SIZE_ERROR})")
+    parser.add_argument("--samples", type=int, default=64, help="sampled worlds per imagined walk")
+    parser.add_argument("--risk-threshold", type=float, default=0.05, help="collision probability deemed risky")
+
+
+def size_error(args: argparse.Namespace) -> float:
+    """The size bias to sample: given, else the scenario's sensors', else the default."""
+    if args.size_error is not None:
+        return float(args.size_error)
+    spec = load_scenario(args.scenario) if args.scenario else None
+    return spec.sensors.size_error if spec and spec.sensors.enabled else DEFAULT_SIZE_ERROR
