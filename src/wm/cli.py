@@ -191,6 +191,7 @@ async def run(args: argparse.Namespace) -> int:
             await _confirmed(g, args.timeout)
         elif args.command == "watch":
             with g.events(kind=args.kind, type=args.type, name=args.name) as stream:
+                print(f"watching graph {args.graph!r}; Ctrl-C to stop", file=sys.stderr, flush=True)
                 async for event in stream:
                     print(event, flush=True)
     return 0

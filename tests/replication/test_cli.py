@@ -29,6 +29,7 @@ def test_load_set_watch_members_rm_and_dump(spawner, tmp_path: Path) -> None:
     assert "loaded 2 nodes" in wm("load", str(scene), "--connect", endpoint(port)).stdout
 
     watch = spawner([*WM, "watch", "--graph", GRAPH, "--connect", endpoint(port), "--type", "person"], name="watch")
+    watch.wait_line("watching graph", 30)
     members = wm("members", "--connect", endpoint(port)).stdout
     assert " serve" in members and " wm-watch" in members, members
     wm("set", "alice", "radius=0.4", "speed=0.5", "gaze_range=[-0.2,0.1]", "--connect", endpoint(port))
