@@ -187,8 +187,9 @@ class CrdtStore:
 
     def set_node_attrs(self, key: str, attrs: dict[str, Any]) -> bool:
         """Write attributes into a node's map; False if the document holds no such node."""
-        node = self.nodes.get(key)
-        if not isinstance(node, Map):
+        try:
+            node = self.nodes[key]  # Map.get would look the key up twice
+        except KeyError:
             return False
         for attr, value in attrs.items():
             node[attr] = value

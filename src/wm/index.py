@@ -166,7 +166,7 @@ class GraphIndex:
         gone_names: dict[int, str] = {}
 
         touched_nodes = list(dict.fromkeys(changes.nodes_added + changes.nodes_removed))
-        heads = store.node_heads(touched_nodes)
+        heads = store.node_heads(touched_nodes) if touched_nodes else {}
         for key in touched_nodes:
             node_id = int(key)
             before = node_id in self.node_meta
