@@ -9,18 +9,14 @@ indexing and events). Each figure is the best of ``--repeat`` timed runs.
 
 from __future__ import annotations
 
-import argparse
-import json
-import platform
 import time
 from collections.abc import Callable
-from pathlib import Path
 
 from pycrdt import Doc, Map
 
+import benchlib
 import wm
 
-DEFAULT_JSON = Path(__file__).parent / "results" / "bench_graph_local.json"
 
 
 def rate(step: Callable[[int], object], seconds: float, repeat: int) -> float:
@@ -88,8 +84,7 @@ def measure(seconds: float, repeat: int) -> dict[str, dict[str, float]]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--json", type=Path, default=DEFAULT_JSON, help=f"where to write the results (default {DEFAULT_JSON})")
+    parser = benchlib.parser("bench_graph_local", __doc__.split("\n")[0])
     parser.add_argument("--seconds", type=float, default=1.0, help="length of one timed run (default 1.0)")
     parser.add_argument("--repeat", type=int, default=3, help="timed runs per case; the best counts (default 3)")
     args = parser.parse_args()
@@ -97,10 +92,7 @@ def main() -> None:
     print(f"{'operation':42} {'ops/s':>12} {'ratio to raw':>13}")
     for label, row in results.items():
         print(f"{label:42} {row['ops_per_s']:12,.0f} {row['ratio_to_raw']:13.3f}")
-    report = {"benchmark": "graph_local", "python": platform.python_version(), "results": results}
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(report, indent=2))
-    print(json.dumps(report))
+    benchlib.write_json(args.json, {"benchmark": "graph_local", "results": results})
 
 
 if __name__ == "__main__":

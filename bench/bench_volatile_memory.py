@@ -17,19 +17,15 @@ cannot be plain overwrites. Goals: RSS growth <= 20 MB, state <= 2x live data.
 
 from __future__ import annotations
 
-import argparse
 import gc
-import json
-import platform
 import time
-from pathlib import Path
 
 import psutil
 from pycrdt import Doc, Map
 
+import benchlib
 import wm
 
-DEFAULT_JSON = Path(__file__).parent / "results" / "bench_volatile_memory.json"
 HZ = 30
 EDGES = 10  # 3 volatile attributes each
 PEOPLE = 10  # 2 volatile attributes each
@@ -121,8 +117,7 @@ def run_baseline(writes: int, target_writes: int) -> dict[str, float]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--json", type=Path, default=DEFAULT_JSON, help=f"where to write the results (default {DEFAULT_JSON})")
+    parser = benchlib.parser("bench_volatile_memory", __doc__.split("\n")[0])
     parser.add_argument("--seconds-simulated", type=float, default=3600.0, help="simulated time at 30 Hz (default 3600)")
     parser.add_argument("--baseline-writes", type=int, default=500_000, help="plain Map overwrites to measure (default 500000)")
     args = parser.parse_args()
@@ -144,10 +139,7 @@ def main() -> None:
         f"{baseline['extrapolated_rss_growth_mb']:14.1f} {baseline['extrapolated_state_bytes']:12,.0f}"
     )
     print(f"goals: RSS growth <= {RSS_GOAL_MB} MB, state <= {STATE_GOAL_RATIO}x live: {'met' if graph['meets_goals'] else 'NOT met'}")
-    report = {"benchmark": "volatile_memory", "python": platform.python_version(), "graph": graph, "baseline_plain_map": baseline}
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(report, indent=2))
-    print(json.dumps(report))
+    benchlib.write_json(args.json, {"benchmark": "volatile_memory", "graph": graph, "baseline_plain_map": baseline})
 
 
 if __name__ == "__main__":

@@ -65,10 +65,9 @@ def test_client_without_cert_is_refused(tls_router: int, pki: Path) -> None:
     assert "Unable to connect" in assert_cannot_open(config)
 
 
-def test_client_with_cert_from_another_ca_is_refused(tls_router: int, pki: Path, other_pki: Path) -> None:
-    # A certificate with a legitimate-looking CN, signed by the wrong CA. The client
-    # trusts our CA, so only the router's check of the client certificate can stop it.
-    config = build_config(
+def wrong_ca_client(tls_router: int, pki: Path, other_pki: Path) -> zenoh.Config:
+    """A client that trusts our CA but presents a certificate signed by another one."""
+    return build_config(
         TLS_CLIENT,
         variables={"CERT_DIR": pki, "AGENT": "perception", "ROUTER_PORT": tls_router},
         overrides={
@@ -77,6 +76,12 @@ def test_client_with_cert_from_another_ca_is_refused(tls_router: int, pki: Path,
             "connect/timeout_ms": OPEN_TIMEOUT_MS,
         },
     )
+
+
+def test_client_with_cert_from_another_ca_is_refused(tls_router: int, pki: Path, other_pki: Path) -> None:
+    # A certificate with a legitimate-looking CN, signed by the wrong CA. The client
+    # trusts our CA, so only the router's check of the client certificate can stop it.
+    config = wrong_ca_client(tls_router, pki, other_pki)
     assert "Unable to connect" in assert_cannot_open(config)
 
 
@@ -103,15 +108,7 @@ def test_refused_client_put_never_arrives(tls_router: int, pki: Path, other_pki:
     sub_side = sessions(TLS_CLIENT, variables={"CERT_DIR": pki, "AGENT": "monitor", "ROUTER_PORT": tls_router})
     got = Collector()
     sub_side.declare_subscriber("wm/**", got, allowed_origin=zenoh.Locality.REMOTE)
-    rogue_config = build_config(
-        TLS_CLIENT,
-        variables={"CERT_DIR": pki, "AGENT": "perception", "ROUTER_PORT": tls_router},
-        overrides={
-            "transport/link/tls/connect_certificate": str(other_pki / "perception.pem"),
-            "transport/link/tls/connect_private_key": str(other_pki / "perception.key"),
-            "connect/timeout_ms": OPEN_TIMEOUT_MS,
-        },
-    )
+    rogue_config = wrong_ca_client(tls_router, pki, other_pki)
     assert_cannot_open(rogue_config)
     legit = sessions(TLS_CLIENT, variables={"CERT_DIR": pki, "AGENT": "perception", "ROUTER_PORT": tls_router})
     pub = legit.declare_publisher("wm/g/delta/perception")
