@@ -11,17 +11,15 @@ Latencies are medians and 95th percentiles of repeated calls in this process.
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
 import platform
 import statistics
 import time
 from collections.abc import Callable
-from pathlib import Path
 
 import numpy as np
 
+import benchlib
 from caregiving.imagine import imagine_joint, imagine_person
 from caregiving.planner import GridPlanner
 from caregiving.robot_moves import standoff_moves
@@ -29,7 +27,6 @@ from caregiving.rollout import BulletRollout, NumpyRollout
 from caregiving.scenario import load_scenario, sample_trial
 from caregiving.world_model import run_idle
 
-DEFAULT_JSON = Path(__file__).parent / "results" / "bench_caregiving_core.json"
 
 
 def timings(call: Callable[[], object], repeat: int) -> dict[str, float]:
@@ -45,8 +42,7 @@ def timings(call: Callable[[], object], repeat: int) -> dict[str, float]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--json", type=Path, default=DEFAULT_JSON, help=f"where to write results (default {DEFAULT_JSON})")
+    parser = benchlib.parser("bench_caregiving_core", __doc__.split("\n")[0])
     parser.add_argument("--trials", type=int, default=180, help="sampled Experiment 1 trials for the risky rate")
     parser.add_argument("--seed", type=int, default=2024, help="seed of the trial sampler")
     parser.add_argument("--repeat", type=int, default=200, help="timed calls per latency figure")
@@ -99,8 +95,7 @@ def main() -> None:
         "ground_truth": {"trials": args.trials, "seed": args.seed, "risky": risky,
                          "risky_rate": risky / args.trials, "ms_per_trial": per_trial},
     }
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(report, indent=2))
+    benchlib.write_json(args.json, report)
     print(f"planning (ms, median): cached {plan_cached['median_ms']:.2f}  cold {plan_cold['median_ms']:.2f}")
     print(f"rollout {walked.steps} steps (ms, median): numpy {roll_numpy['median_ms']:.3f}  "
           f"pybullet {roll_bullet['median_ms']:.3f}  ratio {report['rollout']['pybullet_over_numpy']:.1f}x")
@@ -108,7 +103,6 @@ def main() -> None:
           f"(pybullet median {person_bullet['median_ms']:.2f})")
     print(f"imagine_joint (ms): median {joint_latency['median_ms']:.2f}  p95 {joint_latency['p95_ms']:.2f}")
     print(f"ground truth: {risky}/{args.trials} risky ({risky / args.trials:.1%}), {per_trial:.0f} ms per trial")
-    print(json.dumps(report))
 
 
 if __name__ == "__main__":

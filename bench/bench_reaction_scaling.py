@@ -13,9 +13,7 @@ how many risky trials got an action.
 
 from __future__ import annotations
 
-import argparse
 import asyncio
-import json
 import math
 import platform
 import statistics
@@ -27,12 +25,12 @@ import numpy as np
 import yaml
 from rich.console import Console
 
+import benchlib
 from caregiving.scenario import load_scenario
 from caregiving_stack.experiment import run_trials
 from caregiving_stack.launch import Stack
 from caregiving_stack.trials import finite
 
-DEFAULT_JSON = Path(__file__).parent / "results" / "bench_reaction_scaling.json"
 SIZES = [(1, 5), (2, 10), (3, 15), (5, 20)]
 CLUTTER = [("box", "box", (0.4, 0.3), 0.4), ("toy", "circle", 0.08, 0.15), ("plant", "circle", 0.2, 1.0),
            ("chair", "box", (0.5, 0.5), 0.9), ("shoe", "box", (0.3, 0.12), 0.12), ("backpack", "box", (0.35, 0.25), 0.4)]
@@ -88,8 +86,7 @@ def summary(values: list[float]) -> dict[str, float | None]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--json", type=Path, default=DEFAULT_JSON)
+    parser = benchlib.parser("bench_reaction_scaling", __doc__.split("\n")[0])
     parser.add_argument("--trials", type=int, default=3, help="trials per size")
     parser.add_argument("--rate", type=float, default=2.0, help="simulated seconds per wall second")
     args = parser.parse_args()
@@ -118,9 +115,7 @@ def main() -> None:
                           f"{row['e2e_ms']['p50'] or float('nan'):.1f} ms, acted {row['acted']}/{row['risky']}")
     report = {"machine": platform.machine(), "python": platform.python_version(), "rate": args.rate,
               "goal_ms": 100.0, "sizes": results}
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(report, indent=2))
-    print(json.dumps(report))
+    benchlib.write_json(args.json, report)
 
 
 if __name__ == "__main__":
