@@ -26,7 +26,15 @@ and every class then walks safely; the search stops at the first such move that
 arrives ``--react-margin`` seconds early, else takes the first that arrives at
 all (or the budget ``--max-moves`` runs out). The chosen move
 becomes the robot's ``intention`` node (``move_to``, target, imagined final
-pose, ``status: proposed``), linked ``robot -has-> intention``.
+pose, ``status: proposed``, ``in_time: true``), linked ``robot -has-> intention``.
+
+When no move arrives in time (the person is too close to the obstacle for the
+robot's speed and acceleration), the robot still does the best it can: the
+search goes on, in the same batches, over the first ``--late-moves``
+candidates in the same order without the deadline; the first after which every
+gaze class walks safely is written with ``in_time: false`` (it removes the
+danger only if the person is slower than imagined or sees the robot on its
+way). If none does, nothing is written.
 """
 
 from __future__ import annotations
@@ -111,10 +119,15 @@ class _Search:
     ttc: float
     classes: tuple[GazeClass, ...]
     known: list[str]
+    path: list[tuple[float, float]]
+    point: tuple[float, float]
+    obstacle: str
     moves: Iterator[RobotMove]
     tried: int = 0
     chosen: RobotMove | None = None
     margin: float = 0.0
+    in_time: bool = True
+    over: bool = False
 
 
 class Action(Agent):
@@ -129,6 +142,8 @@ class Action(Agent):
                             help="seconds the robot should be in place before the collision")
         parser.add_argument("--batch", type=int, default=3, help="moves imagined per request")
         parser.add_argument("--max-moves", type=int, default=24, help="moves tried per danger at most")
+        parser.add_argument("--late-moves", type=int, default=6,
+                            help="moves imagined without the deadline when none arrives in time (0: none)")
         parser.add_argument("--retry", type=float, default=1.0,
                             help="simulated seconds before a danger no move removed is searched again")
 
@@ -193,16 +208,25 @@ class Action(Agent):
             for (s, moves), good in zip(asked, answers, strict=True):
                 s.tried += len(moves)
                 for move, arrival in good:
-                    if arrival < s.ttc - self.args.react_margin:
-                        s.chosen, s.margin = move, self.args.react_margin
+                    if not s.in_time or arrival < s.ttc - self.args.react_margin:
+                        s.chosen, s.margin = move, self.args.react_margin if s.in_time else 0.0
                         break
                     s.chosen = s.chosen or move  # in time but without the margin: take it rather than search on
             for s, moves in rounds:
-                if s.edge.src not in served and (s.chosen is not None or not moves or s.tried >= self.args.max_moves):
-                    self._finish(ctx, s, started)
-                    served |= {s.edge.src} if s.chosen is not None else set()
-            searches = [s for s, moves in rounds if s.chosen is None and moves and s.tried < self.args.max_moves
-                        and s.edge.src not in served]
+                if s.edge.src in served:
+                    continue
+                if s.chosen is not None:
+                    self._write(ctx, s, started)
+                    served.add(s.edge.src)
+                elif not moves or s.in_time and s.tried >= self.args.max_moves:
+                    if s.in_time and self.args.late_moves > 0:
+                        s.in_time, s.moves = False, islice(self._ordered(ctx, s, math.inf), self.args.late_moves)
+                        continue
+                    s.over = True
+                    self.failed[s.danger] = ctx.scene.time
+                    self.log.warning("no move removes the danger", person=s.person, target=s.target,
+                                     ttc=round(s.ttc, 2), tried=s.tried)
+            searches = [s for s, _ in rounds if s.chosen is None and not s.over and s.edge.src not in served]
             size = self.args.batch
 
     @staticmethod
@@ -228,29 +252,27 @@ class Action(Agent):
         flat = edge.get("path", ())
         path = list(zip(flat[0::2], flat[1::2], strict=True))
         point = tuple(edge.get("collision_point", (p.x, p.y)))
-        robot = ctx.scene.robot
-        assert robot is not None
-        feasible = (m for m in ordered_moves(ctx.scene, path, point, obstacle, ttc)
-                    if travel_time(math.hypot(m.x - robot.x, m.y - robot.y), robot.max_speed, robot.max_accel) < ttc)
         pid = ctx.ids[person]
         known = sorted({self.g.get_node(e.dst).name for e in self.g.edges(type=KNOWS, src=pid)})
-        return _Search(edge, danger, person, target, ttc, gaze_classes(p, ctx.scene.bodies_around(person)), known,
-                       feasible)
+        s = _Search(edge, danger, person, target, ttc, gaze_classes(p, ctx.scene.bodies_around(person)), known,
+                    path, point, obstacle, iter(()))
+        s.moves = self._ordered(ctx, s, ttc)
+        return s
 
-    def _finish(self, ctx: Context, s: _Search, started: float) -> None:
-        """Write the chosen move, or remember that no move removed the danger."""
-        if s.chosen is not None:
-            self._write(ctx, s.edge, s.chosen, s.margin, s.tried, started)
-            return
-        self.failed[s.danger] = ctx.scene.time
-        self.log.warning("no move removes the danger", person=s.person, target=s.target, ttc=round(s.ttc, 2),
-                         tried=s.tried)
+    @staticmethod
+    def _ordered(ctx: Context, s: _Search, deadline: float) -> Iterator[RobotMove]:
+        """The search's candidate moves in order, without those a straight drive cannot finish by ``deadline``."""
+        robot = ctx.scene.robot
+        assert robot is not None
+        return (m for m in ordered_moves(ctx.scene, s.path, s.point, s.obstacle, deadline)
+                if travel_time(math.hypot(m.x - robot.x, m.y - robot.y), robot.max_speed, robot.max_accel) < deadline)
 
     async def _safe_moves(self, ctx: Context, asked: list[tuple[_Search, list[RobotMove]]]
                           ) -> list[list[tuple[RobotMove, float]]]:
         """For each search, the moves (with arrival times) after which every gaze class walks safely, in order.
 
-        One request holds every search's moves, each with every gaze class of its person.
+        One request holds every search's moves, each with every gaze class of its person. A search past
+        its in-time moves does not hold the robot's arrival time against the time to collision.
         """
         a = self.args
         uncertainty = {"size_error": self.size_error, "sigma": ctx.sigma, "samples": a.samples, "seed": 0}
@@ -266,7 +288,7 @@ class Action(Agent):
             good.append([])
             for m in moves:
                 answers = list(islice(results, len(s.classes)))
-                if all(self._safe(x, s.ttc) for x in answers):
+                if all(self._safe(x, s.ttc if s.in_time else math.inf) for x in answers):
                     good[-1].append((m, answers[0]["result"]["robot_arrival"]))
         return good
 
@@ -279,10 +301,10 @@ class Action(Agent):
                     and walk["reachable"] and not walk["collided"]
                     and answer["risk"]["probability"] < self.args.risk_threshold)
 
-    def _write(self, ctx: Context, edge: Edge, move: RobotMove, margin: float, tried: int, started: float) -> None:
-        g = self.g
+    def _write(self, ctx: Context, s: _Search, started: float) -> None:
+        g, edge, move = self.g, s.edge, s.chosen
         robot = ctx.scene.robot
-        assert robot is not None
+        assert robot is not None and move is not None
         if g.find_node(edge.src) is None:
             return
         with g.batch():
@@ -291,10 +313,11 @@ class Action(Agent):
                 "status": "proposed", "created_at": time.time(), "person": edge.src,
                 "observed_at": edge.get("observed_at", 0.0), "risk_at": edge.get("updated_at", 0.0),
                 "at_time": ctx.scene.time, "time_to_collision": edge.get("time_to_collision", 0.0),
-                "reason": f"prevents {edge.get('collision_object')} on the way to {edge.dst}; margin {margin:g} s"})
+                "in_time": s.in_time, "reason": f"prevents {edge.get('collision_object')} on the way to {edge.dst}; "
+                + (f"margin {s.margin:g} s" if s.in_time else "arrives after the predicted collision")})
             g.insert_or_assign_edge(ctx.ids[robot.name], node, "has", {"status": "proposed", "updated_at": time.time()})
-        self.log.info("move chosen", target=move.target, x=round(move.x, 2), y=round(move.y, 2), margin=margin,
-                      tried=tried, search_ms=round((time.perf_counter() - started) * 1e3, 1),
+        self.log.info("move chosen", target=move.target, x=round(move.x, 2), y=round(move.y, 2), margin=s.margin,
+                      in_time=s.in_time, tried=s.tried, search_ms=round((time.perf_counter() - started) * 1e3, 1),
                       rpc_ms=round(self.rpc_ms, 1), sim_ms=round(self.sim_ms, 1),
                       since_risk_ms=round((time.time() - edge.get("updated_at", time.time())) * 1e3, 1))
 

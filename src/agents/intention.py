@@ -226,7 +226,11 @@ class Intention(Agent):
             if ctx.speed(person) > self.args.moving_speed:
                 answers = [x for x in answers if heading_error(tuple(map(tuple, x["result"]["path"])), p.heading) <= gate]
             if answers:
-                guesses.append(summarise(person, target, answers, self.args.risk_threshold))
+                guess = summarise(person, target, answers, self.args.risk_threshold)
+                guesses.append(guess)
+                self.log.debug("guess", episode=ctx.episode, at=round(ctx.scene.time, 2), person=person, target=target,
+                               risky=guess.risky, probability=round(guess.probability, 3),
+                               nominal=any(x["result"]["collided"] for x in answers))
         return guesses
 
     def _write(self, ctx: Context, people: list[str], guesses: list[Guess]) -> None:

@@ -70,6 +70,23 @@ def signed_distance(shape: Shape, points: ArrayLike) -> FloatArray:
     return outside + inside
 
 
+def point_distance(shape: Shape, x: float, y: float) -> float:
+    """:func:`signed_distance` of one point, in plain floats (for the many single-point queries)."""
+    if isinstance(shape, Circle):
+        return math.hypot(x - shape.x, y - shape.y) - shape.r
+    c, s = math.cos(shape.theta), math.sin(shape.theta)
+    dx, dy = x - shape.x, y - shape.y
+    qx, qy = abs(c * dx + s * dy) - shape.hx, abs(-s * dx + c * dy) - shape.hy
+    return math.hypot(max(qx, 0.0), max(qy, 0.0)) + min(max(qx, qy), 0.0)
+
+
+def corner_points(box: Box) -> list[tuple[float, float]]:
+    """:func:`corners` as plain float pairs."""
+    c, s = math.cos(box.theta), math.sin(box.theta)
+    return [(box.x + c * u - s * v, box.y + s * u + c * v)
+            for u, v in ((box.hx, box.hy), (-box.hx, box.hy), (-box.hx, -box.hy), (box.hx, -box.hy))]
+
+
 def closest_boundary_point(shape: Shape, points: ArrayLike) -> FloatArray:
     """The point of the shape's boundary nearest to each query point."""
     pts = as_points(points)

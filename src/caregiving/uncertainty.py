@@ -116,12 +116,12 @@ def _clearances(shape: Circle | Box, walkers: np.ndarray, offset: np.ndarray, sc
     centre = np.array([shape.x, shape.y])[None, None, :] + offset[:, None, :]
     rel = walkers - centre  # (n, steps, 2)
     if isinstance(shape, Circle):
-        return np.linalg.norm(rel, axis=2) - (shape.r * scale)[:, None]
+        return np.hypot(rel[..., 0], rel[..., 1]) - (shape.r * scale)[:, None]
     c, s = math.cos(shape.theta), math.sin(shape.theta)
     local = np.stack((rel[..., 0] * c + rel[..., 1] * s, -rel[..., 0] * s + rel[..., 1] * c), axis=2)
     half = np.stack((shape.hx * scale, shape.hy * scale), axis=1)[:, None, :]  # (n, 1, 2)
     q = np.abs(local) - half
-    outside = np.linalg.norm(np.maximum(q, 0.0), axis=2)
+    outside = np.hypot(np.maximum(q[..., 0], 0.0), np.maximum(q[..., 1], 0.0))
     inside = np.minimum(np.maximum(q[..., 0], q[..., 1]), 0.0)
     return outside + inside
 

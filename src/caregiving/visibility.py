@@ -15,22 +15,21 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
-import numpy as np
 
-from .geometry import Circle, bounding_radius, corners, signed_distance
+from .geometry import Circle, bounding_radius, corner_points, point_distance
 from .scene import Obstacle, PersonState
 
 WALL_KIND = "wall"
 
 
-def _wrap(angle: float | np.ndarray) -> float | np.ndarray:
+def _wrap(angle: float) -> float:
     return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
 def in_horizontal_fov(person: PersonState, obstacle: Obstacle) -> bool:
     """Whether any part of the footprint lies inside the person's horizontal cone."""
     shape = obstacle.shape
-    if signed_distance(shape, (person.x, person.y))[0] <= 0.0:
+    if point_distance(shape, person.x, person.y) <= 0.0:
         return True
     centre = math.atan2(shape.y - person.y, shape.x - person.x)
     if isinstance(shape, Circle):
@@ -38,16 +37,15 @@ def in_horizontal_fov(person: PersonState, obstacle: Obstacle) -> bool:
         half = math.asin(min(1.0, shape.r / dist))
         lo, hi = -half, half
     else:
-        pts = corners(shape)
-        rel = _wrap(np.arctan2(pts[:, 1] - person.y, pts[:, 0] - person.x) - centre)
-        lo, hi = float(np.min(rel)), float(np.max(rel))
-    offset = float(_wrap(centre - person.heading))
+        rel = [_wrap(math.atan2(y - person.y, x - person.x) - centre) for x, y in corner_points(shape)]
+        lo, hi = min(rel), max(rel)
+    offset = _wrap(centre - person.heading)
     return offset + hi >= -person.hfov / 2 and offset + lo <= person.hfov / 2
 
 
 def elevation_span(person: PersonState, obstacle: Obstacle) -> tuple[float, float]:
     """Lowest and highest elevation (rad, up positive) of the object seen from the eyes."""
-    near = max(float(signed_distance(obstacle.shape, (person.x, person.y))[0]), 1e-3)
+    near = max(point_distance(obstacle.shape, person.x, person.y), 1e-3)
     far = math.hypot(obstacle.shape.x - person.x, obstacle.shape.y - person.y) + bounding_radius(obstacle.shape)
     top = obstacle.height - person.eye_height
     low = math.atan2(-person.eye_height, near)

@@ -10,7 +10,9 @@ Per trial: *predicted risky* = some ``has_intention`` was marked risky;
 trials: accuracy, precision, recall, F1, F2 and the false-positive and
 false-negative rates (shares of valid trials, as the paper's Table I).
 ``action_rate`` is the share of predicted-risky trials in which the robot wrote
-an intention; ``prevention_rate`` the share of truly risky trials in which
+an intention, ``action_in_time_rate`` the share whose move was imagined to
+arrive before the predicted collision (the others are the action agent's late
+moves); ``prevention_rate`` the share of truly risky trials in which
 nobody collided in the closed loop. Since some trials cannot be saved by any
 ``move_to`` of a robot with these limits (the person starts next to the ball),
 an oracle (:func:`preventable`) replays each truly risky trial in the ground
@@ -35,7 +37,13 @@ from typing import Any
 
 import numpy as np
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+)
 from rich.table import Table
 
 import wm
@@ -62,6 +70,7 @@ class Scored:
 
     record: TrialRecord
     truly_risky: bool
+    idle_clearance: float = float("inf")
     preventable: bool | None = None
 
     @property
@@ -108,6 +117,8 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "e2e_ms_p50": percentile(e2e, 50), "e2e_ms_p99": percentile(e2e, 99),
         "e2e_ms_mean": statistics.fmean(e2e) if e2e else None,
         "action_rate": _ratio(sum(s.record.action is not None for s in detected), len(detected)),
+        "action_in_time_rate": _ratio(sum(s.record.action is not None and s.record.action.get("in_time", True)
+                                          for s in detected), len(detected)),
         "prevention_rate": _ratio(sum(not s.record.collided for s in risky), len(risky)),
         "preventable": sum(bool(s.preventable) for s in risky) if any(s.preventable is not None for s in risky)
         else None,
@@ -145,7 +156,8 @@ def _fmt(key: str, value: Any) -> str:
         return "-"
     if "_ms_" in key:
         return f"{value:.1f} ms"
-    if key in ("accuracy", "fp_rate", "fn_rate", "action_rate", "prevention_rate", "prevention_rate_of_preventable"):
+    if key in ("accuracy", "fp_rate", "fn_rate", "action_rate", "action_in_time_rate", "prevention_rate",
+               "prevention_rate_of_preventable"):
         return f"{100 * value:.2f} %"
     if isinstance(value, float):
         return f"{value:.3f}"
@@ -156,7 +168,8 @@ ROWS = [("Total experiments", "trials"), ("Experiments discarded", "discarded"),
         ("Accuracy rate", "accuracy"), ("False positives", "fp_rate"), ("False negatives", "fn_rate"),
         ("Precision", "precision"), ("Recall", "recall"), ("F-1 score", "f1"), ("F-2 score", "f2"),
         ("Reaction time (mean)", "reaction_ms_mean"), ("Reaction time (deviation)", "reaction_ms_sd"),
-        ("Detected collision and action generated", "action_rate"), ("Prevented (truly risky trials)", "prevention_rate"),
+        ("Detected collision and action generated", "action_rate"),
+        ("... with a move imagined to arrive in time", "action_in_time_rate"), ("Prevented (truly risky trials)", "prevention_rate"),
         ("Truly risky trials any move could save", "preventable"),
         ("Prevented (of those)", "prevention_rate_of_preventable"),
         ("End to end p50", "e2e_ms_p50"), ("End to end p99", "e2e_ms_p99")]
@@ -190,8 +203,8 @@ async def run_trials(scenario: Scenario, stack: Stack, seed: int, indices: list[
             for index in indices:
                 stack.check()
                 record = await harness.run(seed, index, timeout, scenario_file)
-                truth = run_idle(trial_for(scenario, seed, index), planner=planner).collided
-                scored.append(Scored(record, truth))
+                truth = run_idle(trial_for(scenario, seed, index), planner=planner)
+                scored.append(Scored(record, truth.collided, min(truth.min_clearance.values(), default=float("inf"))))
                 progress.update(task, advance=1, description=f"trials ({sum(s.record.collided for s in scored)} collided)")
         harness.close()
     return scored
@@ -205,15 +218,17 @@ def with_oracle(scenario: Scenario, seed: int, scored: list[Scored], console: Co
         for s in scored:
             at = (s.record.risky or {}).get("at_time", ORACLE_AT)
             can = preventable(trial_for(scenario, seed, s.record.index), at, planner) if s.truly_risky else None
-            out.append(Scored(s.record, s.truly_risky, can))
+            out.append(Scored(s.record, s.truly_risky, s.idle_clearance, can))
     return out
 
 
 def trial_json(s: Scored) -> dict[str, Any]:
     r = s.record
     return {"index": r.index, "truly_risky": s.truly_risky, "discarded": s.discarded, "predicted": s.predicted,
-            "acted": r.action is not None, "collided": r.collided, "preventable": s.preventable, "reaction_ms": r.reaction_ms, "e2e_ms": r.e2e_ms,
-            "collisions": r.outcome.get("collisions", [])}
+            "acted": r.action is not None, "collided": r.collided, "preventable": s.preventable,
+            "idle_min_clearance": s.idle_clearance, "risk_probability": (r.risky or {}).get("probability"),
+            "risk_at_time": (r.risky or {}).get("at_time"), "time_to_collision": (r.risky or {}).get("time_to_collision"),
+            "reaction_ms": r.reaction_ms, "e2e_ms": r.e2e_ms, "collisions": r.outcome.get("collisions", [])}
 
 
 def experiment(scenario_path: str, trials: int, seed: int, *, rate: float = 4.0, json_out: Path | None = None,
