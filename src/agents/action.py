@@ -128,6 +128,7 @@ class _Search:
     margin: float = 0.0
     in_time: bool = True
     over: bool = False
+    next_batch: int = 1  # moves to imagine in the next round: the likeliest alone, then --batch at a time
 
 
 class Action(Agent):
@@ -198,15 +199,15 @@ class Action(Agent):
         risky = sorted((e for e in landed if e is not None and e.get("risky") and not self._handled(e.src)),
                        key=lambda e: self._deadline(ctx, e))
         searches = [s for e in risky if (s := self._start(ctx, e)) is not None]
-        size, started = 1, time.perf_counter()
+        started = time.perf_counter()
         self.rpc_ms = self.sim_ms = 0.0
         served: set[int] = set()  # people a move was written for
         while searches:
-            rounds = [(s, list(islice(s.moves, size))) for s in searches]
+            rounds = [(s, list(islice(s.moves, s.next_batch))) for s in searches]
             asked = [(s, moves) for s, moves in rounds if moves]
             answers = await self._safe_moves(ctx, asked) if asked else []
             for (s, moves), good in zip(asked, answers, strict=True):
-                s.tried += len(moves)
+                s.tried, s.next_batch = s.tried + len(moves), self.args.batch
                 for move, arrival in good:
                     if not s.in_time or arrival < s.ttc - self.args.react_margin:
                         s.chosen, s.margin = move, self.args.react_margin if s.in_time else 0.0
@@ -221,13 +222,13 @@ class Action(Agent):
                 elif not moves or s.in_time and s.tried >= self.args.max_moves:
                     if s.in_time and self.args.late_moves > 0:
                         s.in_time, s.moves = False, islice(self._ordered(ctx, s, math.inf), self.args.late_moves)
+                        s.next_batch = 1
                         continue
                     s.over = True
                     self.failed[s.danger] = ctx.scene.time
                     self.log.warning("no move removes the danger", person=s.person, target=s.target,
                                      ttc=round(s.ttc, 2), tried=s.tried)
             searches = [s for s, _ in rounds if s.chosen is None and not s.over and s.edge.src not in served]
-            size = self.args.batch
 
     @staticmethod
     def _deadline(ctx: Context, edge: Edge) -> float:
