@@ -32,8 +32,15 @@ from caregiving_stack.launch import Stack
 from caregiving_stack.trials import finite
 
 SIZES = [(1, 5), (2, 10), (3, 15), (5, 20)]
+#: A 10 x 7 m room: 20 objects fit with the first walker's way, and room for a detour beside the ball, kept clear.
+ROOM = (10.0, 7.0)
 CLUTTER = [("box", "box", (0.4, 0.3), 0.4), ("toy", "circle", 0.08, 0.15), ("plant", "circle", 0.2, 1.0),
            ("chair", "box", (0.5, 0.5), 0.9), ("shoe", "box", (0.3, 0.12), 0.12), ("backpack", "box", (0.35, 0.25), 0.4)]
+
+
+def in_first_way(x: float, y: float) -> bool:
+    """Whether (x, y) is on the first walker's way to the couch, or beside the ball where a detour goes."""
+    return x < 2.6 and (abs(y) < 0.7 or -0.6 < x < 2.2 and abs(y) < 1.3)
 
 
 def scenario_dict(people: int, objects: int, seed: int) -> dict[str, Any]:
@@ -43,10 +50,10 @@ def scenario_dict(people: int, objects: int, seed: int) -> dict[str, Any]:
         {"name": "couch", "kind": "couch", "shape": {"type": "box", "size": [0.9, 2.0]}, "height": 0.8,
          "pose": [3.5, 0.0, 0.0], "target": True},
         {"name": "door", "kind": "door", "shape": {"type": "box", "size": [1.0, 0.1]}, "height": 2.0,
-         "pose": [1.5, 2.95, 0.0], "target": True},
+         "pose": [1.5, ROOM[1] / 2 - 0.05, 0.0], "target": True},
         {"name": "ball", "kind": "ball", "shape": {"type": "circle", "radius": 0.11}, "height": 0.22,
          "pose": [0.8, 0.0, 0.0]}]
-    placed = [(3.5, 0.0, 1.2), (1.5, 2.95, 0.6), (0.8, 0.0, 0.5)]
+    placed = [(3.5, 0.0, 1.2), (1.5, ROOM[1] / 2 - 0.05, 0.6), (0.8, 0.0, 0.5)]
     ys = np.linspace(-2.2, 2.2, people) if people > 1 else np.array([0.0])
     walkers = []
     for i, y in enumerate(ys):
@@ -61,15 +68,15 @@ def scenario_dict(people: int, objects: int, seed: int) -> dict[str, Any]:
     k = 0
     while len(objs) < objects:
         kind, shape, size, height = CLUTTER[k % len(CLUTTER)]
-        x, y = float(rng.uniform(-1.8, 2.6)), float(rng.uniform(-2.5, 2.5))
-        if any(math.hypot(x - px, y - py) < r + 0.5 for px, py, r in placed) or abs(y) < 0.7 and x < 2.6:
+        x, y = float(rng.uniform(-2.6, 3.0)), float(rng.uniform(-ROOM[1] / 2 + 0.5, ROOM[1] / 2 - 0.5))
+        if any(math.hypot(x - px, y - py) < r + 0.5 for px, py, r in placed) or in_first_way(x, y):
             continue  # keep the first person's way clear but for the ball
         shape_spec = {"type": "circle", "radius": size} if shape == "circle" else {"type": "box", "size": list(size)}
         objs.append({"name": f"{kind}{k}", "kind": kind, "shape": shape_spec, "height": height,
                      "pose": [x, y, float(rng.uniform(0, 90))], "target": kind == "chair"})
         placed.append((x, y, 0.4))
         k += 1
-    return {"name": f"scale_{people}x{objects}", "description": "scaling benchmark", "room": {"size": [8.0, 6.0]},
+    return {"name": f"scale_{people}x{objects}", "description": "scaling benchmark", "room": {"size": list(ROOM)},
             "objects": objs, "people": walkers,
             "robot": {"name": "robot", "pose": [1.2, -1.5, 90.0], "footprint": [0.5, 0.4], "height": 1.5,
                       "max_speed": 0.8, "max_accel": 0.6},
