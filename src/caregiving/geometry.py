@@ -81,7 +81,7 @@ def point_distance(shape: Shape, x: float, y: float) -> float:
 
 
 def corner_points(box: Box) -> list[tuple[float, float]]:
-    """:func:`corners` as plain float pairs."""
+    """The four corners of a box, counter-clockwise, as plain float pairs (see :func:`corners`)."""
     c, s = math.cos(box.theta), math.sin(box.theta)
     return [(box.x + c * u - s * v, box.y + s * u + c * v)
             for u, v in ((box.hx, box.hy), (-box.hx, box.hy), (-box.hx, -box.hy), (box.hx, -box.hy))]
@@ -113,8 +113,7 @@ def closest_boundary_point(shape: Shape, points: ArrayLike) -> FloatArray:
 
 def corners(box: Box) -> FloatArray:
     """The four corners of a box, counter-clockwise, as a ``(4, 2)`` array."""
-    local = np.array([[box.hx, box.hy], [-box.hx, box.hy], [-box.hx, -box.hy], [box.hx, -box.hy]])
-    return _to_world(box, local)
+    return np.array(corner_points(box))
 
 
 def bounding_radius(shape: Shape) -> float:

@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from caregiving.geometry import (Box, Circle, aabb, as_points, bounding_radius, closest_boundary_point, corners,
-                                 polyline_length, resample_by_distance, shapes_overlap, signed_distance,
-                                 swept_clearance)
+                                 point_distance, polyline_length, resample_by_distance, shapes_overlap,
+                                 signed_distance, swept_clearance)
 
 
 def test_circle_signed_distance_inside_and_outside() -> None:
@@ -34,6 +34,13 @@ def test_closest_boundary_point_lies_on_boundary_at_distance(px: float, py: floa
         assert abs(signed_distance(shape, q)[0]) < 1e-9
         d = signed_distance(shape, (px, py))[0]
         assert np.hypot(*(q[0] - (px, py))) == pytest.approx(abs(d), abs=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.floats(-3, 3), st.floats(-3, 3), st.floats(0, math.pi))
+def test_point_distance_matches_signed_distance(px: float, py: float, theta: float) -> None:
+    for shape in (Box(0.2, -0.1, 0.7, 0.3, theta), Circle(0.2, -0.1, 0.6)):
+        assert point_distance(shape, px, py) == pytest.approx(signed_distance(shape, (px, py))[0], abs=1e-12)
 
 
 def test_closest_point_of_circle_centre_is_defined() -> None:
