@@ -10,7 +10,8 @@ the start at once. A (grid, goals) pair planned a second time gets its cost-to-g
 field (``tcod.path.dijkstra2d`` from the goals) cached, so a walker replanning
 from a new start in an unchanged grid (a person walking on, seeing the same
 objects) only descends the field. The cell path is string-pulled into a short
-polyline in metres.
+polyline in metres. A point goal in clear line of sight from the start skips
+the search: the string-pulled path would be that straight segment anyway.
 """
 
 from __future__ import annotations
@@ -131,8 +132,14 @@ class GridPlanner:
                       radius: float) -> Plan:
         """Shortest walk from ``start`` to ``goal``; unreachable if the goal cell is blocked."""
         grid = self.blocked(obstacles, radius)
+        goal_cell = self.cell_of(*goal)
+        if not grid[self.cell_of(*start)] and not grid[goal_cell] and \
+                self._clear(np.asarray(start, dtype=np.float64), self.centres(np.array([goal_cell])), grid, True)[0]:
+            # What A* and string pulling would return, without the search: the straight drive.
+            path = np.array([start, goal], dtype=np.float64)
+            return Plan(True, path, polyline_length(path))
         goals = np.zeros(self.shape, dtype=bool)
-        goals[self.cell_of(*goal)] = True
+        goals[goal_cell] = True
         plan = self._search(start, grid, goals)
         if plan.reachable:
             path = plan.path.copy()

@@ -103,3 +103,28 @@ def test_replanning_in_the_same_grid_descends_the_cached_field_to_equally_short_
     boxed = [*walls(), Obstacle("pen", "box", Box(3.5, 0.0, 0.9, 1.5), 1.0)]
     for _ in range(2):
         assert not cached.plan_to_object((-2.5, 0.0), COUCH, boxed, 0.25).reachable
+
+
+def test_a_point_goal_in_line_of_sight_gets_the_path_the_search_would_return() -> None:
+    planner = GridPlanner(BOUNDS)
+    obstacles = [*walls(), BALL, COUCH]
+    rng = np.random.default_rng(3)
+    straight = searched = 0
+    for _ in range(60):
+        start, goal = (tuple(rng.uniform((-3.5, -2.5), (3.5, 2.5))) for _ in range(2))
+        plan = planner.plan_to_point(start, goal, obstacles, 0.2)
+        searcher = GridPlanner(BOUNDS)  # fresh, so that its search is A* as the planner's first one was
+        goals = np.zeros(searcher.shape, dtype=bool)
+        goals[searcher.cell_of(*goal)] = True
+        reference = searcher._search(start, searcher.blocked(obstacles, 0.2), goals)
+        assert plan.reachable == reference.reachable
+        if not plan.reachable:
+            continue
+        assert plan.path[0].tolist() == list(start) and plan.path[-1].tolist() == list(goal)
+        if len(reference.path) == 2:
+            straight += 1
+            assert len(plan.path) == 2
+        else:
+            searched += 1
+            assert plan.length == pytest.approx(polyline_length(np.vstack((reference.path[:-1], [goal]))))
+    assert straight and searched  # both branches were exercised
