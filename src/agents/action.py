@@ -51,7 +51,7 @@ import numpy as np
 
 from bridges import bus, keys
 from caregiving.geometry import bounding_radius
-from caregiving.robot_moves import RobotMove, standoff_moves, travel_time
+from caregiving.robot_moves import RobotMove, robot_fits, standoff_poses, travel_time
 from caregiving.scene import Obstacle, Scene
 from caregiving.visibility import WALL_KIND, GazeClass, gaze_classes
 from wm import Edge
@@ -97,7 +97,7 @@ def ordered_moves(scene: Scene, path: list[tuple[float, float]], point: tuple[fl
     objects.sort(key=lambda o: (o.name != obstacle, math.hypot(o.shape.x - point[0], o.shape.y - point[1])))
     dx, dy = travel_direction(path, point)
     for o in objects:
-        around = standoff_moves(scene, o.name)
+        around = standoff_poses(scene, o.name)
         cx, cy = o.shape.x, o.shape.y
 
         def key(m: RobotMove, cx: float = cx, cy: float = cy) -> tuple[float, float]:
@@ -105,7 +105,7 @@ def ordered_moves(scene: Scene, path: list[tuple[float, float]], point: tuple[fl
             along = ((m.x - cx) * dx + (m.y - cy) * dy) / norm
             return -abs(along), -along
 
-        yield from sorted(around, key=key)
+        yield from (m for m in sorted(around, key=key) if robot_fits(scene, m))  # fit checked lazily: it costs
 
 
 @dataclass

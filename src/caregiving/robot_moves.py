@@ -17,7 +17,7 @@ from .errors import RequestError
 from .fields import Fields
 from .geometry import Box, Circle, corners, shapes_overlap, signed_distance
 from .planner import GridPlanner
-from .scene import Obstacle, RobotState, Scene
+from .scene import RobotState, Scene
 from .visibility import WALL_KIND
 
 
@@ -60,11 +60,14 @@ def travel_time(distance: float, max_speed: float, max_accel: float, v0: float =
 
 def standoff_moves(scene: Scene, target: str, gap: float = 0.1, count: int = 8) -> list[RobotMove]:
     """Poses around ``target`` (``gap`` metres from its boundary, facing it) where the robot fits."""
+    return [m for m in standoff_poses(scene, target, gap, count) if robot_fits(scene, m)]
+
+
+def standoff_poses(scene: Scene, target: str, gap: float = 0.1, count: int = 8) -> list[RobotMove]:
+    """Every pose around ``target``, ``gap`` metres from its boundary and facing it, whether the robot fits or not."""
     robot = _robot(scene)
-    obstacle = scene.obstacle(target)
-    shape = obstacle.shape
+    shape = scene.obstacle(target).shape
     half = max(robot.length, robot.width) / 2
-    blockers = [o for o in scene.obstacles if o.name != target] + [p.body() for p in scene.people]
     moves = []
     for k in range(count):
         angle = 2 * math.pi * k / count
@@ -75,11 +78,7 @@ def standoff_moves(scene: Scene, target: str, gap: float = 0.1, count: int = 8) 
             if abs(d - (gap + half)) < 1e-4:
                 break
             t += (gap + half) - d
-        x, y = shape.x + dx * t, shape.y + dy * t
-        heading = math.atan2(-dy, -dx)
-        footprint = Box(x, y, robot.length / 2, robot.width / 2, heading)
-        if _fits(scene, footprint, blockers, obstacle):
-            moves.append(RobotMove(target, x, y, heading))
+        moves.append(RobotMove(target, shape.x + dx * t, shape.y + dy * t, math.atan2(-dy, -dx)))
     return moves
 
 
@@ -88,7 +87,12 @@ def candidate_moves(scene: Scene, gap: float = 0.1, count: int = 8) -> list[Robo
     return [m for o in scene.obstacles if o.kind != WALL_KIND for m in standoff_moves(scene, o.name, gap, count)]
 
 
-def _fits(scene: Scene, footprint: Box, blockers: list[Obstacle], target: Obstacle) -> bool:
+def robot_fits(scene: Scene, move: RobotMove) -> bool:
+    """Whether the robot's footprint at the move's pose is inside the room and clear of every body."""
+    robot = _robot(scene)
+    footprint = Box(move.x, move.y, robot.length / 2, robot.width / 2, move.heading)
+    target = scene.obstacle(move.target)
+    blockers = [o for o in scene.obstacles if o.name != move.target] + [p.body() for p in scene.people]
     x0, y0, x1, y1 = scene.bounds
     inside = bool((signed_distance(Box((x0 + x1) / 2, (y0 + y1) / 2, (x1 - x0) / 2, (y1 - y0) / 2),
                                    corners(footprint)) <= 0.0).all())
