@@ -105,7 +105,8 @@ def ordered_moves(scene: Scene, path: list[tuple[float, float]], point: tuple[fl
             along = ((m.x - cx) * dx + (m.y - cy) * dy) / norm
             return -abs(along), -along
 
-        yield from (m for m in sorted(around, key=key) if robot_fits(scene, m))  # fit checked lazily: it costs
+        # The fit test is the costly part: run it only on the moves the search reaches.
+        yield from (m for m in sorted(around, key=key) if robot_fits(scene, m))
 
 
 @dataclass
