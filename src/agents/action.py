@@ -79,9 +79,9 @@ def travel_direction(path: list[tuple[float, float]], point: tuple[float, float]
 
 def ordered_moves(scene: Scene, path: list[tuple[float, float]], point: tuple[float, float],
                   obstacle: str, deadline: float) -> Iterator[RobotMove]:
-    """Stand-off moves, most promising first, generated lazily (see the module documentation).
+    """Stand-off moves a straight drive can finish by ``deadline``, most promising first, generated lazily.
 
-    Around the obstacle that would be hit, the poses straight behind it and
+    The order is the module documentation's. Around the obstacle that would be hit, the poses straight behind it and
     straight in front of it along the person's way come first: a robot there is
     in the walker's view and the detour around it also clears the obstacle.
     """
@@ -105,8 +105,11 @@ def ordered_moves(scene: Scene, path: list[tuple[float, float]], point: tuple[fl
             along = ((m.x - cx) * dx + (m.y - cy) * dy) / norm
             return -abs(along), -along
 
-        # The fit test is the costly part: run it only on the moves the search reaches.
-        yield from (m for m in sorted(around, key=key) if robot_fits(scene, m))
+        # The fit test is the costly part: run it only on the moves the search reaches, after the cheap
+        # straight-line time test.
+        yield from (m for m in sorted(around, key=key)
+                    if travel_time(math.hypot(m.x - robot.x, m.y - robot.y), robot.max_speed, robot.max_accel)
+                    < deadline and robot_fits(scene, m))
 
 
 @dataclass
@@ -265,10 +268,7 @@ class Action(Agent):
     @staticmethod
     def _ordered(ctx: Context, s: _Search, deadline: float) -> Iterator[RobotMove]:
         """The search's candidate moves in order, without those a straight drive cannot finish by ``deadline``."""
-        robot = ctx.scene.robot
-        assert robot is not None
-        return (m for m in ordered_moves(ctx.scene, s.path, s.point, s.obstacle, deadline)
-                if travel_time(math.hypot(m.x - robot.x, m.y - robot.y), robot.max_speed, robot.max_accel) < deadline)
+        return ordered_moves(ctx.scene, s.path, s.point, s.obstacle, deadline)
 
     async def _safe_moves(self, ctx: Context, asked: list[tuple[_Search, list[RobotMove]]]
                           ) -> list[list[tuple[RobotMove, float]]]:
