@@ -4,17 +4,12 @@
 
 It mirrors W into a scene (and, with ``--rollout bullet``, into its persistent
 PyBullet DIRECT world, moving bodies rather than re-creating them) and serves
-the queryable ``wm/<g>/sim/imagine``. A request is a msgpack map::
+the queryable ``wm/<g>/sim/imagine`` with :mod:`caregiving.service` (the request
+and item forms are documented there). A request's optional ``scene`` pins the
+context; without it the context is W as this replica holds it when the request
+arrives, frozen for the whole batch. The reply is ::
 
-    {"items": [ITEM, ...], "scene": SCENE?}
-
-where each ITEM is ``{"kind": "person"|"joint", "person", "target", "gaze",
-"move"?, "uncertainty"?: {"size_error", "sigma": {name: metres}, "samples", "seed"}}``
-and ``scene`` (optional) pins the context; without it the context is W as this
-replica holds it when the request arrives, frozen for the whole batch. The reply is ::
-
-    {"episode", "stamp", "written_at", "results": [{"ok": true, "result": ..., "risk": ...}
-                                                   | {"ok": false, "error": "..."}]}
+    {"episode", "stamp", "written_at", "compute_ms", "results": [ANSWER, ...]}
 
 A malformed item gets its own error entry; a malformed request an error reply.
 Items are served one at a time; batches holding robot moves (Algorithm 2, where
@@ -26,75 +21,17 @@ from __future__ import annotations
 import argparse
 import asyncio
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from itertools import count
 from typing import Any
 
 from bridges import bus, keys
-from caregiving.errors import CaregivingError, RequestError
-from caregiving.fields import Fields
-from caregiving.imagine import Imagination, answer
-from caregiving.robot_moves import RobotMove
 from caregiving.rollout import BulletRollout, NumpyRollout, Rollout
 from caregiving.scene import Scene
-from caregiving.uncertainty import Risk, Uncertainty, collision_risk
+from caregiving.service import batch_scene, serve_one
 
 from .context import Context, read_context
 from .runtime import Agent, main
-
-MAX_ITEMS = 512
-
-
-def serve_item(scene: Scene, item: Any, rollout: Rollout) -> dict[str, Any]:
-    """Answer one item, adding the sampled collision risk when it asks for one."""
-    result = answer(scene, item, rollout)
-    f = Fields(item, "item", RequestError)
-    u = f.optional_child("uncertainty")
-    if u is None:
-        return {"ok": True, "result": result}
-    sigma = u.child("sigma", {})
-    uncertainty = Uncertainty(u.number("size_error", 0.0, non_negative=True, at_most=0.9),
-                              {k: sigma.number(k, non_negative=True) for k in item["uncertainty"].get("sigma", {})},
-                              int(u.number("samples", 64, positive=True, at_most=4096)), int(u.number("seed", 0)))
-    if "move" in result:  # a joint imagination: the person walked with the robot at the move's pose
-        walked = Imagination.from_wire(result["person"])
-        move = RobotMove.from_wire(result["move"])
-        if result["robot_reachable"] and scene.robot is not None:
-            scene = scene.with_robot(replace(scene.robot, x=move.x, y=move.y, heading=move.heading))
-    else:
-        walked = Imagination.from_wire(result)
-    return {"ok": True, "result": result, "risk": risk_to_wire(collision_risk(scene, walked, uncertainty))}
-
-
-def risk_to_wire(r: Risk) -> dict[str, Any]:
-    return {"probability": r.probability, "time": r.time, "point": list(r.point) if r.point else None,
-            "object": r.obstacle}
-
-
-def batch_scene(request: Any, context: Scene | None) -> tuple[Scene, list[Any]]:
-    """The frozen scene of a request and its items; raises :class:`RequestError` when malformed."""
-    f = Fields(request, "request", RequestError)
-    items = request.get("items") if isinstance(request, dict) else None
-    if not isinstance(items, list) or not items:
-        raise RequestError("request.items: expected a non-empty list")
-    if len(items) > MAX_ITEMS:
-        raise RequestError(f"request.items: at most {MAX_ITEMS} per batch, got {len(items)}")
-    pinned = f.optional_child("scene")
-    scene = Scene.from_wire(request["scene"]) if pinned is not None else context
-    if scene is None:
-        raise RequestError("no context yet: W holds no world and robot, and the request pins no scene")
-    return scene, items
-
-
-def serve_one(scene: Scene, item: Any, rollout: Rollout) -> dict[str, Any]:
-    """One item's result; a malformed or unanswerable item gets an error entry."""
-    try:
-        return serve_item(scene, item, rollout)
-    except (CaregivingError, ValueError, TypeError, KeyError) as exc:
-        return {"ok": False, "error": f"{type(exc).__name__}: {exc}"}
-
-
-
 
 @dataclass
 class _Job:

@@ -80,6 +80,17 @@ class Fields:
             raise self.fail(key, f"expected a list of {count} numbers, got {_show(value)}")
         return tuple(self.check_number(f"{key}[{i}]", v) for i, v in enumerate(value))
 
+    def has(self, key: str) -> bool:
+        """Whether ``key`` is present and not null."""
+        return self._data.get(key) is not None
+
+    def keys(self) -> list[str]:
+        """The mapping's keys, each checked to be a string."""
+        for key in self._data:
+            if not isinstance(key, str):
+                raise self._error(f"{self._path or '<root>'}: expected string keys, got {_show(key)}")
+        return list(self._data)
+
     def optional_number(self, key: str) -> float | None:
         """A number, or ``None`` when absent or null."""
         value = self._data.get(key)

@@ -184,6 +184,43 @@ def resample_by_distance(path: ArrayLike, distances: ArrayLike) -> FloatArray:
     return np.stack((np.interp(s, cum, pts[:, 0]), np.interp(s, cum, pts[:, 1])), axis=1)
 
 
+@dataclass(frozen=True)
+class Polyline:
+    """A path with its cumulative arc lengths, for many single-point look-ups along it."""
+
+    points: FloatArray
+    cumulative: FloatArray
+
+    @classmethod
+    def of(cls, path: ArrayLike) -> Polyline:
+        """The polyline through ``path``'s points."""
+        pts = as_points(path)
+        seg = np.hypot(*np.diff(pts, axis=0).T) if len(pts) > 1 else np.zeros(0)
+        return cls(pts, np.concatenate(([0.0], np.cumsum(seg))))
+
+    @property
+    def length(self) -> float:
+        """Total arc length."""
+        return float(self.cumulative[-1])
+
+    def point_at(self, distance: float) -> tuple[float, float]:
+        """The point ``distance`` along the path (clamped to its ends), in plain floats."""
+        cum, pts = self.cumulative, self.points
+        if distance <= 0.0 or len(pts) == 1:
+            return float(pts[0, 0]), float(pts[0, 1])
+        if distance >= cum[-1]:
+            return float(pts[-1, 0]), float(pts[-1, 1])
+        k = int(np.searchsorted(cum, distance, side="right")) - 1
+        t = (distance - cum[k]) / (cum[k + 1] - cum[k])
+        return (float(pts[k, 0] + t * (pts[k + 1, 0] - pts[k, 0])),
+                float(pts[k, 1] + t * (pts[k + 1, 1] - pts[k, 1])))
+
+    def remaining(self, distance: float, step: float) -> FloatArray:
+        """Points every ``step`` metres from ``distance`` to the end (both ends included)."""
+        n = max(2, int(math.ceil(max(self.length - distance, 0.0) / step)) + 1)
+        return resample_by_distance(self.points, np.linspace(min(distance, self.length), self.length, n))
+
+
 def swept_clearance(shape: Shape, path: ArrayLike, radius: float, step: float) -> tuple[float, FloatArray]:
     """Minimum clearance of a disc of ``radius`` swept along ``path``, sampled every ``step`` metres.
 

@@ -1,37 +1,28 @@
-"""The two "imagine" requests the simulation agent serves, as pure functions of a frozen scene.
+"""Algorithm 1's imagination as a pure function of a frozen scene: one person's walk to a target.
 
-* :func:`imagine_person` (Algorithm 1): the person plans a path to the target with
-  only what they see at the given gaze (plus what they are known to remember),
-  then walks it in the full scene.
-* :func:`imagine_joint` (Algorithm 2): the robot drives to a move's pose (its
-  arrival time follows its speed and acceleration limits); the person, who now
-  sees the robot at that pose if it is in view, plans again and walks.
-
-Results are plain dataclasses with ``to_wire``/``from_wire`` (msgpack-friendly
-dicts); :func:`answer` dispatches a wire request. Malformed requests raise
-:class:`RequestError`.
+:func:`imagine_person`: the person plans a path to the target with only what
+they see at the given gaze (plus what they are known to remember), then walks it
+in the full scene. The result is a plain dataclass with ``to_wire``/``from_wire``
+(msgpack-friendly dicts); malformed input raises :class:`RequestError`. The
+robot's moves are imagined in time by :mod:`caregiving.joint`.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, replace
-from functools import lru_cache
+from dataclasses import dataclass
 from typing import Any
 
 from .errors import RequestError
 from .fields import Fields
 from .planner import GridPlanner
-from .robot_moves import RobotMove, robot_arrival
 from .rollout import NumpyRollout, Rollout
 from .scene import Scene
 from .visibility import can_see
 
 _PLANNERS: dict[tuple[float, float, float, float], GridPlanner] = {}
 _NUMPY = NumpyRollout()
-#: A batch imagines each move once per gaze class: the robot's drive is planned once.
-_arrival = lru_cache(maxsize=64)(robot_arrival)
 
 
 def planner_for(bounds: tuple[float, float, float, float]) -> GridPlanner:
@@ -93,37 +84,6 @@ class Imagination:
         )
 
 
-@dataclass(frozen=True)
-class JointImagination:
-    """A robot move imagined together with a person's intention."""
-
-    move: RobotMove
-    robot_reachable: bool
-    robot_arrival: float
-    robot_seen: bool
-    person: Imagination
-
-    @property
-    def removes_danger(self) -> bool:
-        """Whether the robot gets there and the person's imagined walk is now collision-free."""
-        return self.robot_reachable and self.person.reachable and not self.person.collided
-
-    def to_wire(self) -> dict[str, Any]:
-        """A msgpack-friendly dict."""
-        return {"move": self.move.to_wire(), "robot_reachable": self.robot_reachable,
-                "robot_arrival": self.robot_arrival if math.isfinite(self.robot_arrival) else None,
-                "robot_seen": self.robot_seen, "person": self.person.to_wire()}
-
-    @classmethod
-    def from_wire(cls, data: object) -> JointImagination:
-        """Parse :meth:`to_wire` output."""
-        f = Fields(data, "joint", RequestError)
-        reachable = f.boolean("robot_reachable")
-        return cls(RobotMove.from_fields(f.child("move")), reachable,
-                   f.number("robot_arrival") if reachable else math.inf, f.boolean("robot_seen"),
-                   Imagination.from_fields(f.child("person")))
-
-
 def imagine_person(scene: Scene, person: str, target: str, gaze: float, rollout: Rollout | None = None,
                    planner: GridPlanner | None = None, known: Iterable[str] = ()) -> Imagination:
     """Plan with only what ``person`` sees at ``gaze`` (and the objects ``known`` to them), then walk the plan.
@@ -146,28 +106,3 @@ def imagine_person(scene: Scene, person: str, target: str, gaze: float, rollout:
     return Imagination(person, target, float(gaze), names, True, tuple((float(x), float(y)) for x, y in plan.path),
                        c is not None, c.time if c else None, c.point if c else None, c.obstacle if c else None,
                        walk.min_clearance, walk.duration)
-
-
-def imagine_joint(scene: Scene, person: str, target: str, gaze: float, move: RobotMove,
-                  rollout: Rollout | None = None, planner: GridPlanner | None = None,
-                  known: Iterable[str] = ()) -> JointImagination:
-    """Imagine the robot at the move's pose and the person re-planning with it (if seen) in the scene."""
-    planner = planner or planner_for(scene.bounds)
-    arrival = _arrival(scene, move, planner)
-    robot = scene.robot
-    assert robot is not None  # robot_arrival raised otherwise
-    moved = scene.with_robot(replace(robot, x=move.x, y=move.y, heading=move.heading))
-    result = imagine_person(moved if arrival.reachable else scene, person, target, gaze, rollout, planner, known)
-    return JointImagination(move, arrival.reachable, arrival.time, robot.name in result.seen, result)
-
-
-def answer(scene: Scene, request: object, rollout: Rollout | None = None) -> dict[str, Any]:
-    """Serve one wire request: ``{"kind": "person"|"joint", "person", "target", "gaze"[, "move"][, "known"]}``."""
-    f = Fields(request, "request", RequestError)
-    kind = f.string("kind", choices=frozenset({"person", "joint"}))
-    person, target, gaze = f.string("person"), f.string("target"), f.number("gaze")
-    known = f.strings("known", [])
-    if kind == "person":
-        return imagine_person(scene, person, target, gaze, rollout, known=known).to_wire()
-    move = RobotMove.from_fields(f.child("move"))
-    return imagine_joint(scene, person, target, gaze, move, rollout, known=known).to_wire()

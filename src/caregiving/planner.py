@@ -6,10 +6,9 @@ every (obstacle, radius) pair is cached, so replanning after a gaze or pose chan
 only ORs cached masks. Reachability is decided first with ``scipy.ndimage.label``
 (an unreachable goal costs a labelling, not an exhaustive search), then
 ``tcod.path.path2d`` runs optimal A* (octile costs 70/99) from every goal cell to
-the start at once. A (grid, goals) pair planned a second time gets its cost-to-go
-field (``tcod.path.dijkstra2d`` from the goals) cached, so a walker replanning
-from a new start in an unchanged grid (a person walking on, seeing the same
-objects) only descends the field. The cell path is string-pulled into a short
+the start at once, so a plan depends only on the grid, the goals and the start
+(never on what was planned before): the world and the robot's imagination of it
+plan alike. The cell path is string-pulled into a short
 polyline in metres. A point goal in clear line of sight from the start skips
 the search: the string-pulled path would be that straight segment anyway.
 """
@@ -56,7 +55,7 @@ class GridPlanner:
     """Occupancy-grid planner over fixed room bounds with a per-obstacle inflation cache."""
 
     def __init__(self, bounds: tuple[float, float, float, float], resolution: float = 0.05,
-                 margin: float | None = None, cache_size: int = 4096, fields: int = 64) -> None:
+                 margin: float | None = None, cache_size: int = 4096) -> None:
         self.bounds = bounds
         self.resolution = resolution
         self.margin = resolution if margin is None else margin
@@ -66,8 +65,6 @@ class GridPlanner:
         self._cache_size = cache_size
         self.cache_hits = 0
         self.cache_misses = 0
-        self._fields: OrderedDict[tuple[bytes, bytes], NDArray[np.int32] | None] = OrderedDict()
-        self._fields_size = fields
 
     # -- grid helpers -------------------------------------------------------------------------
     def cell_of(self, x: float, y: float) -> tuple[int, int]:
@@ -153,13 +150,7 @@ class GridPlanner:
         start_cell = self._free_cell_near(start, grid)
         if start_cell is None:
             return UNREACHABLE
-        key = (np.packbits(grid).tobytes(), np.packbits(goals).tobytes())
-        if key in self._fields:
-            self._fields.move_to_end(key)
-            cells = self._descend(key, grid, goals, start_cell)
-        else:
-            self._remember(key, None)
-            cells = self._astar(grid, goals, start_cell)
+        cells = self._astar(grid, goals, start_cell)
         if cells is None:
             return UNREACHABLE
         pts = np.vstack((np.asarray(start, dtype=np.float64), self.centres(cells)))
@@ -177,24 +168,6 @@ class GridPlanner:
         cells = tcod.path.path2d(cost, start_points=[tuple(c) for c in goal_cells.tolist()],
                                  end_points=[start_cell], cardinal=_CARDINAL, diagonal=_DIAGONAL)
         return cells[::-1][1:] if len(cells) else None
-
-    def _descend(self, key: tuple[bytes, bytes], grid: NDArray[np.bool_], goals: NDArray[np.bool_],
-                 start_cell: tuple[int, int]) -> NDArray[np.integer] | None:
-        """Like :meth:`_astar`, down the cached cost-to-go field of ``key`` (computed on first use)."""
-        dist = self._fields[key]
-        if dist is None:
-            dist = tcod.path.maxarray(self.shape, dtype=np.int32)
-            dist[goals & ~grid] = 0
-            tcod.path.dijkstra2d(dist, (~grid).astype(np.int8), _CARDINAL, _DIAGONAL, out=dist)
-            self._remember(key, dist)
-        if dist[start_cell] == np.iinfo(np.int32).max:
-            return None
-        return tcod.path.hillclimb2d(dist, start_cell, True, True)[1:]
-
-    def _remember(self, key: tuple[bytes, bytes], dist: NDArray[np.int32] | None) -> None:
-        self._fields[key] = dist
-        if len(self._fields) > self._fields_size:
-            self._fields.popitem(last=False)
 
     def _free_cell_near(self, point: tuple[float, float], grid: NDArray[np.bool_]) -> tuple[int, int] | None:
         """The point's cell, or the nearest free cell within two cells when it is blocked."""

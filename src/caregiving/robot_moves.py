@@ -91,13 +91,11 @@ def robot_fits(scene: Scene, move: RobotMove) -> bool:
     """Whether the robot's footprint at the move's pose is inside the room and clear of every body."""
     robot = _robot(scene)
     footprint = Box(move.x, move.y, robot.length / 2, robot.width / 2, move.heading)
-    target = scene.obstacle(move.target)
-    blockers = [o for o in scene.obstacles if o.name != move.target] + [p.body() for p in scene.people]
+    blockers = [o.shape for o in scene.obstacles] + [p.body().shape for p in scene.people]
     x0, y0, x1, y1 = scene.bounds
     inside = bool((signed_distance(Box((x0 + x1) / 2, (y0 + y1) / 2, (x1 - x0) / 2, (y1 - y0) / 2),
                                    corners(footprint)) <= 0.0).all())
-    return inside and not shapes_overlap(footprint, target.shape) and \
-        not any(shapes_overlap(footprint, b.shape) for b in blockers)
+    return inside and not any(shapes_overlap(footprint, b) for b in blockers)
 
 
 @dataclass(frozen=True)

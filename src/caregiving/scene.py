@@ -64,6 +64,7 @@ class RobotState:
     height: float
     max_speed: float
     max_accel: float
+    speed: float = 0.0  # along ``heading``, which is its direction of travel while it drives
 
     def body(self) -> Obstacle:
         """The robot's footprint as an obstacle."""
@@ -168,5 +169,5 @@ def _robot_from_wire(f: Fields) -> RobotState:
         name=f.string("name"), x=f.number("x"), y=f.number("y"), heading=f.number("heading"),
         length=f.number("length", positive=True), width=f.number("width", positive=True),
         height=f.number("height", positive=True), max_speed=f.number("max_speed", positive=True),
-        max_accel=f.number("max_accel", positive=True),
+        max_accel=f.number("max_accel", positive=True), speed=f.number("speed", 0.0, non_negative=True),
     )

@@ -1,6 +1,8 @@
 """Ground-truth world stepping: people walk to their targets, the robot follows commands.
 
-Each person walks at constant speed along a plan that avoids only what they have
+The same model serves the world bridge (built from a scenario: the truth) and the
+robot's joint imagination (built from a believed scene and guessed intents; see
+:mod:`caregiving.joint`), as the paper's "like me" simulation implies. Each person walks at constant speed along a plan that avoids only what they have
 seen so far (their true gaze, the robot included); walls are always known. They
 re-plan whenever a new object comes into view or a seen robot/person has moved.
 The robot drives to commanded poses along a planned path with a trapezoidal
@@ -11,18 +13,20 @@ person who touches anything but their target stops there (they trip). The
 
 from __future__ import annotations
 
+import copy
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
-import numpy as np
 
-from .geometry import FloatArray, closest_boundary_point, polyline_length, resample_by_distance, signed_distance
+from .errors import CaregivingError
+from .geometry import Polyline, closest_boundary_point, point_distance, signed_distance
 from .planner import GridPlanner
-from .robot_moves import RobotMove
+from .robot_moves import RobotMove, robot_fits
 from .rollout import DT
 from .scenario import Scenario
 from .scene import PERSON_KIND, ROBOT_KIND, Obstacle, PersonState, RobotState, Scene
-from .visibility import WALL_KIND, visible
+from .visibility import WALL_KIND, can_see
 
 #: A seen robot or person that moved more than this triggers a re-plan.
 REPLAN_SHIFT = 0.1
@@ -54,24 +58,34 @@ class Outcome:
         return bool(self.collisions)
 
 
+@dataclass(frozen=True)
+class Walk:
+    """A person's intent: the object they head for, their gaze pitch (rad) and what they already know of."""
+
+    person: str
+    target: str
+    gaze: float
+    known: tuple[str, ...] = ()
+
+
 @dataclass
 class _Walker:
     state: PersonState
     target: str
     gaze: float
     known: dict[str, Obstacle]
-    path: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
+    route: Polyline | None = None
     walked: float = 0.0
     status: str = "walking"  # walking | arrived | collided | stuck
     min_clearance: float = math.inf
     closest: str = ""
     arrival: float | None = None
+    track: list[tuple[float, float]] = field(default_factory=list)
 
 
 @dataclass
 class _Drive:
-    path: FloatArray
-    length: float
+    route: Polyline
     heading: float
     walked: float = 0.0
 
@@ -79,27 +93,49 @@ class _Drive:
 class World:
     """The simulated room, stepped at ``dt``."""
 
-    def __init__(self, scenario: Scenario, dt: float = DT, planner: GridPlanner | None = None) -> None:
-        scene = scenario.scene()
+    def __init__(self, scene: Scene, walks: Sequence[Walk], dt: float = DT, planner: GridPlanner | None = None) -> None:
+        """People named in ``walks`` walk; anyone else stands still. The robot starts at its scene speed."""
         self.dt = dt
-        self.time = 0.0
+        self.time = scene.time
         self.planner = planner or GridPlanner(scene.bounds)
         self._bounds = scene.bounds
         self._static = scene.obstacles
-        walls = {o.name: o for o in scene.obstacles if o.kind == WALL_KIND}
-        specs = {p.name: p for p in scenario.people}
-        self._walkers = [_Walker(p, specs[p.name].target, math.radians(specs[p.name].gaze_deg), dict(walls))
-                         for p in scene.people]
-        assert scene.robot is not None
+        intents = {w.person: w for w in walks}
+        self._standing = tuple(p for p in scene.people if p.name not in intents)
+        self._walkers = [_Walker(p, intents[p.name].target, intents[p.name].gaze,
+                                 {o.name: o for o in scene.obstacles
+                                  if o.kind == WALL_KIND or o.name in intents[p.name].known},
+                                 track=[(p.x, p.y)])
+                         for p in scene.people if p.name in intents]
+        if scene.robot is None:
+            raise CaregivingError("the world needs a robot")
         self.robot: RobotState = scene.robot
-        self._speed = 0.0
+        self._speed = scene.robot.speed
         self._drive: _Drive | None = None
         self._collisions: list[Collision] = []
+        self.robot_arrival: float | None = None
+        self.robot_seen: dict[str, float] = {}
+
+    @classmethod
+    def from_scenario(cls, scenario: Scenario, dt: float = DT, planner: GridPlanner | None = None) -> World:
+        """The ground truth of a scenario: everyone walks to their target at their true gaze."""
+        walks = [Walk(p.name, p.target, math.radians(p.gaze_deg)) for p in scenario.people]
+        return cls(scenario.scene(), walks, dt, planner)
+
+    def fork(self) -> World:
+        """An independent copy of the world now (sharing the planner and its caches)."""
+        twin = copy.copy(self)
+        twin._walkers = [replace(w, known=dict(w.known), track=list(w.track)) for w in self._walkers]
+        twin._drive = replace(self._drive) if self._drive is not None else None
+        twin._collisions = list(self._collisions)
+        twin.robot_seen = dict(self.robot_seen)
+        return twin
 
     # -- state ---------------------------------------------------------------------------------
     def scene(self) -> Scene:
         """The ground-truth snapshot now."""
-        return Scene(self._bounds, self._static, tuple(w.state for w in self._walkers), self.robot, self.time)
+        people = tuple(w.state for w in self._walkers) + self._standing
+        return Scene(self._bounds, self._static, people, replace(self.robot, speed=self._speed), self.time)
 
     @property
     def robot_speed(self) -> float:
@@ -111,6 +147,10 @@ class World:
         """Whether nobody is walking any more."""
         return all(w.status != "walking" for w in self._walkers)
 
+    def walker(self, person: str) -> _Walker:
+        """The state of one walking person (their track, plan, status and what they know)."""
+        return next(w for w in self._walkers if w.state.name == person)
+
     def outcome(self) -> Outcome:
         """The record so far."""
         return Outcome(tuple(self._collisions), {w.state.name: w.min_clearance for w in self._walkers},
@@ -119,16 +159,19 @@ class World:
 
     # -- robot ---------------------------------------------------------------------------------
     def command_robot(self, move: RobotMove | None) -> bool:
-        """Send the robot to a move's pose (``None`` brakes to a stop); False if it cannot get there."""
+        """Send the robot to a move's pose (``None`` brakes to a stop); False if it does not fit there or cannot get there."""
         if move is None:
             self._drive = None
             return True
-        people = [w.state.body() for w in self._walkers]
+        if not robot_fits(self.scene(), move):
+            return False
+        people = [p.body() for p in self.scene().people]
+        self.robot_arrival = None
         plan = self.planner.plan_to_point((self.robot.x, self.robot.y), (move.x, move.y),
                                           [*self._static, *people], self.robot.width / 2)
         if not plan.reachable:
             return False
-        self._drive = _Drive(plan.path, plan.length, move.heading)
+        self._drive = _Drive(Polyline.of(plan.path), move.heading)
         return True
 
     def _step_robot(self) -> None:
@@ -140,70 +183,88 @@ class World:
                                      y=r.y + math.sin(r.heading) * self._speed * self.dt)
             return
         d = self._drive
-        remaining = max(d.length - d.walked, 0.0)
+        remaining = max(d.route.length - d.walked, 0.0)
         # Fastest speed for this step that still leaves room to brake at max_accel afterwards.
         stop_speed = r.max_accel * (math.sqrt(self.dt ** 2 + 2 * remaining / r.max_accel) - self.dt)
         self._speed = min(self._speed + r.max_accel * self.dt, r.max_speed, stop_speed)
-        d.walked = min(d.walked + self._speed * self.dt, d.length)
-        if d.length - d.walked < 1e-3 or self._speed < 1e-6:
-            end = d.path[-1]
+        d.walked = min(d.walked + self._speed * self.dt, d.route.length)
+        if d.route.length - d.walked < 1e-3 or self._speed < 1e-6:
+            end = d.route.points[-1]
             self.robot = replace(r, x=float(end[0]), y=float(end[1]), heading=d.heading)
             self._speed, self._drive = 0.0, None
+            self.robot_arrival = self.time + self.dt
             return
-        x, y = resample_by_distance(d.path, [d.walked])[0]
-        self.robot = replace(r, x=float(x), y=float(y), heading=math.atan2(y - r.y, x - r.x))
+        x, y = d.route.point_at(d.walked)
+        self.robot = replace(r, x=x, y=y, heading=math.atan2(y - r.y, x - r.x))
 
     # -- people --------------------------------------------------------------------------------
     def _others(self, me: str) -> tuple[Obstacle, ...]:
         return self.scene().bodies_around(me)
 
     def _look(self, w: _Walker, around: tuple[Obstacle, ...]) -> bool:
-        """Update what ``w`` knows; True when that calls for a new plan."""
-        changed = not w.path.size
-        for o in visible(w.state, around, w.gaze):
+        """Update what ``w`` knows; True when that calls for a new plan.
+
+        A newly seen object always does. A seen robot or person that has moved more than
+        :data:`REPLAN_SHIFT` is remembered where it is now, and calls for a new plan only when
+        it now stands in the way of the rest of the walk: people keep their route otherwise.
+        """
+        changed = w.route is None
+        for o in around:
             old = w.known.get(o.name)
+            moving = o.kind in (ROBOT_KIND, PERSON_KIND)
+            if old is not None and not moving or not can_see(w.state, o, w.gaze):
+                continue
+            if o.kind == ROBOT_KIND:
+                self.robot_seen.setdefault(w.state.name, self.time)
             if old is None:
                 changed = True
-            elif o.kind in (ROBOT_KIND, PERSON_KIND) and \
-                    math.hypot(o.shape.x - old.shape.x, o.shape.y - old.shape.y) > REPLAN_SHIFT:
-                changed = True
+            elif math.hypot(o.shape.x - old.shape.x, o.shape.y - old.shape.y) > REPLAN_SHIFT:
+                changed = changed or self._in_the_way(w, o)
             else:
                 continue
             w.known[o.name] = o
         return changed
 
+    def _in_the_way(self, w: _Walker, body: Obstacle) -> bool:
+        """Whether ``body`` comes within :data:`REPLAN_SHIFT` of the walker's disc along the rest of their plan."""
+        if w.route is None:
+            return True
+        ahead = w.route.remaining(w.walked, REPLAN_SHIFT)
+        return bool((signed_distance(body.shape, ahead) < w.state.radius + REPLAN_SHIFT).any())
+
     def _replan(self, w: _Walker) -> None:
         target = next(o for o in self._static if o.name == w.target)
         plan = self.planner.plan_to_object((w.state.x, w.state.y), target, list(w.known.values()), w.state.radius)
         if plan.reachable:
-            w.path, w.walked = plan.path, 0.0
-        elif not w.path.size:
+            w.route, w.walked = Polyline.of(plan.path), 0.0
+        elif w.route is None:
             w.status = "stuck"
 
     def _step_person(self, w: _Walker) -> None:
         around = self._others(w.state.name)
         if self._look(w, around):
             self._replan(w)
-        if w.status != "walking":
+        if w.status != "walking" or w.route is None:
             return
-        length = polyline_length(w.path)
+        length = w.route.length
         w.walked = min(w.walked + w.state.speed * self.dt, length)
-        x, y = resample_by_distance(w.path, [w.walked])[0]
+        x, y = w.route.point_at(w.walked)
         s = w.state
         heading = math.atan2(y - s.y, x - s.x) if math.hypot(x - s.x, y - s.y) > 1e-9 else s.heading
-        w.state = replace(s, x=float(x), y=float(y), heading=heading)
+        w.state = replace(s, x=x, y=y, heading=heading)
+        w.track.append((w.state.x, w.state.y))
         if w.walked >= length - 1e-9:
             w.status, w.arrival = "arrived", self.time + self.dt
         self._check_contacts(w, [o for o in around if o.name != w.target])
 
     def _check_contacts(self, w: _Walker, bodies: list[Obstacle]) -> None:
-        p = (w.state.x, w.state.y)
-        clear = np.array([signed_distance(o.shape, p)[0] for o in bodies]) - w.state.radius
-        k = int(np.argmin(clear))
+        x, y = w.state.x, w.state.y
+        clear = [point_distance(o.shape, x, y) - w.state.radius for o in bodies]
+        k = min(range(len(clear)), key=clear.__getitem__)
         if clear[k] < w.min_clearance:
-            w.min_clearance, w.closest = float(clear[k]), bodies[k].name
+            w.min_clearance, w.closest = clear[k], bodies[k].name
         if clear[k] <= 0.0:
-            point = closest_boundary_point(bodies[k].shape, p)[0]
+            point = closest_boundary_point(bodies[k].shape, (x, y))[0]
             self._collisions.append(Collision(self.time + self.dt, w.state.name, bodies[k].name,
                                               (float(point[0]), float(point[1]))))
             w.status = "collided"
@@ -226,4 +287,4 @@ class World:
 
 def run_idle(trial: Scenario, max_time: float = 60.0, planner: GridPlanner | None = None) -> Outcome:
     """The exact-geometry ground truth of a trial with the robot standing still."""
-    return World(trial, planner=planner).run(max_time)
+    return World.from_scenario(trial, planner=planner).run(max_time)

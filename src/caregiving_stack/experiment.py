@@ -9,16 +9,19 @@ Per trial: *predicted risky* = some ``has_intention`` was marked risky;
 *discarded* = no intention arose at all (as in the paper). Over the valid
 trials: accuracy, precision, recall, F1, F2 and the false-positive and
 false-negative rates (shares of valid trials, as the paper's Table I).
-``action_rate`` is the share of predicted-risky trials in which the robot wrote
-an intention, ``action_in_time_rate`` the share whose move was imagined to
-arrive before the predicted collision (the others are the action agent's late
-moves); ``prevention_rate`` the share of truly risky trials in which
-nobody collided in the closed loop. Since some trials cannot be saved by any
-``move_to`` of a robot with these limits (the person starts next to the ball),
-an oracle (:func:`preventable`) replays each truly risky trial in the ground
-truth with every stand-off move commanded at the pipeline's decision time, and
-``prevention_rate_of_preventable`` is the prevention rate over the trials one
-of them saves. Reaction times are wall-clock differences
+``action_rate`` is the share of predicted-risky trials in which Algorithm 2
+wrote a move its joint imagination says removes the danger (the paper's
+definition), ``action_in_time_rate`` the share whose move was also imagined to
+be in place before the predicted collision; ``prevention_rate`` the share of
+truly risky trials in which nobody collided in the closed loop. Since some
+trials cannot be saved by any move of a robot with these limits (the person
+starts next to the ball), the physical oracle (:mod:`caregiving_stack.oracle`)
+searches each truly risky trial's ground truth for a move that saves it,
+commanded when the danger first became observable: ``oracle_saveable`` counts
+those trials (``oracle_standoff_saveable`` with stand-offs only) and
+``prevention_rate_of_saveable`` is the prevention rate over them.
+``robot_caused_collisions`` counts trials that were safe with the robot idle and
+collided with it acting. Reaction times are wall-clock differences
 of stamps written into W by the writers (same host): the paper's definition
 (risky ``has_intention`` -> robot ``intention``) and end to end (the
 perception write behind the risky guess -> robot ``intention``).
@@ -31,7 +34,8 @@ import json
 import statistics
 import tempfile
 import time
-from dataclasses import dataclass
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -49,15 +53,14 @@ from rich.table import Table
 import wm
 from bridges.world.bridge import trial_for
 from caregiving.planner import GridPlanner
-from caregiving.robot_moves import standoff_moves
 from caregiving.scenario import Scenario, load_scenario
-from caregiving.visibility import WALL_KIND
-from caregiving.world_model import World, run_idle
+from caregiving.world_model import run_idle
 
 from .launch import Stack
+from .oracle import OracleVerdict, oracle
 from .trials import Harness, TrialRecord, finite
 
-#: When no risky intention arose, the oracle acts at the time the pipeline typically does.
+#: When no risky intention arose, the oracle acts at the time the pipeline typically does (simulated seconds).
 ORACLE_AT = 0.5
 PAPER = {"trials": 180, "discarded": 13, "valid": 167, "accuracy": 0.7964, "fp_rate": 0.2035, "fn_rate": 0.0,
          "precision": 0.61, "recall": 1.0, "f1": 0.76, "f2": 0.89, "reaction_ms_mean": 747.0,
@@ -71,7 +74,8 @@ class Scored:
     record: TrialRecord
     truly_risky: bool
     idle_clearance: float = float("inf")
-    preventable: bool | None = None
+    saveable: bool | None = None
+    standoff_saveable: bool | None = None
 
     @property
     def discarded(self) -> bool:
@@ -120,35 +124,15 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "action_in_time_rate": _ratio(sum(s.record.action is not None and s.record.action.get("in_time", True)
                                           for s in detected), len(detected)),
         "prevention_rate": _ratio(sum(not s.record.collided for s in risky), len(risky)),
-        "preventable": sum(bool(s.preventable) for s in risky) if any(s.preventable is not None for s in risky)
+        "prevented": sum(not s.record.collided for s in risky),
+        "oracle_saveable": sum(bool(s.saveable) for s in risky) if any(s.saveable is not None for s in risky)
         else None,
-        "prevention_rate_of_preventable": _ratio(sum(not s.record.collided for s in risky if s.preventable),
-                                                 sum(bool(s.preventable) for s in risky)),
+        "oracle_standoff_saveable": sum(bool(s.standoff_saveable) for s in risky),
+        "prevention_rate_of_saveable": _ratio(sum(not s.record.collided for s in risky if s.saveable),
+                                              sum(bool(s.saveable) for s in risky)),
+        "robot_caused_collisions": sum(s.record.collided and not s.truly_risky for s in scored),
         "truly_risky": len(risky), "closed_loop_collisions": sum(s.record.collided for s in scored),
     }
-
-
-def preventable(trial: Scenario, at: float, planner: GridPlanner) -> bool:
-    """Oracle: does any stand-off move, commanded in the ground truth at time ``at``, avoid every collision?
-
-    This bounds what any robot with these motion limits and the ``move_to`` action could
-    do in the trial once the danger is known; it is not part of the pipeline.
-    """
-    start = World(trial, planner=planner)
-    while start.time < at - 1e-9 and not start.done:
-        start.step()
-    scene = start.scene()
-    moves = [m for o in scene.obstacles if o.kind != WALL_KIND for m in standoff_moves(scene, o.name)]
-    for move in moves:
-        world = World(trial, planner=planner)
-        while world.time < at - 1e-9 and not world.done:
-            world.step()
-        if world.done:
-            return not world.outcome().collided
-        world.command_robot(move)
-        if not world.run(30.0).collided:
-            return True
-    return False
 
 
 def _fmt(key: str, value: Any) -> str:
@@ -157,7 +141,7 @@ def _fmt(key: str, value: Any) -> str:
     if "_ms_" in key:
         return f"{value:.1f} ms"
     if key in ("accuracy", "fp_rate", "fn_rate", "action_rate", "action_in_time_rate", "prevention_rate",
-               "prevention_rate_of_preventable"):
+               "prevention_rate_of_saveable"):
         return f"{100 * value:.2f} %"
     if isinstance(value, float):
         return f"{value:.3f}"
@@ -169,9 +153,12 @@ ROWS = [("Total experiments", "trials"), ("Experiments discarded", "discarded"),
         ("Precision", "precision"), ("Recall", "recall"), ("F-1 score", "f1"), ("F-2 score", "f2"),
         ("Reaction time (mean)", "reaction_ms_mean"), ("Reaction time (deviation)", "reaction_ms_sd"),
         ("Detected collision and action generated", "action_rate"),
-        ("... with a move imagined to arrive in time", "action_in_time_rate"), ("Prevented (truly risky trials)", "prevention_rate"),
-        ("Truly risky trials any move could save", "preventable"),
-        ("Prevented (of those)", "prevention_rate_of_preventable"),
+        ("... with a move imagined in place in time", "action_in_time_rate"),
+        ("Truly risky trials", "truly_risky"), ("Prevented (truly risky trials)", "prevention_rate"),
+        ("Truly risky trials some move could save (oracle)", "oracle_saveable"),
+        ("... with stand-off moves only", "oracle_standoff_saveable"),
+        ("Prevented (of those some move could save)", "prevention_rate_of_saveable"),
+        ("Collisions the robot caused", "robot_caused_collisions"),
         ("End to end p50", "e2e_ms_p50"), ("End to end p99", "e2e_ms_p99")]
 
 
@@ -210,22 +197,31 @@ async def run_trials(scenario: Scenario, stack: Stack, seed: int, indices: list[
     return scored
 
 
+def _judge_trial(job: tuple[Scenario, int, int | None, float]) -> OracleVerdict:
+    scenario, seed, index, at = job
+    return oracle(trial_for(scenario, seed, index), at, GridPlanner(scenario.scene().bounds))
+
+
 def with_oracle(scenario: Scenario, seed: int, scored: list[Scored], console: Console) -> list[Scored]:
-    """Add the :func:`preventable` oracle to the truly risky trials (at the pipeline's own decision time)."""
-    planner = GridPlanner(scenario.scene().bounds)
+    """Add the physical oracle's verdict to the truly risky trials, two processes at a time."""
+    jobs = [(scenario, seed, s.record.index, (s.record.risky or {}).get("at_time", ORACLE_AT))
+            for s in scored if s.truly_risky]
+    with console.status(f"oracle: could any move have saved the {len(jobs)} truly risky trials?"):
+        with ProcessPoolExecutor(max_workers=2) as pool:
+            verdicts = iter(list(pool.map(_judge_trial, jobs)))
     out = []
-    with console.status("oracle: could any move have saved the truly risky trials?"):
-        for s in scored:
-            at = (s.record.risky or {}).get("at_time", ORACLE_AT)
-            can = preventable(trial_for(scenario, seed, s.record.index), at, planner) if s.truly_risky else None
-            out.append(Scored(s.record, s.truly_risky, s.idle_clearance, can))
+    for s in scored:
+        v = next(verdicts) if s.truly_risky else None
+        out.append(replace(s, saveable=v.saveable if v else None, standoff_saveable=v.standoff_saveable if v else None))
     return out
 
 
 def trial_json(s: Scored) -> dict[str, Any]:
     r = s.record
     return {"index": r.index, "truly_risky": s.truly_risky, "discarded": s.discarded, "predicted": s.predicted,
-            "acted": r.action is not None, "collided": r.collided, "preventable": s.preventable,
+            "acted": r.action is not None, "in_time": (r.action or {}).get("in_time"), "collided": r.collided,
+            "saveable": s.saveable, "standoff_saveable": s.standoff_saveable,
+            "robot_caused": r.collided and not s.truly_risky, "reason": (r.action or {}).get("reason"),
             "idle_min_clearance": s.idle_clearance, "risk_probability": (r.risky or {}).get("probability"),
             "risk_at_time": (r.risky or {}).get("at_time"), "time_to_collision": (r.risky or {}).get("time_to_collision"),
             "reaction_ms": r.reaction_ms, "e2e_ms": r.e2e_ms, "collisions": r.outcome.get("collisions", [])}

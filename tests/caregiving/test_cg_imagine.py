@@ -1,4 +1,4 @@
-"""Imagine requests: person-only and joint, wire forms and malformed requests."""
+"""Imagine requests: the person-only walk, the service's dispatch, wire forms and malformed requests."""
 
 import math
 from dataclasses import replace
@@ -7,8 +7,9 @@ import msgpack
 import pytest
 
 from caregiving.errors import RequestError
-from caregiving.imagine import Imagination, JointImagination, answer, imagine_joint, imagine_person, planner_for
+from caregiving.imagine import Imagination, imagine_person, planner_for
 from caregiving.robot_moves import RobotMove, standoff_moves
+from caregiving.service import serve_item
 from caregiving.rollout import BulletRollout
 from caregiving.scenario import load_scenario
 from caregiving.scene import Scene
@@ -48,40 +49,22 @@ def test_unreachable_target(scene: Scene) -> None:
     assert not im.reachable and not im.collided and im.path == ()
 
 
-def test_joint_robot_in_front_of_the_ball_removes_the_danger(scene: Scene) -> None:
-    moves = {round(m.x, 2): m for m in standoff_moves(scene, "ball") if abs(m.y) < 1e-6}
-    front = moves[-0.46]
-    joint = imagine_joint(scene, "person", "couch", GAZE, front)
-    assert joint.robot_reachable and joint.robot_seen and joint.removes_danger
-    assert 0.0 < joint.robot_arrival < 10.0
-    assert "robot" in joint.person.seen
-
-
-def test_joint_with_unreachable_move_keeps_the_danger(scene: Scene) -> None:
-    joint = imagine_joint(scene, "person", "couch", GAZE, RobotMove("couch", 3.5, 0.0, 0.0))
-    assert not joint.robot_reachable and not joint.removes_danger and joint.robot_arrival == math.inf
-    assert joint.person.collided
-
-
 def test_wire_round_trips_through_msgpack(scene: Scene) -> None:
     im = imagine_person(scene, "person", "couch", GAZE)
     packed = msgpack.unpackb(msgpack.packb(im.to_wire()))
     assert Imagination.from_wire(packed) == im
     move = standoff_moves(scene, "ball")[0]
-    joint = imagine_joint(scene, "person", "couch", GAZE, move)
-    assert JointImagination.from_wire(msgpack.unpackb(msgpack.packb(joint.to_wire()))) == joint
-    unreachable = imagine_joint(scene, "person", "couch", GAZE, RobotMove("couch", 3.5, 0.0, 0.0))
-    assert JointImagination.from_wire(unreachable.to_wire()) == unreachable
     assert Scene.from_wire(msgpack.unpackb(msgpack.packb(scene.to_wire()))) == scene
     assert RobotMove.from_wire(move.to_wire()) == move
 
 
-def test_answer_dispatches_wire_requests(scene: Scene) -> None:
-    person = answer(scene, {"kind": "person", "person": "person", "target": "couch", "gaze": GAZE})
+def test_the_service_dispatches_wire_requests(scene: Scene) -> None:
+    person = serve_item(scene, {"kind": "person", "person": "person", "target": "couch", "gaze": GAZE})["result"]
     assert person["collided"] and person["collision_object"] == "ball"
     move = standoff_moves(scene, "ball")[0].to_wire()
-    joint = answer(scene, {"kind": "joint", "person": "person", "target": "couch", "gaze": GAZE, "move": move})
-    assert joint["move"] == move
+    walk = {"person": "person", "target": "couch", "gaze": GAZE}
+    joint = serve_item(scene, {"kind": "joint", "walks": [walk], "move": move})["result"]
+    assert joint["move"] == move and joint["walks"][0]["person"] == "person"
 
 
 @pytest.mark.parametrize(("request_", "message"), [
@@ -91,21 +74,23 @@ def test_answer_dispatches_wire_requests(scene: Scene) -> None:
     ({"kind": "person", "person": "person", "target": "fridge", "gaze": 0.1}, "unknown object 'fridge'"),
     ({"kind": "person", "person": "person", "target": "couch", "gaze": "up"}, "request.gaze: expected a number"),
     ({"kind": "person", "person": "person", "target": "couch", "gaze": 3.0}, "gaze: expected a pitch"),
-    ({"kind": "joint", "person": "person", "target": "couch", "gaze": 0.1}, "request.move: is required"),
-    ({"kind": "joint", "person": "person", "target": "couch", "gaze": 0.1, "move": {"x": 1, "y": 2}},
+    ({"kind": "joint", "move": None}, "request.walks: is required"),
+    ({"kind": "joint", "walks": [], "move": None}, "request.walks: expected at least one walk"),
+    ({"kind": "joint", "walks": [{"person": "person", "target": "couch", "gaze": 0.1}], "move": {"x": 1, "y": 2}},
      "request.move.target: is required"),
-    ({"kind": "joint", "person": "person", "target": "couch", "gaze": 0.1,
+    ({"kind": "joint", "walks": [{"person": "person", "target": "couch", "gaze": 0.1}],
       "move": {"target": "ball", "x": "a", "y": 2}}, "request.move.x: expected a number"),
+    ({"kind": "joint", "walks": [{"person": "ghost", "target": "couch", "gaze": 0.1}], "move": None},
+     "unknown person 'ghost'"),
+    ({"kind": "joint", "walks": [{"person": "person", "target": "couch", "gaze": 0.1}], "move": None, "delay": -1},
+     "request.delay: expected a non-negative number"),
+    ({"kind": "joint", "walks": [{"person": "person", "target": "couch"}], "move": None},
+     "request.walks[0].gaze: is required"),
     ([1, 2], "request: expected a mapping"),
 ])
 def test_malformed_requests_raise_request_error(scene: Scene, request_: object, message: str) -> None:
     with pytest.raises(RequestError, match=message.replace("(", r"\(").replace("[", r"\[")):
-        answer(scene, request_)
-
-
-def test_joint_without_robot_is_a_request_error(scene: Scene) -> None:
-    with pytest.raises(RequestError, match="no robot"):
-        imagine_joint(scene.with_robot(None), "person", "couch", GAZE, RobotMove("ball", 0.0, 0.5, 0.0))
+        serve_item(scene, request_)
 
 
 @pytest.mark.parametrize(("data", "message"), [

@@ -23,7 +23,7 @@ def test_rate_latency_and_content() -> None:
     s = load_scenario("paper_experiment1")
     spec = replace(s.sensors, dropout=0.0)
     sensors = Sensors(spec, np.random.default_rng(0))
-    world = World(s)
+    world = World.from_scenario(s)
     dets = run(sensors, world, 2.0)
     stamps = sorted({d.stamp for d in dets})
     # 15 Hz sampled on a 20 Hz world clock: frames every 1 or 2 steps, about 15 per second.

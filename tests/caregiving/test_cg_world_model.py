@@ -46,7 +46,7 @@ def test_cluttered_room_outcome_is_deterministic() -> None:
 
 def test_robot_in_front_of_the_ball_prevents_the_collision() -> None:
     s = load_scenario("paper_experiment1")
-    world = World(s)
+    world = World.from_scenario(s)
     move = next(m for m in standoff_moves(s.scene(), "ball") if m.x < -0.4 and abs(m.y) < 1e-6)
     assert world.command_robot(move)
     out = world.run()
@@ -57,7 +57,7 @@ def test_robot_in_front_of_the_ball_prevents_the_collision() -> None:
 
 def test_robot_respects_speed_and_acceleration() -> None:
     s = load_scenario("safe_walk")
-    world = World(s)
+    world = World.from_scenario(s)
     assert world.command_robot(RobotMove("door", 0.0, 1.0, 0.0))
     xs, ys = [world.robot.x], [world.robot.y]
     arrived_at = None
@@ -78,7 +78,7 @@ def test_robot_respects_speed_and_acceleration() -> None:
 
 
 def test_unreachable_command_and_stopping() -> None:
-    world = World(load_scenario("safe_walk"))
+    world = World.from_scenario(load_scenario("safe_walk"))
     assert not world.command_robot(RobotMove("couch", 3.5, 0.0, 0.0))
     assert world.command_robot(RobotMove("door", 0.0, 1.0, 0.0))
     for _ in range(20):
@@ -93,15 +93,15 @@ def test_unreachable_command_and_stopping() -> None:
 
 def test_person_replans_when_the_robot_comes_into_view() -> None:
     s = load_scenario("paper_experiment1")
-    idle = World(s)
+    idle = World.from_scenario(s)
     idle.step()
-    path_before = idle._walkers[0].path.copy()  # noqa: SLF001 - inspecting the walker's plan
-    world = World(s)
+    path_before = idle._walkers[0].route.points.copy()  # noqa: SLF001 - inspecting the walker's plan
+    world = World.from_scenario(s)
     move = next(m for m in standoff_moves(s.scene(), "ball") if m.x < -0.4 and abs(m.y) < 1e-6)
     world.command_robot(move)
     for _ in range(60):
         world.step()
-    assert not np.array_equal(world._walkers[0].path, path_before)  # noqa: SLF001
+    assert not np.array_equal(world._walkers[0].route.points, path_before)  # noqa: SLF001
     assert "robot" in world._walkers[0].known  # noqa: SLF001
 
 
@@ -113,5 +113,5 @@ def test_sampled_trials_mix_risky_and_safe() -> None:
 
 
 def test_max_time_bounds_a_run() -> None:
-    out = World(load_scenario("safe_walk")).run(max_time=1.0)
+    out = World.from_scenario(load_scenario("safe_walk")).run(max_time=1.0)
     assert out.duration == pytest.approx(1.0) and out.arrival["person"] is None

@@ -16,9 +16,8 @@ GRAPH = "stacktest"
 
 @pytest.fixture(scope="module")
 def stack(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Stack]:
-    """The stack in real time, stopped by PID at the end of the module (late robot moves on, to test them)."""
-    with Stack(GRAPH, "paper_experiment1", tmp_path_factory.mktemp("stack-logs"), rate=1.0,
-               agent_args={"action": ["--late-moves", "6"]}) as s:
+    """The stack in real time, stopped by PID at the end of the module."""
+    with Stack(GRAPH, "paper_experiment1", tmp_path_factory.mktemp("stack-logs"), rate=1.0) as s:
         yield s
 
 

@@ -118,7 +118,7 @@ class WorldBridge:
             spec = trial_for(self.scenario, int(f.number("seed", 0)), None if index is None else int(index))
             self._trials += 1
             sensor_seed = [int(f.number("seed", 0)), 0 if index is None else int(index) + 1, 1]
-            self.trial = _Trial(self._trials, spec, World(spec, self.dt, self.planner),
+            self.trial = _Trial(self._trials, spec, World.from_scenario(spec, self.dt, self.planner),
                                 Sensors(spec.sensors, np.random.default_rng(sensor_seed)))
             self._publish_state()
             log.info("trial %d prepared (index %s)", self._trials, index)

@@ -1,0 +1,160 @@
+"""The joint imagination in time (Algorithm 2): the robot drives its move while the people walk.
+
+It steps :class:`caregiving.world_model.World`, the same model the world bridge
+uses for the truth, from a believed scene and guessed intents:
+
+* the robot goes on with its ``current`` move (if any) for ``delay`` seconds,
+  the time the pipeline needs to send a command, then drives to the new move's
+  pose along its planned path, under its speed and acceleration limits and from
+  the speed it has now;
+* each person walks to their guessed target at their gaze class, sees the robot
+  when it enters their field of view, and re-plans around it as it is then.
+
+So a move that arrives late, that intercepts the person on their way, or that
+puts the robot in their way is judged by what would happen, not by where the
+robot stands at the end. ``move=None`` imagines the robot braking to a stop.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from .errors import RequestError
+from .fields import Fields
+from .imagine import Imagination, planner_for
+from .planner import GridPlanner
+from .robot_moves import RobotMove
+from .rollout import DT
+from .scene import Scene
+from .world_model import Walk, World
+
+#: Seconds imagined at most: long enough for a walk across any room these scenarios hold.
+HORIZON = 30.0
+
+
+@dataclass(frozen=True)
+class WalkOutcome:
+    """How one person's imagined walk ends. Times are seconds from the imagined scene's time."""
+
+    walk: Walk
+    status: str  # arrived | collided | stuck | walking (the horizon ran out)
+    track: tuple[tuple[float, float], ...]
+    seen: tuple[str, ...]
+    collision_time: float | None
+    collision_point: tuple[float, float] | None
+    collision_object: str | None
+    min_clearance: float
+    saw_robot_at: float | None
+
+    @property
+    def collided(self) -> bool:
+        """Whether the person touched anything but their target."""
+        return self.status == "collided"
+
+    def as_imagination(self) -> Imagination:
+        """The walk as walked (one point per step), for sampling perception's uncertainty around it."""
+        w = self.walk
+        return Imagination(w.person, w.target, w.gaze, self.seen, self.status != "stuck", self.track, self.collided,
+                           self.collision_time, self.collision_point, self.collision_object, self.min_clearance,
+                           max(len(self.track) - 1, 0) * DT)
+
+    def to_wire(self) -> dict[str, Any]:
+        """A msgpack-friendly dict."""
+        return {"person": self.walk.person, "target": self.walk.target, "gaze": self.walk.gaze,
+                "known": list(self.walk.known), "status": self.status, "track": [list(p) for p in self.track],
+                "seen": list(self.seen), "collision_time": self.collision_time,
+                "collision_point": list(self.collision_point) if self.collision_point else None,
+                "collision_object": self.collision_object,
+                "min_clearance": self.min_clearance if math.isfinite(self.min_clearance) else None,
+                "saw_robot_at": self.saw_robot_at}
+
+    @classmethod
+    def from_fields(cls, f: Fields) -> WalkOutcome:
+        """Parse :meth:`to_wire` output nested in a larger message."""
+        status = f.string("status", choices=frozenset({"arrived", "collided", "stuck", "walking"}))
+        collided = status == "collided"
+        point = f.numbers("collision_point", 2) if collided else None
+        clearance = f.optional_number("min_clearance")
+        return cls(walk_from_fields(f), status, f.pairs("track"), f.strings("seen"),
+                   f.number("collision_time") if collided else None, (point[0], point[1]) if point else None,
+                   f.string("collision_object") if collided else None,
+                   math.inf if clearance is None else clearance, f.optional_number("saw_robot_at"))
+
+
+@dataclass(frozen=True)
+class JointImagination:
+    """A robot move imagined in time together with the walks of the people it concerns."""
+
+    move: RobotMove | None
+    robot_reachable: bool
+    robot_arrival: float | None  # seconds from now until it rests at the pose, None if not within the horizon
+    walks: tuple[WalkOutcome, ...]
+
+    @property
+    def safe(self) -> bool:
+        """Whether the robot can drive the move and nobody imagined touches anything or gets stuck."""
+        return self.robot_reachable and all(w.status in ("arrived", "walking") for w in self.walks)
+
+    def to_wire(self) -> dict[str, Any]:
+        """A msgpack-friendly dict."""
+        return {"move": self.move.to_wire() if self.move else None, "robot_reachable": self.robot_reachable,
+                "robot_arrival": self.robot_arrival, "walks": [w.to_wire() for w in self.walks]}
+
+    @classmethod
+    def from_wire(cls, data: object) -> JointImagination:
+        """Parse :meth:`to_wire` output; raises :class:`RequestError` when malformed."""
+        return cls.from_fields(Fields(data, "joint", RequestError))
+
+    @classmethod
+    def from_fields(cls, f: Fields) -> JointImagination:
+        """Parse a joint imagination nested in a larger message."""
+        move = f.optional_child("move")
+        return cls(RobotMove.from_fields(move) if move is not None else None, f.boolean("robot_reachable"),
+                   f.optional_number("robot_arrival"), tuple(WalkOutcome.from_fields(w) for w in f.children("walks")))
+
+
+def walk_from_fields(f: Fields) -> Walk:
+    """A guessed intent from a wire dict ``{person, target, gaze, known?}``."""
+    gaze = f.number("gaze")
+    if not -math.pi / 2 <= gaze <= math.pi / 2:
+        raise f.fail("gaze", f"expected a pitch in [-pi/2, pi/2] rad, got {gaze!r}")
+    return Walk(f.string("person"), f.string("target"), gaze, f.strings("known", ()))
+
+
+def walk_to_wire(w: Walk) -> dict[str, Any]:
+    """The wire form :func:`walk_from_fields` reads."""
+    return {"person": w.person, "target": w.target, "gaze": w.gaze, "known": list(w.known)}
+
+
+def imagine_joint(scene: Scene, walks: Sequence[Walk], move: RobotMove | None, *, delay: float = 0.0,
+                  current: RobotMove | None = None, horizon: float = HORIZON,
+                  planner: GridPlanner | None = None) -> JointImagination:
+    """Step the robot's move and the people's walks together, as the world would, and report how they end."""
+    if scene.robot is None:
+        raise RequestError("the scene has no robot")
+    for w in walks:
+        scene.person(w.person)
+        scene.obstacle(w.target)
+    world = World(scene, walks, planner=planner or planner_for(scene.bounds))
+    start = scene.time
+    if current is not None:
+        world.command_robot(current)
+    while world.time < start + delay - 1e-9 and not world.done:
+        world.step()
+    reachable = world.command_robot(move)
+    while not world.done and world.time < start + horizon - 1e-9 and (reachable or move is None):
+        world.step()
+    arrival = world.robot_arrival - start if move is not None and world.robot_arrival is not None else None
+    return JointImagination(move, reachable, arrival, tuple(_outcome(world, w, start) for w in walks))
+
+
+def _outcome(world: World, walk: Walk, start: float) -> WalkOutcome:
+    w = world.walker(walk.person)
+    hit = next((c for c in world.outcome().collisions if c.person == walk.person), None)
+    saw = world.robot_seen.get(walk.person)
+    return WalkOutcome(walk, w.status, tuple(w.track), tuple(w.known), hit.time - start if hit else None,
+                       hit.point if hit else None, hit.obstacle if hit else None, w.min_clearance,
+                       saw - start if saw is not None else None)

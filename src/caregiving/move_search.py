@@ -1,0 +1,249 @@
+"""Candidate robot moves for Algorithm 2, likeliest first, with cheap pruning.
+
+A :class:`Danger` is a person's risky imagined walk: their path, the object they
+would hit, where and when. The robot's moves are ``move_to`` a pose:
+
+* **stand-offs** (the paper's ``move_to(object)``): poses around an object, a
+  small gap from its boundary, facing it; around the obstacle itself they cover it;
+* **path poses**: free poses on the person's predicted path, or beside it,
+  between the person and the obstacle: in front of the obstacle on the person's
+  side, and farther back along the path, where the person will see the robot sooner.
+
+:func:`ordered_moves` yields them lazily in the order the search tries them:
+the stand-off straight in front of the obstacle along the person's way; path
+poses from the obstacle back towards the person, on the path before beside it;
+the other stand-offs around the obstacle; then around the other objects by
+distance to the collision point. Two cheap tests prune before any imagination:
+the robot must fit at the pose, and a straight drive (the travel-time lower
+bound, from the robot's current speed) must reach it before the person does
+(path poses) or before the collision (stand-offs). The joint imagination in
+time (:mod:`caregiving.joint`) judges the rest.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+from itertools import islice
+from typing import Any
+
+import numpy as np
+
+from .geometry import Polyline, bounding_radius
+from .joint import walk_to_wire
+from .robot_moves import RobotMove, robot_fits, standoff_poses, travel_time
+from .scene import Scene
+from .service import JointAnswer, serve_one
+from .visibility import WALL_KIND
+from .world_model import Walk
+
+#: Lateral offsets (m) of path poses from the person's path, on the path first.
+LATERAL = (0.0, 0.3, -0.3)
+#: Spacing (m) of path poses along the path.
+SPACING = 0.25
+#: A pose the robot cannot come this close to (m) before the person passes it is pruned: a robot
+#: farther off when the person goes by is beside their way, not in it.
+REACH = 1.0
+
+
+@dataclass(frozen=True)
+class Danger:
+    """A person's risky walk: path from where they are, the obstacle, where and in how many seconds they hit it."""
+
+    person: str
+    target: str
+    path: tuple[tuple[float, float], ...]
+    point: tuple[float, float]
+    obstacle: str
+    time_to_collision: float
+
+
+def travel_direction(path: tuple[tuple[float, float], ...], point: tuple[float, float]) -> tuple[float, float]:
+    """Unit direction of the person's path where it comes closest to ``point``."""
+    if len(path) < 2:
+        return 1.0, 0.0
+    pts = np.asarray(path, dtype=float)
+    seg = np.diff(pts, axis=0)
+    k = int(np.argmin(np.linalg.norm(pts[:-1] + seg / 2 - np.asarray(point), axis=1)))
+    norm = float(np.hypot(*seg[k])) or 1.0
+    return float(seg[k][0] / norm), float(seg[k][1] / norm)
+
+
+def drive_time(scene: Scene, x: float, y: float, within: float = 0.0) -> float:
+    """Lower bound on the robot's time to come ``within`` metres of (x, y): a straight drive from its current speed."""
+    robot = scene.robot
+    assert robot is not None
+    gap = max(math.hypot(x - robot.x, y - robot.y) - within, 0.0)
+    return travel_time(gap, robot.max_speed, robot.max_accel, robot.speed)
+
+
+def path_poses(scene: Scene, danger: Danger) -> Iterator[tuple[RobotMove, float]]:
+    """Free poses on and beside the path, from just before the obstacle back towards the person.
+
+    Each stands broadside across the path, so the person meets the robot's longer side, and comes
+    with the seconds until the person would reach it.
+    """
+    robot, person = scene.robot, scene.person(danger.person)
+    assert robot is not None
+    if len(danger.path) < 2:
+        return
+    route = Polyline.of(danger.path)
+    obstacle = scene.obstacle(danger.obstacle)
+    clearance = bounding_radius(obstacle.shape) + max(robot.length, robot.width) / 2 + 0.05
+    nearest = person.radius + max(robot.length, robot.width) / 2 + 0.2
+    distance = min(danger.time_to_collision * person.speed, route.length) - clearance
+    while distance > nearest:
+        x, y = route.point_at(distance)
+        ax, ay = route.point_at(min(distance + 0.05, route.length))
+        heading = math.atan2(ay - y, ax - x)
+        for offset in LATERAL:
+            px, py = x - math.sin(heading) * offset, y + math.cos(heading) * offset
+            yield RobotMove(danger.obstacle, px, py, heading + math.pi / 2), distance / person.speed
+        distance -= SPACING
+
+
+def standoffs(scene: Scene, danger: Danger, obstacle: str) -> list[RobotMove]:
+    """Stand-off poses around ``obstacle``, those straight behind and in front of it along the person's way first."""
+    dx, dy = travel_direction(danger.path, danger.point)
+    shape = scene.obstacle(obstacle).shape
+
+    def key(m: RobotMove) -> tuple[float, float]:
+        norm = math.hypot(m.x - shape.x, m.y - shape.y) or 1.0
+        along = ((m.x - shape.x) * dx + (m.y - shape.y) * dy) / norm
+        return -abs(along), -along
+
+    return sorted(standoff_poses(scene, obstacle), key=key)
+
+
+def ordered_moves(scene: Scene, danger: Danger) -> Iterator[RobotMove]:
+    """Every candidate move for ``danger``, likeliest first (see the module documentation), generated lazily."""
+    robot = scene.robot
+    assert robot is not None
+    near = [(m, danger.time_to_collision) for m in standoffs(scene, danger, danger.obstacle)]
+    near += list(path_poses(scene, danger))
+    # Seconds the robot has in hand at each pose: the more, the likelier the person sees it in time.
+    slack = [(until - drive_time(scene, m.x, m.y), k, m) for k, (m, until) in enumerate(near)
+             if drive_time(scene, m.x, m.y, REACH) < until]
+    yield from (m for _, _, m in sorted(slack, key=lambda t: (-t[0], t[1])) if robot_fits(scene, m))
+    point = danger.point
+    others = sorted((o for o in scene.obstacles if o.kind != WALL_KIND and o.name != danger.obstacle),
+                    key=lambda o: math.hypot(o.shape.x - point[0], o.shape.y - point[1]))
+    for o in others:
+        yield from (m for m in standoffs(scene, danger, o.name)
+                    if drive_time(scene, m.x, m.y, REACH) < danger.time_to_collision and robot_fits(scene, m))
+
+
+@dataclass(frozen=True)
+class SearchSpec:
+    """What a search must protect: the dangers, every gaze class to imagine their people at, and the bystanders.
+
+    ``gazes`` maps each endangered person to the gaze pitches (one per gaze class) their walk is imagined at;
+    ``bystanders`` are the other people's likeliest walks, imagined alongside so that a move never trips them.
+    ``current`` is the move the robot is driving now (if any), which it keeps for ``delay`` seconds.
+    """
+
+    dangers: tuple[Danger, ...]
+    gazes: dict[str, tuple[float, ...]]
+    known: dict[str, tuple[str, ...]]
+    bystanders: tuple[Walk, ...] = ()
+    current: RobotMove | None = None
+    delay: float = 0.0
+
+    def walk_sets(self) -> list[tuple[Walk, ...]]:
+        """The sets of walks to imagine each move with: every gaze class of each endangered person in turn."""
+        first = {d.person: Walk(d.person, d.target, self.gazes[d.person][0], self.known.get(d.person, ()))
+                 for d in self.dangers}
+        sets = []
+        for d in self.dangers:
+            for gaze in self.gazes[d.person][1 if sets else 0:]:
+                walks = dict(first)
+                walks[d.person] = Walk(d.person, d.target, gaze, self.known.get(d.person, ()))
+                sets.append(tuple(walks.values()) + self.bystanders)
+        return sets
+
+    def items(self, move: RobotMove | None, uncertainty: dict[str, Any]) -> list[dict[str, Any]]:
+        """The simulator items that judge one move (see :mod:`caregiving.service`)."""
+        return [{"kind": "joint", "walks": [walk_to_wire(w) for w in walks], "move": move.to_wire() if move else None,
+                 "current": self.current.to_wire() if self.current else None, "delay": self.delay,
+                 "uncertainty": uncertainty} for walks in self.walk_sets()]
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """A move judged over every walk set: whether everyone imagined walks clear, the sampled risk, the arrival."""
+
+    move: RobotMove | None
+    clear: bool
+    risk: float
+    arrival: float | None
+    reason: str
+
+    def safe(self, threshold: float) -> bool:
+        """Clear in every walk set, and the sampled risk under ``threshold``."""
+        return self.clear and self.risk < threshold
+
+    def in_time(self, danger: Danger) -> bool:
+        """Whether the robot is imagined at rest at the pose before the danger's predicted collision."""
+        return self.arrival is not None and self.arrival < danger.time_to_collision
+
+
+def judge(move: RobotMove | None, answers: list[JointAnswer]) -> Verdict:
+    """Fold a move's answers (one per walk set) into a verdict; the first walk that is not clear says why."""
+    arrival, risk, worst = None, 0.0, ""
+    for a in answers:
+        if a.joint is None:
+            return Verdict(move, False, 1.0, None, f"not imagined: {a.error}")
+        if not a.joint.robot_reachable:
+            return Verdict(move, False, 1.0, None, "the robot cannot reach the pose")
+        for w in a.joint.walks:
+            if w.status not in ("arrived", "walking"):
+                what = f"into {w.collision_object}" if w.collided else "stuck"
+                return Verdict(move, False, 1.0, None,
+                               f"{w.walk.person} walks {what} at gaze {math.degrees(w.walk.gaze):.0f} deg")
+        if a.risk.probability >= risk:
+            risk, worst = a.risk.probability, a.risk.obstacle or ""
+        arrival = a.joint.robot_arrival if arrival is None else arrival
+    reason = f"everyone imagined walks clear; sampled risk {risk:.2f}" + (f" ({worst})" if risk > 0 else "")
+    return Verdict(move, True, risk, arrival, reason)
+
+
+def candidates(scene: Scene, dangers: tuple[Danger, ...]) -> Iterator[RobotMove]:
+    """The dangers' :func:`ordered_moves`, interleaved (most urgent danger first) and without repeats."""
+    streams = [ordered_moves(scene, d) for d in sorted(dangers, key=lambda d: d.time_to_collision)]
+    seen: set[tuple[float, float, float]] = set()
+    while streams:
+        for stream in list(streams):
+            move = next(stream, None)
+            if move is None:
+                streams.remove(stream)
+                continue
+            key = (round(move.x, 3), round(move.y, 3), round(move.heading, 3))
+            if key not in seen:
+                seen.add(key)
+                yield move
+
+
+def choose(verdicts: list[Verdict], threshold: float, idle_risk: float) -> Verdict | None:
+    """The move to send: the first safe one; else the least risky clear one, if it at least halves the idle risk.
+
+    A move that is clear nominally but still carries some sampled risk is better than standing by when the
+    person is otherwise likely to fall, and is never sent when it would not clearly lower that likelihood.
+    """
+    safe = next((v for v in verdicts if v.safe(threshold)), None)
+    if safe is not None:
+        return safe
+    clear = [v for v in verdicts if v.clear and v.risk < idle_risk / 2]
+    return min(clear, key=lambda v: v.risk) if clear else None
+
+
+def search_move(scene: Scene, spec: SearchSpec, uncertainty: dict[str, Any], threshold: float,
+                max_moves: int, idle_risk: float = 1.0) -> Verdict | None:
+    """Algorithm 2 in one process: the first candidate move the joint imagination finds safe (see :func:`choose`)."""
+    verdicts = []
+    for move in islice(candidates(scene, spec.dangers), max_moves):
+        verdicts.append(judge(move, [JointAnswer.from_wire(serve_one(scene, item))
+                                     for item in spec.items(move, uncertainty)]))
+        if verdicts[-1].safe(threshold):
+            break
+    return choose(verdicts, threshold, idle_risk)

@@ -1,0 +1,128 @@
+"""The physical oracle: could any robot move, commanded when the danger became observable, have saved a trial?
+
+It searches the ground truth, not the robot's beliefs. The world is stepped to
+the moment the danger first became observable (the context time of the first
+risky guess), then each move of a broad set is commanded in a fork of it and run
+to the end, with the people reacting as the world's people do. A trial is
+*saveable* when some move leaves nobody touching anything.
+
+The broad move set is every stand-off pose around every object, plus a lattice
+of free poses (:data:`LATTICE` metres apart, :data:`HEADINGS` headings) in the
+corridor :data:`CORRIDOR` metres either side of each person's idle walk, from
+where they are to just past where they hit something. That corridor holds the
+region between the person and the obstacle and the poses on and beside their
+path. The stand-off-only oracle uses the stand-offs alone, so that the figures
+show what the free poses add.
+
+The search stops at the first move that saves the trial and skips poses where
+the robot does not fit (the world refuses a command there, so it cannot save
+anything); :func:`saving_moves` is the exhaustive version the tests hold it to.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from caregiving.geometry import Polyline
+from caregiving.planner import GridPlanner
+from caregiving.robot_moves import RobotMove, robot_fits, standoff_poses
+from caregiving.scenario import Scenario
+from caregiving.scene import Scene
+from caregiving.visibility import WALL_KIND
+from caregiving.world_model import World
+
+LATTICE = 0.2
+HEADINGS = (0.0, math.pi / 4, math.pi / 2, 3 * math.pi / 4)
+CORRIDOR = 0.6
+#: Metres past the collision point that the corridor reaches.
+BEYOND = 0.5
+
+
+@dataclass(frozen=True)
+class OracleVerdict:
+    """Whether some move saves the trial, the first one found, and whether a stand-off alone does."""
+
+    saveable: bool
+    standoff_saveable: bool
+    move: RobotMove | None
+
+
+def world_at(trial: Scenario, at: float, planner: GridPlanner) -> World:
+    """The ground truth of ``trial`` stepped to time ``at`` (or to its end, if sooner)."""
+    world = World.from_scenario(trial, planner=planner)
+    while world.time < at - 1e-9 and not world.done:
+        world.step()
+    return world
+
+
+def standoff_moves_all(scene: Scene) -> list[RobotMove]:
+    """Every stand-off pose around every object but the walls."""
+    return [m for o in scene.obstacles if o.kind != WALL_KIND for m in standoff_poses(scene, o.name)]
+
+
+def lattice_moves(world: World) -> list[RobotMove]:
+    """Free poses on a lattice in the corridor around each person's idle walk from now, nearest the danger first."""
+    idle = world.fork()
+    idle.run(idle.time + 30.0)
+    scene = world.scene()
+    x0, y0, x1, y1 = scene.bounds
+    xs = np.arange(x0 + LATTICE / 2, x1, LATTICE)
+    ys = np.arange(y0 + LATTICE / 2, y1, LATTICE)
+    grid = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1).reshape(-1, 2)
+    moves: list[RobotMove] = []
+    for c in idle.outcome().collisions:
+        track = idle.walker(c.person).track[len(world.walker(c.person).track) - 1:]
+        if len(track) < 2:
+            continue
+        samples = Polyline.of(track).remaining(0.0, LATTICE / 2)
+        direction = samples[-1] - samples[-2]
+        direction /= max(float(np.hypot(*direction)), 1e-9)
+        beyond = samples[-1] + np.outer(np.arange(1, int(BEYOND / (LATTICE / 2)) + 1) * LATTICE / 2, direction)
+        corridor = np.vstack([samples, beyond])
+        near = np.min(np.hypot(grid[:, None, 0] - corridor[None, :, 0], grid[:, None, 1] - corridor[None, :, 1]),
+                      axis=1)
+        cells = grid[near <= CORRIDOR]
+        order = np.argsort(np.hypot(cells[:, 0] - c.point[0], cells[:, 1] - c.point[1]))
+        moves += [RobotMove(c.obstacle, float(x), float(y), h) for x, y in cells[order] for h in HEADINGS]
+    return moves
+
+
+def broad_moves(world: World) -> Iterator[tuple[RobotMove, bool]]:
+    """The broad move set in search order, each flagged whether it is a stand-off; poses the robot cannot fit skipped."""
+    scene = world.scene()
+    for move in standoff_moves_all(scene):
+        if robot_fits(scene, move):
+            yield move, True
+    for move in lattice_moves(world):
+        if robot_fits(scene, move):
+            yield move, False
+
+
+def saves(world: World, move: RobotMove) -> bool:
+    """Whether commanding ``move`` now leaves everybody untouched to the end."""
+    trial = world.fork()
+    if not trial.command_robot(move):
+        return False
+    return not trial.run(trial.time + 30.0).collided
+
+
+def oracle(trial: Scenario, at: float, planner: GridPlanner) -> OracleVerdict:
+    """Search the broad move set commanded at ``at``; stand-offs first, so the stand-off verdict comes for free."""
+    world = world_at(trial, at, planner)
+    if world.done:
+        return OracleVerdict(not world.outcome().collided, not world.outcome().collided, None)
+    for move, standoff in broad_moves(world):
+        if saves(world, move):
+            return OracleVerdict(True, standoff, move)
+    return OracleVerdict(False, False, None)
+
+
+def saving_moves(trial: Scenario, at: float, planner: GridPlanner) -> list[RobotMove]:
+    """Exhaustive: every move of the broad set, fitting or not, that saves the trial when commanded at ``at``."""
+    world = world_at(trial, at, planner)
+    scene = world.scene()
+    return [m for m in [*standoff_moves_all(scene), *lattice_moves(world)] if saves(world, m)]

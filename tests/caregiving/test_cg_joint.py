@@ -1,0 +1,99 @@
+"""The joint imagination in time against the world model, on fixed cases: same outcome, paths within 5 cm."""
+
+import math
+
+import msgpack
+import numpy as np
+import pytest
+
+from caregiving.errors import RequestError
+from caregiving.joint import JointImagination, imagine_joint
+from caregiving.robot_moves import RobotMove, standoff_moves
+from caregiving.scenario import Scenario, load_scenario
+from caregiving.world_model import Outcome, Walk, World
+
+GAZE = math.radians(8)
+
+
+def truth(s: Scenario, move: RobotMove | None, delay: float) -> tuple[Outcome, World]:
+    world = World.from_scenario(s)
+    while world.time < delay - 1e-9:
+        world.step()
+    world.command_robot(move)
+    return world.run(30.0), world
+
+
+def cross_check(s: Scenario, move: RobotMove, delay: float) -> JointImagination:
+    """Imagine the move from the scenario's start; assert the world agrees, and return the imagination."""
+    joint = imagine_joint(s.scene(), [Walk("person", s.people[0].target, GAZE)], move, delay=delay)
+    out, world = truth(s, move, delay)
+    walk = joint.walks[0]
+    assert walk.collided == out.collided
+    if out.collided:
+        assert walk.collision_object == out.collisions[0].obstacle
+        assert walk.collision_time == pytest.approx(out.collisions[0].time, abs=0.051)
+    imagined, real = np.array(walk.track), np.array(world.walker("person").track)
+    n = min(len(imagined), len(real))
+    assert abs(len(imagined) - len(real)) <= 1
+    assert np.hypot(*(imagined[:n] - real[:n]).T).max() <= 0.05
+    return joint
+
+
+@pytest.fixture(scope="module")
+def paper() -> Scenario:
+    return load_scenario("paper_experiment1")
+
+
+def in_front_of_the_ball(s: Scenario) -> RobotMove:
+    return next(m for m in standoff_moves(s.scene(), "ball") if m.x < -0.4 and abs(m.y) < 1e-6)
+
+
+def test_a_robot_that_arrives_in_time_saves_the_person(paper: Scenario) -> None:
+    joint = cross_check(paper, in_front_of_the_ball(paper), 0.0)
+    assert joint.safe and joint.robot_arrival is not None
+    assert joint.walks[0].saw_robot_at is not None and "robot" in joint.walks[0].seen
+
+
+def test_a_robot_that_arrives_late_does_not(paper: Scenario) -> None:
+    joint = cross_check(paper, in_front_of_the_ball(paper), 3.0)
+    assert not joint.safe and joint.walks[0].collision_object == "ball"
+
+
+def test_a_robot_crossing_the_path_causes_the_collision_it_predicts() -> None:
+    safe = load_scenario("safe_walk")
+    assert not truth(safe, None, 0.0)[0].collided
+    joint = cross_check(safe, RobotMove("couch", -1.6, 1.6, 0.0), 0.0)
+    assert not joint.safe and joint.walks[0].collision_object == "robot"
+
+
+def test_the_robot_keeps_its_current_move_during_the_delay() -> None:
+    scene = load_scenario("safe_walk").scene()
+    aside = RobotMove("couch", 2.0, -2.0, 0.0)
+    walk = [Walk("person", "couch", GAZE)]
+    kept = imagine_joint(scene, walk, aside, delay=1.0, current=aside)
+    stopped = imagine_joint(scene, walk, aside, delay=1.0)
+    assert kept.robot_arrival is not None and stopped.robot_arrival is not None
+    assert kept.robot_arrival < stopped.robot_arrival
+
+
+def test_moving_robot_speed_carries_into_the_imagination(paper: Scenario) -> None:
+    scene = paper.scene()
+    walk = [Walk("person", "couch", GAZE)]
+    robot = scene.robot
+    assert robot is not None
+    rolling = scene.with_robot(type(robot)(**{**vars(robot), "speed": robot.max_speed}))
+    move = in_front_of_the_ball(paper)
+    assert imagine_joint(rolling, walk, move).robot_arrival < imagine_joint(scene, walk, move).robot_arrival
+
+
+def test_wire_round_trip_and_errors(paper: Scenario) -> None:
+    scene = paper.scene()
+    joint = imagine_joint(scene, [Walk("person", "couch", GAZE, ("door",))], in_front_of_the_ball(paper))
+    assert JointImagination.from_wire(msgpack.unpackb(msgpack.packb(joint.to_wire()))) == joint
+    braking = imagine_joint(scene, [Walk("person", "couch", GAZE)], None)
+    assert braking.move is None and braking.walks[0].collided
+    assert JointImagination.from_wire(braking.to_wire()) == braking
+    with pytest.raises(RequestError, match="no robot"):
+        imagine_joint(scene.with_robot(None), [Walk("person", "couch", GAZE)], None)
+    with pytest.raises(RequestError, match="unknown object 'fridge'"):
+        imagine_joint(scene, [Walk("person", "fridge", GAZE)], None)
