@@ -36,7 +36,7 @@ from caregiving.move_search import Danger, SearchSpec, Verdict, candidates, choo
 from caregiving.robot_moves import RobotMove
 from caregiving.rollout import DT
 from caregiving.service import JointAnswer
-from caregiving.visibility import gaze_classes
+from caregiving.visibility import GazeClass, gaze_classes
 from caregiving.world_model import Walk
 from wm import Edge, Node
 
@@ -48,6 +48,14 @@ from .runtime import Agent, main
 
 INTENTION = "intention"
 LIVE = ("proposed", "active")
+
+
+def risky_first(classes: tuple[GazeClass, ...], risky: float) -> tuple[float, ...]:
+    """The classes' gazes, the class holding the ``risky`` gaze first."""
+    gazes = [c.gaze for c in classes]
+    first = min(range(len(classes)), key=lambda k: 0.0 if classes[k].low <= risky <= classes[k].high
+                else abs(classes[k].gaze - risky))
+    return (gazes[first], *gazes[:first], *gazes[first + 1:])
 
 
 class Action(Agent):
@@ -73,6 +81,7 @@ class Action(Agent):
         self.delay = self.args.command_delay
         self.rpc_ms = self.sim_ms = 0.0
         self.pending: set[tuple[int, int]] = set()
+        self.tried: list[Verdict] = []  # the moves the last search judged, for its log line
         self.new_episode = True
         self.failed: dict[int, float] = {}
         self.loop = Coalescer(self.search, self.log, "search")
@@ -114,6 +123,7 @@ class Action(Agent):
         if current is not None and (await self._judge(spec, [self._move_of(current)]))[0].safe(self.args.risk_threshold):
             return  # the move under way still keeps everyone safe
         idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
+        self.tried = []
         chosen, unsaved = await self._find(ctx, spec, idle_risk), ""
         if chosen is None and len(spec.dangers) > 1:
             for d in sorted(spec.dangers, key=lambda d: d.time_to_collision):
@@ -125,7 +135,8 @@ class Action(Agent):
         if chosen is None:
             for person in dangers:
                 self.failed[ctx.ids[person]] = ctx.scene.time
-            self.log.warning("no move removes the danger", people=sorted(dangers), search_ms=self._ms(started))
+            self.log.warning("no move removes the danger", people=sorted(dangers), search_ms=self._ms(started),
+                             tried=len(self.tried), why=sorted({v.reason for v in self.tried})[:4])
             return
         self._write(ctx, spec, chosen, dangers, current, unsaved, started)
 
@@ -160,7 +171,8 @@ class Action(Agent):
         scene, names = ctx.scene, {v: k for k, v in ctx.ids.items()}
         known = {p: tuple(sorted(names[e.dst] for e in self.g.edges(type=KNOWS, src=ctx.ids[p]) if e.dst in names))
                  for p in dangers}
-        gazes = {p: tuple(c.gaze for c in gaze_classes(scene.person(p), scene.bodies_around(p))) for p in dangers}
+        gazes = {p: risky_first(gaze_classes(scene.person(p), scene.bodies_around(p)), edge.get("gaze", 0.0))
+                 for p, (edge, _) in dangers.items()}
         bystanders = []
         for p in scene.people:
             walks = self.g.edges(type=HAS_INTENTION, src=ctx.ids[p.name])
@@ -181,16 +193,29 @@ class Action(Agent):
 
     # -- asking the simulator ------------------------------------------------------------------
     async def _judge(self, spec: SearchSpec, moves: list[RobotMove]) -> list[Verdict]:
-        """Imagine each move with every walk set of ``spec`` in one request, and judge it."""
+        """Imagine and judge each move: first with the likeliest walk set, then the rest for the moves still clear.
+
+        Most candidates fail at once with the walk set that was found risky, so that set goes alone first.
+        """
         uncertainty = {"size_error": self.size_error, "sigma": self._sigma(), "samples": self.args.samples, "seed": 0}
-        per_move = [spec.items(m, uncertainty) for m in moves]
+        items = [spec.items(m, uncertainty) for m in moves]
+        first = await self._imagine([x[:1] for x in items])
+        verdicts = [judge(m, a) for m, a in zip(moves, first, strict=True)]
+        rest = [k for k, v in enumerate(verdicts) if v.clear and len(items[k]) > 1]
+        if rest:
+            more = await self._imagine([items[k][1:] for k in rest])
+            for k, answers in zip(rest, more, strict=True):
+                verdicts[k] = judge(moves[k], first[k] + answers)
+        return verdicts
+
+    async def _imagine(self, groups: list[list[dict[str, Any]]]) -> list[list[JointAnswer]]:
+        """One request to the simulator for every group of items; the answers, grouped the same way."""
         sent = time.perf_counter()
-        reply = await bus.ask(self.session, keys.imagine(self.args.graph), {"items": [i for x in per_move for i in x]})
+        reply = await bus.ask(self.session, keys.imagine(self.args.graph), {"items": [i for g in groups for i in g]})
         self.rpc_ms += (time.perf_counter() - sent) * 1e3
         self.sim_ms += reply["compute_ms"]
         answers = iter(reply["results"])
-        return [judge(m, [JointAnswer.from_wire(a) for a in islice(answers, len(items))])
-                for m, items in zip(moves, per_move, strict=True)]
+        return [[JointAnswer.from_wire(a) for a in islice(answers, len(g))] for g in groups]
 
     def _sigma(self) -> dict[str, float]:
         return {n.name: n.get("position_sigma", 0.0) for t in ("person", "object") for n in self.g.nodes(t)}
@@ -202,6 +227,7 @@ class Action(Agent):
         batch = 1
         while chunk := list(islice(moves, batch)):
             verdicts += await self._judge(spec, chunk)
+            self.tried += verdicts[-len(chunk):]
             if any(v.safe(self.args.risk_threshold) for v in verdicts):
                 break
             batch = self.args.batch

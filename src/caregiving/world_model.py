@@ -113,6 +113,7 @@ class World:
         self._speed = scene.robot.speed
         self._drive: _Drive | None = None
         self._collisions: list[Collision] = []
+        self._fixed: tuple[Obstacle, ...] = ()
         self.robot_arrival: float | None = None
         self.robot_seen: dict[str, float] = {}
 
@@ -199,7 +200,9 @@ class World:
 
     # -- people --------------------------------------------------------------------------------
     def _others(self, me: str) -> tuple[Obstacle, ...]:
-        return self.scene().bodies_around(me)
+        """Everything ``me`` can bump into, as :meth:`Scene.bodies_around` orders it."""
+        people = tuple(w.state.body() for w in self._walkers if w.state.name != me)
+        return self._fixed + people + tuple(p.body() for p in self._standing)
 
     def _look(self, w: _Walker, around: tuple[Obstacle, ...]) -> bool:
         """Update what ``w`` knows; True when that calls for a new plan.
@@ -273,6 +276,7 @@ class World:
     def step(self) -> None:
         """Advance the world by one ``dt``."""
         self._step_robot()
+        self._fixed = self._static + (self.robot.body(),)
         for w in self._walkers:
             if w.status == "walking":
                 self._step_person(w)

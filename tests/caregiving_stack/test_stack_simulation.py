@@ -9,10 +9,12 @@ import pytest
 from procs import PYTHON, Proc, endpoint, free_port
 
 from bridges import bus, keys
-from caregiving.imagine import imagine_joint, imagine_person
+from caregiving.imagine import imagine_person
+from caregiving.joint import JointImagination, imagine_joint
 from caregiving.robot_moves import standoff_moves
 from caregiving.rollout import BulletRollout
 from caregiving.scenario import load_scenario
+from caregiving.world_model import Walk
 from wm.connection import close_session, open_session
 
 GRAPH = "simtest"
@@ -51,7 +53,8 @@ def test_replies_match_pybullet_on_fixed_cases(sim_endpoint) -> None:
     scene = load_scenario("paper_experiment1").scene()
     moves = standoff_moves(scene, "ball")[:3]
     items = [{"kind": "person", "person": "person", "target": t, "gaze": g} for t in ("couch", "door") for g in GAZES]
-    items += [{"kind": "joint", "person": "person", "target": "couch", "gaze": GAZES[0], "move": m.to_wire()} for m in moves]
+    walk = {"person": "person", "target": "couch", "gaze": GAZES[0]}
+    items += [{"kind": "joint", "walks": [walk], "move": m.to_wire()} for m in moves]
     reply = ask(ep, {"items": items, "scene": scene.to_wire()})
     results = reply["results"]
     assert all(r["ok"] for r in results), results
@@ -63,10 +66,8 @@ def test_replies_match_pybullet_on_fixed_cases(sim_endpoint) -> None:
         assert got["collision_time"] == pytest.approx(truth.collision_time) if truth.collided else got["collision_time"] is None
     assert results[0]["result"]["collided"] and results[0]["result"]["collision_object"] == "ball"
     for m, r in zip(moves, results[4:], strict=True):
-        truth = imagine_joint(scene, "person", "couch", GAZES[0], m, rollout=bullet)
-        got = r["result"]
-        assert got["person"]["collided"] == truth.person.collided
-        assert got["robot_arrival"] == pytest.approx(truth.robot_arrival)
+        truth = imagine_joint(scene, [Walk("person", "couch", GAZES[0])], m)
+        assert JointImagination.from_wire(r["result"]) == truth
 
 
 def test_uncertainty_gives_a_collision_probability(sim_endpoint) -> None:
@@ -87,12 +88,21 @@ def test_malformed_requests_get_errors_and_the_service_carries_on(sim_endpoint) 
         ask(ep, [1, 2, 3])
     with pytest.raises(bus.RemoteError, match="no context"):
         ask(ep, {"items": [{"kind": "person"}]})
+    walk = {"person": "person", "target": "couch", "gaze": 0.1}
     reply = ask(ep, {"items": [{"kind": "fly", "person": "person"},
                                {"kind": "person", "person": "nobody", "target": "couch", "gaze": 0.1},
-                               {"kind": "person", "person": "person", "target": "couch", "gaze": 0.1}],
+                               {"kind": "joint", "walks": "everyone", "move": None},
+                               {"kind": "joint", "walks": [walk], "move": {"target": "ball", "x": 1.0}},
+                               {"kind": "joint", "walks": [walk], "move": None, "delay": 1e9},
+                               {"kind": "person", "person": "person", "target": "couch", "gaze": 0.1},
+                               {"kind": "joint", "walks": [walk], "move": None}],
                      "scene": scene})
-    bad_kind, unknown, good = reply["results"]
+    bad_kind, unknown, bad_walks, bad_move, bad_delay, good, braking = reply["results"]
     assert not bad_kind["ok"] and "kind" in bad_kind["error"]
     assert not unknown["ok"] and "unknown person 'nobody'" in unknown["error"]
+    assert not bad_walks["ok"] and "request.walks: expected a list" in bad_walks["error"]
+    assert not bad_move["ok"] and "request.move.y: is required" in bad_move["error"]
+    assert not bad_delay["ok"] and "request.delay: expected at most" in bad_delay["error"]
     assert good["ok"] and good["result"]["reachable"]
+    assert braking["ok"] and braking["result"]["walks"][0]["status"] == "collided"
     assert proc.popen.poll() is None
