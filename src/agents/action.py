@@ -259,6 +259,7 @@ class Action(Agent):
         self._measure_delay(ctx)
         self.log.info("move chosen", target=move.target, x=round(move.x, 2), y=round(move.y, 2),
                       in_time=chosen.in_time(danger), risk=round(chosen.risk, 2), people=len(dangers),
+                      tried=len(self.tried), refused=sorted({v.reason for v in self.tried if not v.clear})[:4],
                       replaces=current.name if current is not None else None, search_ms=self._ms(started),
                       rpc_ms=round(self.rpc_ms, 1), sim_ms=round(self.sim_ms, 1),
                       since_risk_ms=round((time.time() - edge.get("updated_at", time.time())) * 1e3, 1))

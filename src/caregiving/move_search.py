@@ -10,14 +10,17 @@ would hit, where and when. The robot's moves are ``move_to`` a pose:
   side, and farther back along the path, where the person will see the robot sooner.
 
 :func:`ordered_moves` yields them lazily in the order the search tries them:
-the stand-off straight in front of the obstacle along the person's way; path
-poses from the obstacle back towards the person, on the path before beside it;
-the other stand-offs around the obstacle; then around the other objects by
-distance to the collision point. Two cheap tests prune before any imagination:
-the robot must fit at the pose, and a straight drive (the travel-time lower
-bound, from the robot's current speed) must reach it before the person does
-(path poses) or before the collision (stand-offs). The joint imagination in
-time (:mod:`caregiving.joint`) judges the rest.
+the stand-offs around the obstacle, straight behind it and straight in front
+of it along the person's way first (a robot there is in view, and the detour
+around it also clears the obstacle; over 50 dangers of four scenarios the first
+of them removed the danger in 18 of the 28 the search could remove); then the
+path poses, those where the robot has the most seconds in hand first; then the
+stand-offs around the other objects by distance to the collision point. Two
+cheap tests prune before any imagination: the robot must fit at the pose, and a
+straight drive (the travel-time lower bound, from the robot's current speed)
+must come within :data:`REACH` of it before the person passes it (path poses)
+or before the collision (stand-offs). The joint imagination in time
+(:mod:`caregiving.joint`) judges the rest.
 """
 
 from __future__ import annotations
@@ -118,20 +121,21 @@ def standoffs(scene: Scene, danger: Danger, obstacle: str) -> list[RobotMove]:
 
 def ordered_moves(scene: Scene, danger: Danger) -> Iterator[RobotMove]:
     """Every candidate move for ``danger``, likeliest first (see the module documentation), generated lazily."""
-    robot = scene.robot
-    assert robot is not None
-    near = [(m, danger.time_to_collision) for m in standoffs(scene, danger, danger.obstacle)]
-    near += list(path_poses(scene, danger))
-    # Seconds the robot has in hand at each pose: the more, the likelier the person sees it in time.
-    slack = [(until - drive_time(scene, m.x, m.y), k, m) for k, (m, until) in enumerate(near)
-             if drive_time(scene, m.x, m.y, REACH) < until]
+    deadline = danger.time_to_collision
+
+    def reachable(m: RobotMove, until: float) -> bool:
+        return drive_time(scene, m.x, m.y, REACH) < until
+
+    yield from (m for m in standoffs(scene, danger, danger.obstacle) if reachable(m, deadline) and robot_fits(scene, m))
+    # Seconds the robot has in hand at each path pose: the more, the likelier the person sees it in time.
+    slack = [(until - drive_time(scene, m.x, m.y), k, m) for k, (m, until) in enumerate(path_poses(scene, danger))
+             if reachable(m, until)]
     yield from (m for _, _, m in sorted(slack, key=lambda t: (-t[0], t[1])) if robot_fits(scene, m))
     point = danger.point
     others = sorted((o for o in scene.obstacles if o.kind != WALL_KIND and o.name != danger.obstacle),
                     key=lambda o: math.hypot(o.shape.x - point[0], o.shape.y - point[1]))
     for o in others:
-        yield from (m for m in standoffs(scene, danger, o.name)
-                    if drive_time(scene, m.x, m.y, REACH) < danger.time_to_collision and robot_fits(scene, m))
+        yield from (m for m in standoffs(scene, danger, o.name) if reachable(m, deadline) and robot_fits(scene, m))
 
 
 @dataclass(frozen=True)

@@ -19,6 +19,8 @@ def add_command(commands: Any) -> None:
     p.add_argument("--json", type=Path, help="write the results here")
     p.add_argument("--figures", type=Path, help="write the Fig. 3 style trial figure and the reaction histogram here")
     p.add_argument("--logs", type=Path, help="directory for the processes' logs (default: a temporary one)")
+    p.add_argument("--compare", type=Path,
+                   help="an earlier run's JSON: the trial figure then shows a trial saved now that collided there")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -34,7 +36,7 @@ def main(args: argparse.Namespace) -> int:
         return 1
     try:
         experiment(args.scenario, args.trials, args.seed, rate=args.rate, json_out=args.json, figures=args.figures,
-                   logdir=args.logs)
+                   logdir=args.logs, compare=args.compare)
     except (ScenarioError, LaunchError, TrialError) as exc:
         print(f"wm experiment: error: {exc}", file=sys.stderr)
         return 1

@@ -14,7 +14,7 @@ from rich.console import Console
 
 from caregiving.scenario import load_scenario
 
-from .experiment import Scored, metrics, run_trials, table
+from .experiment import Scored, metrics, prevention_line, run_trials, table, with_oracle
 from .figures import draw_trial
 from .launch import Stack
 
@@ -78,7 +78,9 @@ def main() -> None:
             path = draw_trial(one.record, args.out / "risky_trial.png", "Risky trial: W at the robot's decision")
             console.print(f"figure: {path}")
         scored = asyncio.run(run_trials(scenario, stack, 2024, list(range(args.trials)), console, stack.graph))
-    console.print(table(metrics(scored)))
+    result = metrics(with_oracle(scenario, 2024, scored, console))
+    console.print(table(result))
+    console.print(prevention_line(result))
 
 
 if __name__ == "__main__":

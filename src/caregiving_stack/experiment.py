@@ -125,6 +125,7 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
                                           for s in detected), len(detected)),
         "prevention_rate": _ratio(sum(not s.record.collided for s in risky), len(risky)),
         "prevented": sum(not s.record.collided for s in risky),
+        "prevented_saveable": sum(not s.record.collided for s in risky if s.saveable),
         "oracle_saveable": sum(bool(s.saveable) for s in risky) if any(s.saveable is not None for s in risky)
         else None,
         "oracle_standoff_saveable": sum(bool(s.standoff_saveable) for s in risky),
@@ -160,6 +161,13 @@ ROWS = [("Total experiments", "trials"), ("Experiments discarded", "discarded"),
         ("Prevented (of those some move could save)", "prevention_rate_of_saveable"),
         ("Collisions the robot caused", "robot_caused_collisions"),
         ("End to end p50", "e2e_ms_p50"), ("End to end p99", "e2e_ms_p99")]
+
+
+def prevention_line(result: dict[str, Any]) -> str:
+    """One line: the truly risky trials prevented, out of those some move could save and out of all."""
+    return (f"prevented {result['prevented_saveable']} of the {result['oracle_saveable'] or 0} truly risky trials "
+            f"some move could save, {result['prevented']} of {result['truly_risky']} truly risky in all; "
+            f"the robot caused {result['robot_caused_collisions']} collision(s)")
 
 
 def table(result: dict[str, Any]) -> Table:
@@ -229,7 +237,7 @@ def trial_json(s: Scored) -> dict[str, Any]:
 
 def experiment(scenario_path: str, trials: int, seed: int, *, rate: float = 4.0, json_out: Path | None = None,
                figures: Path | None = None, console: Console | None = None, logdir: Path | None = None,
-               nominal: bool = False) -> dict[str, Any]:
+               nominal: bool = False, compare: Path | None = None) -> dict[str, Any]:
     """Start the stack, run the trials, print Table I, write the JSON and figures; returns the results."""
     from . import figures as figs
 
@@ -247,8 +255,10 @@ def experiment(scenario_path: str, trials: int, seed: int, *, rate: float = 4.0,
     result.update(scenario=scenario.name, seed=seed, rate=rate, sensor_noise=scenario.sensors.enabled,
                   wall_s=time.monotonic() - started, paper=PAPER)
     console.print(table(result))
+    console.print(prevention_line(result))
     if figures is not None:
-        result["figures"] = [str(p) for p in figs.write_all(scored, figures)]
+        lost = {t["index"] for t in json.loads(compare.read_text())["per_trial"] if t["collided"]} if compare else set()
+        result["figures"] = [str(p) for p in figs.write_all(scored, figures, lost)]
     if json_out is not None:
         json_out.parent.mkdir(parents=True, exist_ok=True)
         json_out.write_text(json.dumps({**result, "per_trial": [trial_json(s) for s in scored]}, indent=2))

@@ -112,12 +112,12 @@ def draw_reactions(records: list[TrialRecord], path: Path) -> Path:
     return path
 
 
-def write_all(scored: list[Scored], directory: Path) -> list[Path]:
-    """The Fig. 3 of the first truly risky trial the robot saved (else where it acted), and the histogram."""
+def write_all(scored: list[Scored], directory: Path, lost_before: set[int] | None = None) -> list[Path]:
+    """The Fig. 3 of the first truly risky trial the robot saved (one in ``lost_before`` if any), and the histogram."""
     out = []
     drawable = [s for s in scored if s.record.snapshot is not None]
-    chosen = next((s for s in drawable if s.truly_risky and s.record.action is not None and not s.record.collided),
-                  None)
+    saved = [s for s in drawable if s.truly_risky and s.record.action is not None and not s.record.collided]
+    chosen = next((s for s in saved if s.record.index in (lost_before or set())), next(iter(saved), None))
     chosen = chosen or next((s for s in drawable if s.record.action is not None), None)
     chosen = chosen or next(iter(drawable), None)
     if chosen is not None:

@@ -33,9 +33,8 @@ def test_person_who_sees_the_obstacle_is_not_flagged(stack) -> None:  # noqa: F8
     assert r.outcome["collisions"] == []
 
 
-def test_robot_too_far_for_any_timely_move_is_still_sent_late(stack) -> None:  # noqa: F811
+def test_robot_too_far_to_help_sends_nothing_and_makes_nothing_worse(stack) -> None:  # noqa: F811
     r = run_trial(stack, "robot_too_far")
     assert r.risky is not None and r.risky["risky"] is True
-    assert r.action is not None and r.action["in_time"] is False
-    assert "arrives after the predicted collision" in r.action["reason"]
-    assert [c for c in r.outcome["commands"] if c["accepted"]], "the executor drove the robot all the same"
+    assert r.action is None and r.outcome["commands"] == []
+    assert [c["obstacle"] for c in r.outcome["collisions"]] == ["ball"]

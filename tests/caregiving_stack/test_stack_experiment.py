@@ -9,7 +9,9 @@ from pathlib import Path
 from procs import REPO, WM
 
 KEYS = {"trials", "discarded", "accuracy", "precision", "recall", "f1", "f2", "fp_rate", "fn_rate",
-        "reaction_ms_mean", "reaction_ms_sd", "e2e_ms_p50", "e2e_ms_p99", "action_rate", "prevention_rate"}
+        "reaction_ms_mean", "reaction_ms_sd", "e2e_ms_p50", "e2e_ms_p99", "action_rate", "prevention_rate",
+        "action_in_time_rate", "oracle_saveable", "oracle_standoff_saveable", "prevention_rate_of_saveable",
+        "robot_caused_collisions"}
 
 
 def test_short_experiment_writes_table_json_and_figures(tmp_path: Path) -> None:
