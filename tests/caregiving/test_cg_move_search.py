@@ -1,0 +1,109 @@
+"""Algorithm 2's move search: candidate order and pruning, walk sets, verdicts, and the move it picks."""
+
+import math
+
+import pytest
+
+from caregiving.imagine import imagine_person
+from caregiving.move_search import (Danger, SearchSpec, Verdict, candidates, choose, judge, ordered_moves,
+                                    search_move)
+from caregiving.robot_moves import RobotMove, robot_fits
+from caregiving.scenario import load_scenario
+from caregiving.scene import Scene
+from caregiving.service import JointAnswer, serve_one
+from caregiving.world_model import Walk, World
+
+GAZE = math.radians(8)
+UNCERTAINTY = {"size_error": 0.2, "sigma": {"person": 0.03}, "samples": 64, "seed": 0}
+
+
+@pytest.fixture(scope="module")
+def scene() -> Scene:
+    return load_scenario("paper_experiment1").scene()
+
+
+def danger_of(scene: Scene, person: str = "person", target: str = "couch") -> Danger:
+    im = imagine_person(scene, person, target, GAZE)
+    assert im.collided and im.collision_point is not None and im.collision_object is not None
+    assert im.collision_time is not None
+    return Danger(person, target, im.path, im.collision_point, im.collision_object, im.collision_time)
+
+
+def test_candidates_start_behind_the_obstacle_fit_and_include_poses_on_the_path(scene: Scene) -> None:
+    danger = danger_of(scene)
+    moves = list(ordered_moves(scene, danger))
+    assert moves[0].target == "ball" and moves[0].x > 0.3 and abs(moves[0].y) < 1e-6  # behind it, along the way
+    assert all(robot_fits(scene, m) for m in moves)
+    on_path = [m for m in moves if abs(abs(m.heading) - math.pi / 2) < 0.2 and m.x < -0.3 and abs(m.y) < 0.35]
+    assert on_path, "poses on and beside the person's path, broadside"
+    assert len({(m.x, m.y, m.heading) for m in moves}) == len(moves)
+
+
+def test_a_danger_due_sooner_than_any_drive_has_no_candidates(scene: Scene) -> None:
+    danger = danger_of(scene)
+    hurried = Danger(danger.person, danger.target, danger.path, danger.point, danger.obstacle, 0.3)
+    assert list(ordered_moves(scene, hurried)) == []
+
+
+def test_candidates_of_several_dangers_interleave_without_repeats(scene: Scene) -> None:
+    d = danger_of(scene)
+    twin = Danger(d.person, d.target, d.path, d.point, d.obstacle, d.time_to_collision + 1.0)
+    merged = list(candidates(scene, (twin, d)))
+    first, second = list(ordered_moves(scene, d)), list(ordered_moves(scene, twin))
+    assert merged[0] == first[0] and len(second) > len(first)  # the more urgent danger leads
+    def key(m: RobotMove) -> tuple[float, float, float]:
+        return round(m.x, 3), round(m.y, 3), round(m.heading, 3)
+
+    assert len(merged) == len({key(m) for m in merged}) == len({key(m) for m in first + second})
+
+
+def test_walk_sets_cover_every_gaze_class_of_every_endangered_person() -> None:
+    a = Danger("a", "couch", ((0, 0), (1, 0)), (0.5, 0.0), "ball", 2.0)
+    b = Danger("b", "door", ((0, 1), (1, 1)), (0.5, 1.0), "shoe", 3.0)
+    spec = SearchSpec((a, b), {"a": (0.1, 0.2), "b": (0.1, 0.2, 0.3)}, {"a": ("plant",)},
+                      (Walk("c", "door", 0.1),))
+    sets = spec.walk_sets()
+    assert len(sets) == 1 + 1 + 2
+    assert all([w.person for w in s] == ["a", "b", "c"] for s in sets)
+    assert {(s[0].gaze, s[1].gaze) for s in sets} == {(0.1, 0.1), (0.2, 0.1), (0.1, 0.2), (0.1, 0.3)}
+    assert sets[0][0].known == ("plant",)
+    items = spec.items(None, UNCERTAINTY)
+    assert len(items) == 4 and items[0]["move"] is None and items[0]["kind"] == "joint"
+
+
+def test_verdicts_say_why_a_move_is_refused(scene: Scene) -> None:
+    spec = SearchSpec((danger_of(scene),), {"person": (GAZE,)}, {})
+
+    def verdict(move: RobotMove | None) -> Verdict:
+        return judge(move, [JointAnswer.from_wire(serve_one(scene, i)) for i in spec.items(move, UNCERTAINTY)])
+
+    assert verdict(None).reason == "person walks into ball at gaze 8 deg" and not verdict(None).clear
+    inside_the_couch = verdict(RobotMove("couch", 3.5, 0.0, 0.0))
+    assert inside_the_couch.reason == "the robot cannot reach the pose"
+    front = verdict(RobotMove("ball", -0.46, 0.0, 0.0))
+    assert front.clear and front.arrival is not None and front.in_time(spec.dangers[0])
+
+
+def test_choose_takes_the_first_safe_move_else_a_clearly_better_one_else_none() -> None:
+    def v(clear: bool, risk: float) -> Verdict:
+        return Verdict(RobotMove("ball", risk, 0.0, 0.0), clear, risk, 1.0, "")
+
+    assert choose([v(False, 1.0), v(True, 0.1), v(True, 0.0)], 0.2, 1.0) == v(True, 0.1)
+    assert choose([v(True, 0.4), v(True, 0.3)], 0.2, 1.0) == v(True, 0.3)
+    assert choose([v(True, 0.4)], 0.2, 0.6) is None  # does not halve the risk of standing by
+    assert choose([v(False, 0.0)], 0.2, 1.0) is None
+
+
+def test_the_move_found_saves_the_person_in_the_world() -> None:
+    s = load_scenario("paper_experiment1")
+    world = World.from_scenario(s)
+    for _ in range(10):
+        world.step()
+    scene = world.scene()
+    spec = SearchSpec((danger_of(scene),), {"person": (GAZE,)}, {}, delay=0.2)
+    chosen = search_move(scene, spec, UNCERTAINTY, 0.2, 24)
+    assert chosen is not None and chosen.safe(0.2)
+    for _ in range(4):
+        world.step()
+    assert world.command_robot(chosen.move)
+    assert not world.run(40.0).collided
