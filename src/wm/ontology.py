@@ -334,7 +334,7 @@ def _merge(base: Ontology, top: Ontology) -> Ontology:
     """``top`` over an included ``base``: types are united, ``top``'s declarations win.
 
     An attribute that ``top`` declares with another value type than ``base``
-    keeps ``base``'s declaration on the types that only ``base`` declares.
+    keeps ``base``'s declaration wherever only ``base`` lists it on a type.
     """
     attributes = dict(base.attributes)
     clashes: dict[str, AttributeSpec] = {}
@@ -350,14 +350,16 @@ def _merge(base: Ontology, top: Ontology) -> Ontology:
 
     def united(mine: Mapping[str, ElementType], theirs: Mapping[str, ElementType]) -> dict[str, ElementType]:
         types: dict[str, ElementType] = {}
-        for name, element in theirs.items():
-            overrides = {a: clashes[a] for a in element.attributes if a in clashes}
-            types[name] = replace(element, overrides=MappingProxyType({**element.overrides, **overrides}))
-        for name, element in mine.items():
-            lower = theirs.get(name)
-            if lower is not None:
-                element = replace(element, attributes=element.attributes | lower.attributes, doc=element.doc or lower.doc)
-            types[name] = element
+        for name, lower in theirs.items():
+            upper = mine.get(name)
+            own = upper.attributes if upper is not None else frozenset()
+            overrides = {**lower.overrides, **{a: clashes[a] for a in lower.attributes - own if a in clashes},
+                         **(upper.overrides if upper is not None else {})}
+            types[name] = replace(lower, overrides=MappingProxyType(overrides))
+            if upper is not None:
+                types[name] = replace(types[name], attributes=own | lower.attributes, doc=upper.doc or lower.doc)
+        for name, upper in mine.items():
+            types.setdefault(name, upper)
         return types
 
     return Ontology(attributes, united(top.node_types, base.node_types), united(top.edge_types, base.edge_types), top.source)

@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from . import dsr_json
-from .errors import NameExistsError, NodeExistsError, SceneFormatError
+from .errors import NameExistsError, NodeExistsError, SceneFormatError, ValidationError
 
 if TYPE_CHECKING:
     from .graph import Graph
@@ -147,7 +147,10 @@ def _check(graph: Graph, scene: _Scene, keep_ids: bool) -> None:
         if node_id in ids:
             raise NodeExistsError(f"scene node id {node_id} is used twice")
         if keep_ids:
-            graph.check_new_id(node_id)
+            try:
+                graph.check_new_id(node_id)
+            except (ValidationError, NodeExistsError) as exc:
+                raise type(exc)(f"{exc}; load the scene with fresh ids instead (wm load --new-ids, keep_ids=False)") from None
         names.add(name)
         ids.add(node_id)
     rt_parents: dict[int, int] = {}
