@@ -63,13 +63,9 @@ async def run(args: argparse.Namespace, ontology: Ontology | None) -> int:
     if args.command == "dump":
         from .recording import graph_at
 
-        g = graph_at(args.source, args.at, ontology)
-        if args.format == "json":
-            print(g.to_json())
-        else:
-            from ..cli import _print_text
+        from ..cli import print_graph
 
-            _print_text(g)
+        print_graph(graph_at(args.source, args.at, ontology), args.format)
     elif args.command == "monitor":
         from .monitor import monitor
 
