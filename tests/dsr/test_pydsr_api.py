@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import json
 import threading
-import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-from procs import endpoint, free_port
+from procs import endpoint, free_port, wait_until
 
 import wm
 from wm.dsr import Attribute, DSRGraph, Edge, Node, inner_api, rt_api, signals
@@ -21,13 +20,10 @@ WAIT = 20.0
 
 
 def eventually(check: Callable[[], Any], what: str) -> Any:
-    """Poll ``check`` until it returns something truthy; fail naming ``what`` after a bounded wait."""
-    deadline = time.monotonic() + WAIT
-    while time.monotonic() < deadline:
-        if result := check():
-            return result
-        time.sleep(0.02)
-    raise AssertionError(f"never happened: {what}")
+    """Poll ``check`` until it returns something truthy, and return that; fail naming ``what`` after a bounded wait."""
+    results: list[Any] = []
+    wait_until(lambda: bool(results.append(check()) or results[-1]), WAIT, what, step=0.02)
+    return results[-1]
 
 
 @pytest.fixture(scope="module")
