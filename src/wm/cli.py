@@ -1,5 +1,5 @@
 """The ``wm`` command line: serve, load, dump, watch, members, set, rm, the
-monitoring commands of :mod:`wm.monitoring.cli` (monitor, view, record, replay, reactions)
+monitoring commands of :mod:`wm.monitoring.cli` (monitor, view, foxglove, record, replay, reactions)
 ``launch`` (:mod:`wm.launch.cli`) and ``experiment`` (:mod:`caregiving_stack.cli`).
 
 Every command takes ``--graph``, ``--connect ENDPOINT`` (repeatable) and

@@ -1,4 +1,4 @@
-"""The monitoring commands of ``wm``: monitor, view, record, replay, reactions and ``dump --from``.
+"""The monitoring commands of ``wm``: monitor, view, foxglove, record, replay, reactions and ``dump --from``.
 
 :mod:`wm.cli` adds them with :func:`add_commands` and hands them to :func:`run`.
 """
@@ -12,8 +12,8 @@ from pathlib import Path
 
 from ..ontology import Ontology
 
-COMMANDS = ("monitor", "view", "record", "replay", "reactions")
-RUN_UNTIL_STOPPED = ("monitor", "view", "record")
+COMMANDS = ("monitor", "view", "foxglove", "record", "replay", "reactions")
+RUN_UNTIL_STOPPED = ("monitor", "view", "foxglove", "record")
 
 
 def add_event_filters(parser: argparse.ArgumentParser, verb: str) -> None:
@@ -32,6 +32,11 @@ def add_commands(commands: argparse._SubParsersAction, common: Callable[[argpars
     p = commands.add_parser("view", help="live browser view of a graph (read-only), on http://HOST:PORT/")
     common(p)
     p.add_argument("--port", type=int, default=8765, help="HTTP and websocket port, 0 for any (default: %(default)s)")
+    p.add_argument("--host", default="127.0.0.1", help="address to serve on (default: %(default)s)")
+
+    p = commands.add_parser("foxglove", help="live view of a graph for the Foxglove app (read-only), on ws://HOST:PORT")
+    common(p)
+    p.add_argument("--port", type=int, default=8765, help="Foxglove WebSocket port, 0 for any (default: %(default)s)")
     p.add_argument("--host", default="127.0.0.1", help="address to serve on (default: %(default)s)")
 
     p = commands.add_parser("record", help="record a graph's changes into an MCAP file (read-only)")
@@ -74,6 +79,10 @@ async def run(args: argparse.Namespace, ontology: Ontology | None) -> int:
         from .view import view
 
         await view(args.graph, host=args.host, port=args.port, config=args.config, connect_to=endpoints, ontology=ontology)
+    elif args.command == "foxglove":
+        from .foxglove_live import serve_foxglove
+
+        await serve_foxglove(args.graph, host=args.host, port=args.port, config=args.config, connect_to=endpoints, ontology=ontology)
     elif args.command == "record":
         from .record import record
 
