@@ -180,27 +180,30 @@ def test_signals_fire_for_local_and_remote_changes_on_their_own_thread(agents: t
     with pytest.raises(TypeError):
         signals.connect(first, "UPDATE_NODE", recorder("x"))  # type: ignore[arg-type]
 
-    remote = Node(2, "person", "erin")
+    def seen(expected: list[tuple[str, tuple[Any, ...]]]) -> None:
+        mine = lambda: [(name, args) for name, args, _ in received if erin in args]  # noqa: E731
+        eventually(lambda: mine() == expected, f"the signals {expected}")
+
+    remote = Node(2, "person", "erin")  # the other agent's changes
     erin = second.insert_node(remote)
     remote.attrs["person_age"] = Attribute(30, 2)
     second.update_node(remote)
-    local = Edge(erin, 200, "looking_at", 1)
+    expected = [("UPDATE_NODE", (erin, "person")), ("UPDATE_NODE_ATTR", (erin, ["person_age"]))]
+    seen(expected)
+    local = Edge(erin, 200, "looking_at", 1)  # this agent's own
     first.insert_or_assign_edge(local)
     local.attrs["distance_to_robot"] = Attribute(2.5, 1)
     first.insert_or_assign_edge(local)
     first.delete_edge(200, erin, "looking_at")
-    second.delete_node(erin)
-    expected = [
-        ("UPDATE_NODE", (erin, "person")),
-        ("UPDATE_NODE_ATTR", (erin, ["person_age"])),
+    expected += [
         ("UPDATE_EDGE", (200, erin, "looking_at")),
         ("UPDATE_EDGE", (200, erin, "looking_at")),
         ("UPDATE_EDGE_ATTR", (200, erin, ["distance_to_robot"])),
         ("DELETE_EDGE", (200, erin, "looking_at")),
-        ("DELETE_NODE", (erin,)),
     ]
-    mine = lambda: [(name, args) for name, args, _ in received if erin in args]  # noqa: E731
-    eventually(lambda: mine() == expected, f"the signals {expected}, got {mine()}")
+    seen(expected)
+    second.delete_node(erin)
+    seen([*expected, ("DELETE_NODE", (erin,))])
     assert {thread for _, _, thread in received} == {"wm.dsr-signals"}
 
 

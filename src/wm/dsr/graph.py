@@ -28,7 +28,7 @@ from typing import Any, TypeVar
 
 from .. import dsr_json
 from ..connection import connect as wm_connect
-from ..errors import EdgeNotFoundError, NodeNotFoundError, RTError
+from ..errors import EdgeNotFoundError, NodeNotFoundError, NotFoundError, RTError
 from ..graph import Graph
 from ..ontology import Ontology
 from .signals import SignalHub
@@ -57,6 +57,15 @@ def _type_name(value: Any) -> str:
     if not isinstance(value, str):
         raise DSRTypeError(f"a type is a str, got {type(value).__name__}")
     return value
+
+
+def _succeeds(write: Callable[[], object]) -> bool:
+    """Whether ``write`` found what it was to change (pydsr answers False where we raise NotFoundError)."""
+    try:
+        write()
+    except NotFoundError:
+        return False
+    return True
 
 
 class DSRGraph:
@@ -243,14 +252,7 @@ class DSRGraph:
     def delete_node(self, ref: int | str) -> bool:
         key = _ref(ref, "delete_node takes a node")
 
-        def delete() -> bool:
-            try:
-                self._g.delete_node(key)
-            except NodeNotFoundError:
-                return False
-            return True
-
-        return self._call(delete)
+        return self._call(lambda: _succeeds(lambda: self._g.delete_node(key)))
 
     # -- edges ------------------------------------------------------------------
 
@@ -288,14 +290,7 @@ class DSRGraph:
     def delete_edge(self, frm: int | str, to: int | str, type: str) -> bool:  # noqa: A002
         src, dst, type_name = _ref(frm, "delete_edge from"), _ref(to, "delete_edge to"), _type_name(type)
 
-        def delete() -> bool:
-            try:
-                self._g.delete_edge(src, dst, type_name)
-            except (NodeNotFoundError, EdgeNotFoundError):
-                return False
-            return True
-
-        return self._call(delete)
+        return self._call(lambda: _succeeds(lambda: self._g.delete_edge(src, dst, type_name)))
 
     def get_edges_by_type(self, type: str) -> list[Edge]:  # noqa: A002
         type_name = _type_name(type)

@@ -174,31 +174,19 @@ def _check_id(value: Any, what: str) -> int:
     return int(value)
 
 
-class Edge:
-    """``Edge(to, from, type, agent_id)``: note that the destination comes first, as in pydsr."""
+class _Element:
+    """What nodes and edges share: a type, attributes, and the values they were read with."""
 
-    def __init__(self, to: int, frm: int, type: str, agent_id: int, *, ontology: Ontology | None = None) -> None:  # noqa: A002
+    def __init__(self, ontology: Ontology | None, kind: str, type_name: str, agent_id: int) -> None:
         ontology = ontology or default_ontology()
-        self._to, self._from = _check_id(to, "Edge to"), _check_id(frm, "Edge from")
-        self._type = type
         self.agent_id = _check_id(agent_id, "agent_id")
-        self._attrs = Attrs(ontology, _element(ontology, "edge", type))
+        self._type = type_name
+        self._attrs = Attrs(ontology, _element(ontology, kind, type_name))
         self._read: dict[str, Any] = {}
 
-    @classmethod
-    def of(cls, edge: WMEdge, agent_id: int, ontology: Ontology) -> Edge:
-        made = cls(edge.dst, edge.src, edge.type, agent_id, ontology=ontology)
-        made._attrs.fill(edge.attrs, agent_id)
-        made._read = made._attrs.stored()
-        return made
-
-    @property
-    def origin(self) -> int:
-        return self._from
-
-    @property
-    def destination(self) -> int:
-        return self._to
+    def _fill(self, attrs: Mapping[str, Any]) -> None:
+        self._attrs.fill(attrs, self.agent_id)
+        self.mark_written()
 
     @property
     def type(self) -> str:
@@ -209,37 +197,56 @@ class Edge:
         return self._attrs
 
     def changes(self) -> tuple[dict[str, Any], list[str]]:
-        """What the caller set or changed, and what it removed, since this edge was read."""
-        return _changes(self._attrs.stored(), self._read)
+        """What the caller set or changed, and what it removed, since this was read (or last written)."""
+        now = self._attrs.stored()
+        changed = {name: value for name, value in now.items() if name not in self._read or self._read[name] != value}
+        return changed, sorted(set(self._read) - set(now))
 
     def mark_written(self) -> None:
         self._read = self._attrs.stored()
+
+
+class Edge(_Element):
+    """``Edge(to, from, type, agent_id)``: note that the destination comes first, as in pydsr."""
+
+    def __init__(self, to: int, frm: int, type: str, agent_id: int, *, ontology: Ontology | None = None) -> None:  # noqa: A002
+        self._to, self._from = _check_id(to, "Edge to"), _check_id(frm, "Edge from")
+        super().__init__(ontology, "edge", type, agent_id)
+
+    @classmethod
+    def of(cls, edge: WMEdge, agent_id: int, ontology: Ontology) -> Edge:
+        made = cls(edge.dst, edge.src, edge.type, agent_id, ontology=ontology)
+        made._fill(edge.attrs)
+        return made
+
+    @property
+    def origin(self) -> int:
+        return self._from
+
+    @property
+    def destination(self) -> int:
+        return self._to
 
     def __repr__(self) -> str:
         return f"Edge(from={self._from}, to={self._to}, type={self._type!r}, attrs={self._attrs!r})"
 
 
-class Node:
+class Node(_Element):
     """``Node(agent_id, type, name="")``; the id is given by ``DSRGraph.insert_node``."""
 
     def __init__(self, agent_id: int, type: str, name: str = "", *, ontology: Ontology | None = None) -> None:  # noqa: A002
-        ontology = ontology or default_ontology()
-        self.agent_id = _check_id(agent_id, "agent_id")
         if not isinstance(name, str):
             raise DSRTypeError(f"a node name is a str, got {name.__class__.__name__}")
-        self._type = type
-        self._attrs = Attrs(ontology, _element(ontology, "node", type))
+        super().__init__(ontology, "node", type, agent_id)
         self._id = 0
         self._name = name
         self._edges: dict[tuple[int, str], Edge] = {}
-        self._read: dict[str, Any] = {}
 
     @classmethod
     def of(cls, node: WMNode, out_edges: list[WMEdge], agent_id: int, ontology: Ontology) -> Node:
         made = cls(agent_id, node.type, node.name, ontology=ontology)
         made._id = node.id
-        made._attrs.fill(node.attrs, agent_id)
-        made._read = made._attrs.stored()
+        made._fill(node.attrs)
         made._edges = {(e.dst, e.type): Edge.of(e, agent_id, ontology) for e in out_edges}
         return made
 
@@ -252,35 +259,15 @@ class Node:
         return self._name
 
     @property
-    def type(self) -> str:
-        return self._type
-
-    @property
-    def attrs(self) -> Attrs:
-        return self._attrs
-
-    @property
     def edges(self) -> dict[tuple[int, str], Edge]:
         return self._edges
 
-    def changes(self) -> tuple[dict[str, Any], list[str]]:
-        """What the caller set or changed, and what it removed, since this node was read."""
-        return _changes(self._attrs.stored(), self._read)
-
     def mark_inserted(self, node_id: int, name: str) -> None:
         self._id, self._name = node_id, name
-        self._read = self._attrs.stored()
-
-    def mark_written(self) -> None:
-        self._read = self._attrs.stored()
+        self.mark_written()
 
     def __repr__(self) -> str:
         return f"Node(id={self._id}, type={self._type!r}, name={self._name!r}, attrs={self._attrs!r})"
-
-
-def _changes(now: dict[str, Any], read: dict[str, Any]) -> tuple[dict[str, Any], list[str]]:
-    changed = {name: value for name, value in now.items() if name not in read or read[name] != value}
-    return changed, sorted(set(read) - set(now))
 
 
 _default: list[Ontology] = []
