@@ -92,8 +92,10 @@ def parse_value(ontology: Ontology, attr: str, text: str) -> Any:
             if lowered not in ("true", "false", "1", "0"):
                 raise ValueError(text)
             return lowered in ("true", "1")
-        if spec.type == "int":
+        if spec.type in ("int", "u64"):
             return int(text)
+        if spec.type == "u64vec":
+            return [int(x) for x in (json.loads(text) if text.strip().startswith("[") else text.split(","))]
         if spec.type == "float":
             return float(text)
         if spec.type == "vec":

@@ -40,3 +40,12 @@ def test_a_real_dsr_scene_loads_dumps_as_dsr_and_a_wrong_type_is_one_line(spawne
     assert symbols["201"]["attribute"]["parent"] == {"type": 7, "value": "500"}
     original = json.loads((DATA / "autonomyLab_objects.simscene.json").read_text())["DSRModel"]["symbols"]
     assert symbols["1"]["links"][0]["linkAttribute"] == original["1"]["links"][0]["linkAttribute"]
+
+
+def test_wm_set_reads_uint64_values_in_full() -> None:
+    from wm import Ontology
+    from wm.cli import parse_value
+
+    dsr = Ontology.named("dsr")
+    assert parse_value(dsr, "parent", str(2**64 - 1)) == 2**64 - 1
+    assert parse_value(dsr, "test_uint64_vec_type", f"[0,{2**64 - 1}]") == [0, 2**64 - 1]
