@@ -37,7 +37,7 @@ def write_pose(where: str, x: float, y: float, yaw: float) -> None:
 async def advertised(ws: Any) -> dict[str, dict[str, Any]]:
     """Read the server's first messages until its channels are advertised; topic -> channel."""
     channels: dict[str, dict[str, Any]] = {}
-    while not {"/wm/tf", "/wm/scene", "/wm/changes"} <= set(channels):
+    while not {"/wm/tf", "/wm/scene", "/wm/changes", "/wm/log"} <= set(channels):
         message = json.loads(await ws.recv())
         if message["op"] == "advertise":
             channels |= {c["topic"]: c for c in message["channels"]}
@@ -56,10 +56,22 @@ async def transform_of(ws: Any, decode: Any, child: str, translation: tuple[floa
                 return t
 
 
+async def log_of(ws: Any, decode: Any) -> Any:
+    """The first foxglove.Log message received (subscription 8)."""
+    while True:
+        data = await ws.recv()
+        if isinstance(data, bytes) and data[0] == MESSAGE_DATA and struct.unpack("<I", data[1:5])[0] == 8:
+            return decode.FromString(data[1 + 4 + 8:])
+
+
 async def test_a_foxglove_client_receives_the_pose_another_process_writes_and_cannot_write(spawner, tmp_path: Path) -> None:
     where = served_scene(spawner, tmp_path / "data")
     port = free_port()
-    server = spawner([*WM, "foxglove", "--port", str(port), "--graph", GRAPH, "--connect", where], name="foxglove")
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    agent_log = logs / "intention.log"
+    agent_log.write_text("2026-01-01T00:00:00.000Z INFO agent=intention written before the view started\n")
+    server = spawner([*WM, "foxglove", "--port", str(port), "--graph", GRAPH, "--connect", where, "--logs", str(logs)], name="foxglove")
     await asyncio.to_thread(server.wait_line, "wm foxglove: serving", 30)
     before = dump_json(where)
 
@@ -70,6 +82,13 @@ async def test_a_foxglove_client_receives_the_pose_another_process_writes_and_ca
         assert channels["/wm/scene"]["schemaName"] == "foxglove.SceneUpdate"
         decode = message_class("foxglove.FrameTransforms", base64.b64decode(tf["schema"]))
         await ws.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": 7, "channelId": tf["id"]}]}))
+        await ws.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": 8, "channelId": channels["/wm/log"]["id"]}]}))
+        with agent_log.open("a") as log:
+            log.write("2026-11-23T14:25:02.276Z WARNING agent=intention risky path person=alice\n")
+        logged = await asyncio.wait_for(log_of(ws, message_class("foxglove.Log", base64.b64decode(channels["/wm/log"]["schema"]))), WAIT)
+        assert (logged.name, logged.message, logged.timestamp.ToNanoseconds()) == (
+            "intention", "agent=intention risky path person=alice", 1795443902276000000)
+        assert logged.level == 3  # WARNING
 
         await asyncio.to_thread(write_pose, where, 1.25, -0.5, 0.0)
         placed = await asyncio.wait_for(transform_of(ws, decode, "alice", (1.25, -0.5, 0.0)), WAIT)

@@ -38,11 +38,13 @@ def add_commands(commands: argparse._SubParsersAction, common: Callable[[argpars
     common(p)
     p.add_argument("--port", type=int, default=8765, help="Foxglove WebSocket port, 0 for any (default: %(default)s)")
     p.add_argument("--host", default="127.0.0.1", help="address to serve on (default: %(default)s)")
+    p.add_argument("--logs", metavar="DIR", help="also send the agents' log lines, from wm launch's log directory")
 
     p = commands.add_parser("record", help="record a graph's changes into an MCAP file (read-only)")
     common(p)
     p.add_argument("file")
     p.add_argument("--duration", type=float, help="stop after this many seconds (default: until stopped)")
+    p.add_argument("--logs", metavar="DIR", help="also record the agents' log lines, from wm launch's log directory")
 
     p = commands.add_parser("replay", help="republish a recording into a live graph")
     common(p)
@@ -82,11 +84,13 @@ async def run(args: argparse.Namespace, ontology: Ontology | None) -> int:
     elif args.command == "foxglove":
         from .foxglove_live import serve_foxglove
 
-        await serve_foxglove(args.graph, host=args.host, port=args.port, config=args.config, connect_to=endpoints, ontology=ontology)
+        await serve_foxglove(args.graph, host=args.host, port=args.port, config=args.config, connect_to=endpoints, ontology=ontology,
+                             log_dir=args.logs)
     elif args.command == "record":
         from .record import record
 
-        count = await record(args.file, args.graph, config=args.config, connect_to=endpoints, ontology=ontology, duration=args.duration)
+        count = await record(args.file, args.graph, config=args.config, connect_to=endpoints, ontology=ontology, duration=args.duration,
+                             log_dir=args.logs)
         print(f"wm record: {count} updates in {args.file}")
     elif args.command == "replay":
         from .replay import replay

@@ -13,16 +13,19 @@ both a live view (``wm foxglove``, a WebSocket server) and a recording
                  boxes. Every update replaces the previous one (it starts with a delete-all).
 ``/wm/changes``  JSON (schema ``wm.GraphChange``): one graph event, with the values of
                  the attributes it changed.
+``/wm/log``      ``foxglove.Log``: the agents' log lines, when given their log directory
+                 (:mod:`wm.monitoring.log_tail`).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import foxglove
-from foxglove.channels import FrameTransformsChannel, SceneUpdateChannel
+from foxglove.channels import FrameTransformsChannel, LogChannel, SceneUpdateChannel
 from foxglove.messages import (
     Color,
     CubePrimitive,
@@ -51,9 +54,10 @@ from ..graph import Graph
 from ..rt import RT
 from ..scene_json import encode_value
 from . import scene2d
+from .log_tail import LogTail, log_message
 from .scene2d import fov_wedge
 
-TF, SCENE, CHANGES = "/wm/tf", "/wm/scene", "/wm/changes"
+TF, SCENE, CHANGES, LOG = "/wm/tf", "/wm/scene", "/wm/changes", "/wm/log"
 CHANGE_SCHEMA: dict[str, Any] = {
     "title": "wm.GraphChange",
     "type": "object",
@@ -167,10 +171,19 @@ def change_of(g: Graph, event: Event) -> dict[str, Any]:
 class GraphChannels:
     """The channels of one graph on one Foxglove context (a live server's or an MCAP writer's)."""
 
-    def __init__(self, context: foxglove.Context) -> None:
+    def __init__(self, context: foxglove.Context, log_dir: str | Path | None = None) -> None:
         self.tf = FrameTransformsChannel(TF, context=context)
         self.scene = SceneUpdateChannel(SCENE, context=context)
         self.changes = foxglove.Channel(CHANGES, schema=CHANGE_SCHEMA, context=context)
+        self.log = LogChannel(LOG, context=context)
+        self._logs = LogTail(log_dir) if log_dir is not None else None
+
+    def publish_logs(self, t_ns: int) -> int:
+        """The log lines added since the last call; returns how many."""
+        lines = self._logs.read() if self._logs is not None else []
+        for agent, line in lines:
+            self.log.log(log_message(agent, line, t_ns), log_time=t_ns)
+        return len(lines)
 
     def publish_change(self, graph: Graph, event: Event, t_ns: int) -> None:
         self.changes.log(change_of(graph, event), log_time=t_ns)

@@ -7,6 +7,8 @@ open ``ws://HOST:PORT`` in the Foxglove app. Every graph event goes out at
 once on ``/wm/changes``; the RT tree (``/wm/tf``) and the scene
 (``/wm/scene``) go out at most every ``period`` seconds after a change, and
 again whenever a client subscribes, so a new client sees the current state.
+Given the launcher's log directory, the agents' new log lines go out on
+``/wm/log`` every ``period`` seconds.
 
 Clients cannot write. The server advertises no capability that takes input
 (client publishing, parameters, services), so the SDK refuses a client's
@@ -52,12 +54,13 @@ async def serve_foxglove(
     config: str | Path | None = None,
     connect_to: Sequence[str] = (),
     ontology: Ontology | None = None,
+    log_dir: str | Path | None = None,
     period: float = 0.1,
 ) -> None:
-    """Serve ``graph_name`` to Foxglove clients on ``ws://host:port`` until cancelled."""
+    """Serve ``graph_name`` to Foxglove clients on ``ws://host:port`` until cancelled (and the logs in ``log_dir``)."""
     graph = Graph(ontology)
     context = foxglove.Context()
-    channels = GraphChannels(context)
+    channels = GraphChannels(context, log_dir)
     changed = asyncio.Event()
 
     def on_event(event: Event) -> None:
@@ -73,9 +76,10 @@ async def serve_foxglove(
         async with connect(graph_name, config, "wm-foxglove", connect=list(connect_to) or None, replica=graph, read_only=True):
             print(f"wm foxglove: serving graph {graph_name!r} on ws://{host}:{server.port}", flush=True)
             while True:
-                await changed.wait()
-                changed.clear()
-                channels.publish_view(graph, time.time_ns())
+                if changed.is_set():
+                    changed.clear()
+                    channels.publish_view(graph, time.time_ns())
+                channels.publish_logs(time.time_ns())
                 await asyncio.sleep(period)
     finally:
         server.stop()

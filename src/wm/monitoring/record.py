@@ -57,6 +57,7 @@ class Recorder:
         """Capture, and write the scene if the graph changed since the last one."""
         now = time.time_ns()
         self.capture(now)
+        self.writer.channels.publish_logs(now)
         if self._scene_dirty:
             self._scene_dirty = False
             self.writer.channels.publish_view(self.graph, now)
@@ -84,10 +85,11 @@ async def record(
     connect_to: Sequence[str] = (),
     ontology: Ontology | None = None,
     duration: float | None = None,
+    log_dir: str | Path | None = None,
 ) -> int:
     """Record ``graph_name`` into ``path`` until cancelled (or for ``duration`` s); returns the update count."""
     graph = Graph(ontology)
-    writer = RecordingWriter(path, graph_name)
+    writer = RecordingWriter(path, graph_name, log_dir)
     recorder = Recorder(graph, writer)
     try:
         async with connect(graph_name, config, "wm-record", connect=list(connect_to) or None, replica=graph, read_only=True):

@@ -2,7 +2,7 @@
 
 It is written with ``foxglove-sdk``'s MCAP writer and holds the channels of a
 live ``wm foxglove`` view (:class:`wm.monitoring.foxglove.GraphChannels`:
-``/wm/tf``, ``/wm/scene``, ``/wm/changes``), so a recording and a live session
+``/wm/tf``, ``/wm/scene``, ``/wm/changes``, ``/wm/log``), so a recording and a live session
 look alike in Foxglove, plus the one replay needs:
 
 ``/wm/updates``  message encoding ``msgpack`` (schema ``wm.Update``): ``[crdt_update_or_nil, volatile_records]``,
@@ -30,9 +30,9 @@ from mcap.stream_reader import StreamReader
 from ..graph import Graph
 from ..ontology import Ontology
 from ..volatile import Record, check_records
-from .foxglove import CHANGES, SCENE, TF, GraphChannels
+from .foxglove import CHANGES, LOG, SCENE, TF, GraphChannels
 
-__all__ = ["CHANGES", "SCENE", "TF", "UPDATES", "RecordingWriter", "graph_at", "iter_messages", "iter_updates"]
+__all__ = ["CHANGES", "LOG", "SCENE", "TF", "UPDATES", "RecordingWriter", "graph_at", "iter_messages", "iter_updates"]
 
 UPDATES = "/wm/updates"
 RECORDING_WRITER = "recording"
@@ -44,12 +44,12 @@ UPDATE_SCHEMA = foxglove.Schema(name="wm.Update", encoding="text", data=b"msgpac
 class RecordingWriter:
     """Writes the channels of one recording to ``path`` (replacing any file there)."""
 
-    def __init__(self, path: str | Path, graph_name: str) -> None:
+    def __init__(self, path: str | Path, graph_name: str, log_dir: str | Path | None = None) -> None:
         self._context = context = foxglove.Context()  # the channels live as long as their context
         options = MCAPWriteOptions(compression=None, chunk_size=CHUNK_SIZE, profile="")
         self._mcap = foxglove.open_mcap(path, allow_overwrite=True, context=context, writer_options=options)
         self._mcap.write_metadata("wm", {"graph": graph_name})
-        self.channels = GraphChannels(context)
+        self.channels = GraphChannels(context, log_dir)
         self._updates = foxglove.Channel(UPDATES, message_encoding="msgpack", schema=UPDATE_SCHEMA, context=context)
 
     def update(self, t_ns: int, update: bytes | None, records: list[Record]) -> None:
