@@ -231,28 +231,28 @@ class DSRGraph:
         """Write the attributes the caller set, changed or removed since it read ``node``; False if the node is gone."""
         if not isinstance(node, Node):
             raise DSRTypeError(f"update_node takes a Node, got {type(node).__name__}")
-        changed, removed = node.changes()
 
         def update() -> bool:
             current = self._g.find_node(node.id) if node.id else None
             if current is None or (current.type, current.name) != (node.type, node.name):
                 return False
-            try:
-                with self._g.batch():
-                    self._g.update_node(node.id, changed)
-                    for name in removed:
-                        self._g.delete_attr(node.id, name)
-            except NodeNotFoundError:
-                return False
-            node.mark_written()
-            return True
+            return _succeeds(lambda: self._write_changes(
+                node, lambda changed: self._g.update_node(node.id, changed), lambda name: self._g.delete_attr(node.id, name)))
 
         return self._call(update)
 
     def delete_node(self, ref: int | str) -> bool:
         key = _ref(ref, "delete_node takes a node")
-
         return self._call(lambda: _succeeds(lambda: self._g.delete_node(key)))
+
+    def _write_changes(self, element: Node | Edge, write: Callable[[dict[str, Any]], None], remove: Callable[[str], None]) -> None:
+        """Write what the caller set, changed or removed on ``element`` since reading it, in one batch."""
+        changed, removed = element.changes()
+        with self._g.batch():
+            write(changed)
+            for name in removed:
+                remove(name)
+        element.mark_written()
 
     # -- edges ------------------------------------------------------------------
 
@@ -269,21 +269,15 @@ class DSRGraph:
         """Create the edge or write what the caller changed or removed since reading it; False if an end is missing."""
         if not isinstance(edge, Edge):
             raise DSRTypeError(f"insert_or_assign_edge takes an Edge, got {type(edge).__name__}")
-        changed, removed = edge.changes()
+        key = (edge.origin, edge.destination, edge.type)
 
         def assign() -> bool:
             try:
-                with self._g.batch():
-                    self._g.insert_or_assign_edge(edge.origin, edge.destination, edge.type, changed)
-                    for name in removed:
-                        self._g.delete_edge_attr(edge.origin, edge.destination, edge.type, name)
-            except (NodeNotFoundError, EdgeNotFoundError):
-                return False
+                return _succeeds(lambda: self._write_changes(
+                    edge, lambda changed: self._g.insert_or_assign_edge(*key, changed), lambda name: self._g.delete_edge_attr(*key, name)))
             except RTError as exc:
                 log.warning("insert_or_assign_edge refused: %s", exc)
                 return False
-            edge.mark_written()
-            return True
 
         return self._call(assign)
 
