@@ -28,7 +28,7 @@ from typing import Any, TypeVar
 
 from .. import dsr_json
 from ..connection import connect as wm_connect
-from ..errors import EdgeNotFoundError, NodeNotFoundError, NotFoundError, RTError
+from ..errors import NotFoundError, RTError
 from ..graph import Graph
 from ..ontology import Ontology
 from .signals import SignalHub
