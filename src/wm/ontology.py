@@ -205,7 +205,8 @@ class Ontology:
         """A packaged ontology by name: ``default`` or ``dsr`` (every type and attribute DSR registers)."""
         if name not in PACKAGED:
             raise OntologyError(f"no packaged ontology named {name!r}; known: {', '.join(sorted(PACKAGED))}")
-        return cls.from_dict(_packaged_document(name), source=name)
+        built = _packaged(name)
+        return cls(built.attributes, built.node_types, built.edge_types, built.source)  # its own dicts, shared frozen specs
 
     @classmethod
     def load(cls, path: str | Path) -> Ontology:
@@ -317,9 +318,9 @@ def _mapping(value: Any, where: str) -> Mapping[str, Any]:
 
 
 @functools.cache
-def _packaged_document(name: str) -> Any:
-    """A packaged ontology file, parsed once per process (from_dict never modifies it)."""
-    return yaml.safe_load(resources.files("wm").joinpath(PACKAGED[name]).read_text(encoding="utf-8"))
+def _packaged(name: str) -> Ontology:
+    """A packaged ontology, read and validated once per process."""
+    return Ontology.from_text(resources.files("wm").joinpath(PACKAGED[name]).read_text(encoding="utf-8"), source=name)
 
 
 def _include_list(value: Any, source: str) -> list[str]:
