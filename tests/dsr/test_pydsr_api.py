@@ -71,6 +71,8 @@ def test_node_and_edge_semantics() -> None:
         node.attrs["person_age"] = Attribute("thirty", 7)
     with pytest.raises(TypeError):
         node.attrs["person_age"] = 30  # type: ignore[assignment]
+    with pytest.raises(KeyError, match="'dragon_scales' is not allowed on node type 'person'"):
+        node.attrs["dragon_scales"] = Attribute(1, 7)
     del node.attrs["person_age"]
     with pytest.raises(KeyError):
         node.attrs["person_age"]
