@@ -42,6 +42,7 @@ def test_attribute_semantics() -> None:
     attribute = Attribute(1.5, 7)
     assert (attribute.value, attribute.agent_id) == (1.5, 7) and attribute.timestamp > 0
     stamped = Attribute([1.0, 2.0], 123, 7)
+    assert Attribute(1.0, agent_id=9, timestamp=5).agent_id == 9 and Attribute(1.0, 123, agent_id=9).timestamp == 123
     assert stamped.timestamp == 123 and isinstance(stamped.value, np.ndarray)
     attribute.value = 2.5
     assert attribute.value == 2.5
@@ -71,8 +72,9 @@ def test_node_and_edge_semantics() -> None:
         node.attrs["person_age"] = Attribute("thirty", 7)
     with pytest.raises(TypeError):
         node.attrs["person_age"] = 30  # type: ignore[assignment]
-    with pytest.raises(KeyError, match="'dragon_scales' is not allowed on node type 'person'"):
-        node.attrs["dragon_scales"] = Attribute(1, 7)
+    node.attrs["dragon_scales"] = Attribute(1, 7)  # any name may be assigned, as in pydsr ...
+    assert node.attrs["dragon_scales"].value == 1
+    del node.attrs["dragon_scales"]
     del node.attrs["person_age"]
     with pytest.raises(KeyError):
         node.attrs["person_age"]
@@ -88,6 +90,26 @@ def test_node_and_edge_semantics() -> None:
         edge.attrs["distance_to_robot"]
     with pytest.raises(RuntimeError):
         Edge(2, 1, "hates", 7)
+
+
+def test_an_attribute_the_ontology_does_not_allow_is_refused_when_written(agents: tuple[DSRGraph, DSRGraph]) -> None:
+    _, g = agents
+    robot = g.get_node("viriato")
+    robot.attrs["dragon_scales"] = Attribute(1, 2)
+    robot.attrs["robot_ref_adv_speed"] = Attribute(100.0, 2)
+    with pytest.raises(KeyError, match="'dragon_scales' is not allowed on node type 'omnirobot'"):
+        g.update_node(robot)
+    assert g.get_node("viriato").attrs["robot_ref_adv_speed"].value != 100.0  # nothing was written
+    edge = Edge(200, 1, "looking_at", 2)
+    edge.attrs["dragon_scales"] = Attribute(1, 2)
+    with pytest.raises(wm.UnknownAttributeError):
+        g.insert_or_assign_edge(edge)
+    assert g.get_edge(1, 200, "looking_at") is None
+    node = Node(2, "person", "ghost")
+    node.attrs["dragon_scales"] = Attribute(1, 2)
+    with pytest.raises(KeyError):
+        g.insert_node(node)
+    assert g.get_node("ghost") is None
 
 
 def test_reading_nodes_and_edges(agents: tuple[DSRGraph, DSRGraph]) -> None:
@@ -125,10 +147,11 @@ def test_inserting_updating_and_deleting(agents: tuple[DSRGraph, DSRGraph]) -> N
     assert seen.attrs["person_name"].value == "Carol"
 
     seen.attrs["person_age"] = Attribute(41, 1)
+    seen.attrs["timestamp_creation"] = Attribute(2**64 - 1, 1)  # a uint64, exact
     del seen.attrs["person_name"]
     assert first.update_node(seen) is True
-    eventually(lambda: (n := second.get_node("carol")) and "person_name" not in n.attrs and n.attrs["person_age"].value == 41,
-               "the update and the removal reach the other agent")
+    eventually(lambda: (n := second.get_node("carol")) and "person_name" not in n.attrs and n.attrs["person_age"].value == 41
+               and n.attrs["timestamp_creation"].value == 2**64 - 1, "the update and the removal reach the other agent")
 
     edge = Edge(new_id, 200, "looking_at", 2)
     edge.attrs["distance_to_robot"] = Attribute(1.5, 2)
@@ -179,12 +202,22 @@ def test_signals_fire_for_local_and_remote_changes_on_their_own_thread(agents: t
 
     for signal in signals.SignalType:
         signals.connect(first, signal, recorder(signal.name))
+    signals.connect2(first, signals.UPDATE_EDGE_ATTR, lambda frm, to, names: received.append(("older UPDATE_EDGE_ATTR", (frm, to, names), "")))
     with pytest.raises(TypeError):
         signals.connect(first, "UPDATE_NODE", recorder("x"))  # type: ignore[arg-type]
 
     def seen(expected: list[tuple[str, tuple[Any, ...]]]) -> None:
-        mine = lambda: [(name, args) for name, args, _ in received if erin in args]  # noqa: E731
-        eventually(lambda: mine() == expected, f"the signals {expected}")
+        def about_erin() -> list[tuple[str, tuple[Any, ...]]]:
+            found = []
+            for name, args, _ in received:
+                if name.endswith("_OBJ"):  # the deleted node or edge itself
+                    item = args[0]
+                    args = (item.id, item.type, item.name) if isinstance(item, Node) else (item.origin, item.destination, item.type)
+                if erin in args:
+                    found.append((name, args))
+            return found
+
+        eventually(lambda: about_erin() == expected, f"the signals {expected}")
 
     remote = Node(2, "person", "erin")  # the other agent's changes
     erin = second.insert_node(remote)
@@ -200,13 +233,15 @@ def test_signals_fire_for_local_and_remote_changes_on_their_own_thread(agents: t
     expected += [
         ("UPDATE_EDGE", (200, erin, "looking_at")),
         ("UPDATE_EDGE", (200, erin, "looking_at")),
-        ("UPDATE_EDGE_ATTR", (200, erin, ["distance_to_robot"])),
+        ("UPDATE_EDGE_ATTR", (200, erin, "looking_at", ["distance_to_robot"])),
+        ("older UPDATE_EDGE_ATTR", (200, erin, ["distance_to_robot"])),
         ("DELETE_EDGE", (200, erin, "looking_at")),
+        ("DELETE_EDGE_OBJ", (200, erin, "looking_at")),
     ]
     seen(expected)
     second.delete_node(erin)
-    seen([*expected, ("DELETE_NODE", (erin,))])
-    assert {thread for _, _, thread in received} == {"wm.dsr-signals"}
+    seen([*expected, ("DELETE_NODE", (erin,)), ("DELETE_NODE_OBJ", (erin, "person", "erin"))])
+    assert {thread for name, _, thread in received if not name.startswith("older")} == {"wm.dsr-signals"}
 
 
 def test_a_callback_may_call_the_graph(agents: tuple[DSRGraph, DSRGraph]) -> None:

@@ -32,7 +32,7 @@ from ..errors import NotFoundError, RTError
 from ..graph import Graph
 from ..ontology import Ontology
 from .signals import SignalHub
-from .values import DSRTypeError, Edge, Node, _check_id, use_ontology
+from .values import DSRTypeError, Edge, Node, _check_id, use_defaults
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
@@ -97,8 +97,8 @@ class DSRGraph:
         self.agent_id = _check_id(agent_id, "agent_id")
         self.agent_name = name
         self.ontology = ontology if isinstance(ontology, Ontology) else Ontology.load(ontology or os.environ.get("WM_ONTOLOGY", "default"))
-        use_ontology(self.ontology)
-        self.signal_hub = SignalHub()
+        use_defaults(self.ontology, self.agent_id)
+        self.signal_hub = SignalHub(self.agent_id, self.ontology)
         self._graph_name = graph or os.environ.get("WM_GRAPH", "default")
         self._loop = asyncio.new_event_loop()
         self._ready: concurrent.futures.Future[Graph] = concurrent.futures.Future()
@@ -115,7 +115,8 @@ class DSRGraph:
         except BaseException:
             self.signal_hub.stop()
             raise
-        atexit.register(self.close)
+        # at exit, leave before concurrent.futures stops its threads: closing the session needs one
+        getattr(threading, "_register_atexit", atexit.register)(self.close)
         if config_file:
             self._call(lambda: self._load_if_empty(config_file))
 
@@ -165,7 +166,6 @@ class DSRGraph:
             self._loop.call_soon_threadsafe(self._stop.set)
             self._thread.join()
             self.signal_hub.stop()
-        atexit.unregister(self.close)
 
     def __enter__(self) -> DSRGraph:
         return self
@@ -200,6 +200,9 @@ class DSRGraph:
 
         return self._call(root)
 
+    def get_nodes(self) -> list[Node]:
+        return self._call(lambda: [self._node(n.id) for n in self._g.nodes()])  # type: ignore[misc]
+
     def get_nodes_by_type(self, type: str) -> list[Node]:  # noqa: A002
         type_name = _type_name(type)
         return self._call(lambda: [self._node(n.id) for n in self._g.nodes(type_name)])  # type: ignore[misc]
@@ -221,7 +224,8 @@ class DSRGraph:
         def insert() -> int | None:
             if (node.id and self._g.id_taken(node.id)) or (node.name and self._g.find_node(node.name) is not None):
                 return None
-            new_id = self._g.insert_node(node.type, node.name or None, {k: a.value for k, a in node.attrs.items()})
+            values, _ = node.changes()  # all of them: a new node was read with none
+            new_id = self._g.insert_node(node.type, node.name or None, values)
             node.mark_inserted(new_id, self._g.get_node(new_id).name)
             return new_id
 

@@ -68,16 +68,27 @@ def _plain(value: Any) -> Any:
 
 
 class Attribute:
-    """``Attribute(value, agent_id)`` or ``Attribute(value, timestamp, agent_id)``."""
+    """``Attribute(value, agent_id)`` or ``Attribute(value, timestamp, agent_id)``.
+
+    Without an agent id (``Attribute(value)``), it is the id of the agent that
+    created the last DSRGraph, as in pydsr; the timestamp defaults to now.
+    """
 
     __slots__ = ("_agent_id", "_timestamp", "_value")
 
-    def __init__(self, value: Any, timestamp_or_agent_id: int, agent_id: int | None = None) -> None:
+    def __init__(self, value: Any, *args: int, timestamp: int | None = None, agent_id: int | None = None) -> None:
         _kind(value)
-        if agent_id is None:
-            timestamp, agent_id = time.time_ns(), timestamp_or_agent_id
-        else:
-            timestamp = timestamp_or_agent_id
+        if len(args) > 2 or (len(args) == 2 and (timestamp is not None or agent_id is not None)):
+            raise DSRTypeError("Attribute takes (value, agent_id) or (value, timestamp, agent_id)")
+        if len(args) == 2:
+            timestamp, agent_id = args
+        elif len(args) == 1:
+            if agent_id is None:
+                agent_id = args[0]
+            else:
+                timestamp = args[0]
+        timestamp = time.time_ns() if timestamp is None else timestamp
+        agent_id = _current["agent_id"] if agent_id is None else agent_id
         for name, number in (("agent_id", agent_id), ("timestamp", timestamp)):
             if isinstance(number, bool) or not isinstance(number, (int, np.integer)):
                 raise DSRTypeError(f"Attribute {name} must be an int, got {type(number).__name__}")
@@ -108,7 +119,12 @@ class Attribute:
 
 
 class Attrs(MutableMapping[str, Attribute]):
-    """A node's or edge's attributes: name -> :class:`Attribute`, checked against the ontology on assignment."""
+    """A node's or edge's attributes: name -> :class:`Attribute`.
+
+    A value of the wrong type for a declared attribute is refused on
+    assignment. As in pydsr, any name may be assigned; one the ontology does
+    not allow on the type is refused when the node or edge is written.
+    """
 
     def __init__(self, ontology: Ontology, element: ElementType) -> None:
         self._ontology = ontology
@@ -121,7 +137,10 @@ class Attrs(MutableMapping[str, Attribute]):
     def __setitem__(self, name: str, attribute: Attribute) -> None:
         if not isinstance(attribute, Attribute):
             raise DSRTypeError(f"attrs[{name!r}] takes an Attribute, got {type(attribute).__name__}")
-        self.check(name, attribute.value)
+        try:
+            self.check(name, attribute.value)
+        except DSRUnknownAttributeError:
+            pass  # refused when written, as the graph cannot hold it
         self._items[name] = attribute
 
     def check(self, name: str, value: Any) -> Any:
@@ -198,8 +217,8 @@ class _Element:
 
     def changes(self) -> tuple[dict[str, Any], list[str]]:
         """What the caller set or changed, and what it removed, since this was read (or last written)."""
-        now = self._attrs.stored()
-        changed = {name: value for name, value in now.items() if name not in self._read or self._read[name] != value}
+        now = self._attrs.stored()  # compared in their stored form, handed on as the caller gave them
+        changed = {name: self._attrs[name].value for name, value in now.items() if name not in self._read or self._read[name] != value}
         return changed, sorted(set(self._read) - set(now))
 
     def mark_written(self) -> None:
@@ -262,6 +281,9 @@ class Node(_Element):
     def edges(self) -> dict[tuple[int, str], Edge]:
         return self._edges
 
+    def get_edges(self) -> list[Edge]:
+        return list(self._edges.values())
+
     def mark_inserted(self, node_id: int, name: str) -> None:
         self._id, self._name = node_id, name
         self.mark_written()
@@ -270,15 +292,16 @@ class Node(_Element):
         return f"Node(id={self._id}, type={self._type!r}, name={self._name!r}, attrs={self._attrs!r})"
 
 
-_default: list[Ontology] = []
+_current: dict[str, Any] = {"ontology": None, "agent_id": 0}
 
 
 def default_ontology() -> Ontology:
     """The ontology new Node and Edge objects are checked against: the last DSRGraph's, else the default one."""
-    if not _default:
-        _default.append(Ontology.default())
-    return _default[-1]
+    if _current["ontology"] is None:
+        _current["ontology"] = Ontology.default()
+    return _current["ontology"]
 
 
-def use_ontology(ontology: Ontology) -> None:
-    _default[:] = [ontology]
+def use_defaults(ontology: Ontology, agent_id: int) -> None:
+    """What Node, Edge and Attribute objects made without them get (set by each new DSRGraph)."""
+    _current.update(ontology=ontology, agent_id=agent_id)
