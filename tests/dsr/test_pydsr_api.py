@@ -313,3 +313,21 @@ def test_write_to_json_file_writes_what_dsr_reads(agents: tuple[DSRGraph, DSRGra
     assert reloaded.load_json(path).nodes == len(symbols)
     with pytest.raises(TypeError):
         first.write_to_json_file(str(path), [1])  # type: ignore[list-item]
+
+
+def test_pydsr_keywords_and_whole_graph_reads() -> None:
+    with DSRGraph(root=0, name="keywords", id=5, dsr_input_file=str(SCENE), graph="pydsr-keywords") as g:
+        assert (g.get_agent_id(), g.get_agent_name()) == (5, "keywords")
+        assert len(g.get_nodes()) == 41 and len(g.get_edges()) == 43
+        assert Attribute("red").agent_id == 5  # pydsr stamps a bare Attribute with the last graph's agent id
+        inner, rt = inner_api(g), rt_api(g)
+        assert np.allclose(inner.transform(orig="root", dest="laser"), inner.transform("root", "laser"))
+        assert np.allclose(inner.transform(orig="root", vector=[1.0, 0.0, 0.0], dest="laser", timestamp=0),
+                           inner.transform("root", [1.0, 0.0, 0.0], "laser"))
+        assert np.allclose(inner.get_transformation_matrix(orig="root", dest="laser"), inner.get_transformation_matrix("root", "laser"))
+        root = g.get_node("root")
+        assert rt.insert_or_assign_edge_RT(node=root, to=203, trans=[0.0, 1.2, 0.0], rot_euler=[1.1, 0.0, 2.2])
+        assert g.get_node("root").edges[(203, "RT")] is not None and g.get_edge("laser_pose", "laser", "RT") is None
+        assert rt.get_translation(node_id=1, to=203, timestamp=0).tolist() == pytest.approx([0.0, 1.2, 0.0])
+    with pytest.raises(RuntimeError):
+        g.get_node(1)  # closed

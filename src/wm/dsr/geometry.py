@@ -4,7 +4,11 @@ Both work on the graph's RT tree (:mod:`wm.rt`), in whatever units the graph
 holds (DSR scenes use millimetres). ``timestamp`` arguments are accepted for
 compatibility; the pose used is the latest one. Frames are given by node name
 or id. Methods return None where pydsr returns an empty optional: a node that
-is missing or not in the RT tree.
+is missing or not in the RT tree. Parameters carry pydsr's keyword names; in
+``inner_api`` these are DSR's own: the first argument, which pydsr calls
+``orig``, is the frame the result is expressed in (DSR's C++ calls it
+``dest``), and ``transform("world", "robot")`` is the robot's origin in the
+world's frame.
 """
 
 from __future__ import annotations
@@ -64,11 +68,10 @@ class rt_api:  # noqa: N801 - pydsr's name
     def __init__(self, g: DSRGraph) -> None:
         self._g = _graph(g)
 
-    def insert_or_assign_edge_RT(self, node: Node, to_id: int, translation: Sequence[float], rotation_euler_xyz: Sequence[float]) -> bool:  # noqa: N802
-        """Place ``to_id`` in ``node``'s frame; a previous RT parent of ``to_id`` is replaced. False if a node is missing."""
-        parent, child = _node_arg(node).id, _check_id(to_id, "to_id")
-        attrs = {"rt_translation": _vector(translation, 3, "translation"),
-                 "rt_rotation_euler_xyz": _vector(rotation_euler_xyz, 3, "rotation_euler_xyz")}
+    def insert_or_assign_edge_RT(self, node: Node, to: int, trans: Sequence[float], rot_euler: Sequence[float]) -> bool:  # noqa: N802
+        """Place ``to`` in ``node``'s frame; a previous RT parent of ``to`` is replaced. False if a node is missing."""
+        parent, child = _node_arg(node).id, _check_id(to, "to")
+        attrs = {"rt_translation": _vector(trans, 3, "trans"), "rt_rotation_euler_xyz": _vector(rot_euler, 3, "rot_euler")}
 
         def place(graph: Graph) -> bool:
             old = graph.rt.parent(child)
@@ -80,8 +83,8 @@ class rt_api:  # noqa: N801 - pydsr's name
 
         return bool(_or_none(self._g, place))
 
-    def get_edge_RT(self, node: Node, to_id: int) -> Edge | None:  # noqa: N802
-        return self._g.get_edge(_node_arg(node).id, _check_id(to_id, "to_id"), RT)
+    def get_edge_RT(self, node: Node, to: int) -> Edge | None:  # noqa: N802
+        return self._g.get_edge(_node_arg(node).id, _check_id(to, "to"), RT)
 
     def get_RT_pose_from_parent(self, node: Node) -> np.ndarray | None:  # noqa: N802
         """The node's pose in its RT parent's frame, as a 4x4 matrix; None for a root."""
@@ -96,9 +99,9 @@ class rt_api:  # noqa: N801 - pydsr's name
         rotation = attrs["rt_rotation_euler_xyz"].value if "rt_rotation_euler_xyz" in attrs else (0.0, 0.0, 0.0)
         return homogeneous(translation, rotation)
 
-    def get_translation(self, frm: int, to: int, timestamp: int = 0) -> np.ndarray | None:
-        """The translation on the RT edge ``frm -> to``."""
-        src, dst = _check_id(frm, "from"), _check_id(to, "to")
+    def get_translation(self, node_id: int, to: int, timestamp: int = 0) -> np.ndarray | None:
+        """The translation on the RT edge ``node_id -> to``."""
+        src, dst = _check_id(node_id, "node_id"), _check_id(to, "to")
         return _or_none(self._g, lambda graph: np.array(graph.get_edge(src, dst, RT).attrs.get("rt_translation", (0.0, 0.0, 0.0))))
 
 
@@ -108,40 +111,42 @@ class inner_api:  # noqa: N801 - pydsr's name
     def __init__(self, g: DSRGraph) -> None:
         self._g = _graph(g)
 
-    def transform(self, dest: Any, *args: Any) -> np.ndarray | None:
-        """``transform(dest, src[, ts])`` or ``transform(dest, point3, src[, ts])``: a point of ``src``'s frame in ``dest``'s."""
-        point, src = self._point_and_frame(args, 3)
-        target = _frame(dest)
-        return _or_none(self._g, lambda graph: graph.rt.transform(target, src, point))
+    def transform(self, orig: Any, *args: Any, vector: Any = None, dest: Any = None, timestamp: int = 0) -> np.ndarray | None:
+        """``transform(orig, dest)`` or ``transform(orig, vector, dest)``: a point of ``dest``'s frame (its origin by default) in ``orig``'s."""
+        point, source = _vector_and_frame(args, vector, dest, 3)
+        target = _frame(orig)
+        return _or_none(self._g, lambda graph: graph.rt.transform(target, source, point))
 
-    def transform_axis(self, dest: Any, *args: Any) -> np.ndarray | None:
-        """Like :meth:`transform` for a pose (x, y, z, rx, ry, rz); without one, ``src``'s own pose in ``dest``'s frame."""
-        pose, src = self._point_and_frame(args, 6)
-        target = _frame(dest)
-        return _or_none(self._g, lambda graph: graph.rt.transform(target, src, pose if pose is not None else [0.0] * 6))
+    def transform_axis(self, orig: Any, *args: Any, vector: Any = None, dest: Any = None, timestamp: int = 0) -> np.ndarray | None:
+        """Like :meth:`transform` for a pose (x, y, z, rx, ry, rz); without one, ``dest``'s own pose in ``orig``'s frame."""
+        pose, source = _vector_and_frame(args, vector, dest, 6)
+        target = _frame(orig)
+        return _or_none(self._g, lambda graph: graph.rt.transform(target, source, pose if pose is not None else [0.0] * 6))
 
-    def get_transformation_matrix(self, dest: Any, src: Any, timestamp: int = 0) -> np.ndarray | None:
-        target, origin = _frame(dest), _frame(src)
-        return _or_none(self._g, lambda graph: graph.rt.get_transform(target, origin))
+    def get_transformation_matrix(self, orig: Any, dest: Any, timestamp: int = 0) -> np.ndarray | None:
+        """The 4x4 matrix taking coordinates in ``dest``'s frame to ``orig``'s."""
+        target, source = _frame(orig), _frame(dest)
+        return _or_none(self._g, lambda graph: graph.rt.get_transform(target, source))
 
-    def get_rotation_matrix(self, dest: Any, src: Any, timestamp: int = 0) -> np.ndarray | None:
-        matrix = self.get_transformation_matrix(dest, src)
+    def get_rotation_matrix(self, orig: Any, dest: Any, timestamp: int = 0) -> np.ndarray | None:
+        matrix = self.get_transformation_matrix(orig, dest)
         return None if matrix is None else matrix[:3, :3]
 
-    def get_translation_vector(self, dest: Any, src: Any, timestamp: int = 0) -> np.ndarray | None:
-        matrix = self.get_transformation_matrix(dest, src)
+    def get_translation_vector(self, orig: Any, dest: Any, timestamp: int = 0) -> np.ndarray | None:
+        matrix = self.get_transformation_matrix(orig, dest)
         return None if matrix is None else matrix[:3, 3]
 
-    def get_euler_xyz_angles(self, dest: Any, src: Any, timestamp: int = 0) -> np.ndarray | None:
-        matrix = self.get_transformation_matrix(dest, src)
+    def get_euler_xyz_angles(self, orig: Any, dest: Any, timestamp: int = 0) -> np.ndarray | None:
+        matrix = self.get_transformation_matrix(orig, dest)
         return None if matrix is None else np.array(euler_xyz(matrix[:3, :3]))
 
-    @staticmethod
-    def _point_and_frame(args: tuple[Any, ...], length: int) -> tuple[list[float] | None, int | str]:
-        if args and isinstance(args[0], (list, tuple, np.ndarray)):
-            if len(args) < 2:
-                raise DSRTypeError("expected (dest, vector, src[, timestamp])")
-            return _vector(args[0], length, "the vector"), _frame(args[1])
-        if not args:
-            raise DSRTypeError("expected (dest, src[, timestamp])")
-        return None, _frame(args[0])
+
+def _vector_and_frame(args: tuple[Any, ...], vector: Any, dest: Any, length: int) -> tuple[list[float] | None, int | str]:
+    """The optional vector and the frame it is given in, from ``(dest[, ts])``, ``(vector, dest[, ts])`` or keywords."""
+    if args and isinstance(args[0], (list, tuple, np.ndarray)):
+        vector, args = args[0], args[1:]
+    if args and dest is None:
+        dest = args[0]
+    if dest is None:
+        raise DSRTypeError("expected (orig, dest[, timestamp]) or (orig, vector, dest[, timestamp])")
+    return (None if vector is None else _vector(vector, length, "the vector")), _frame(dest)

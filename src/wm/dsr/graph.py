@@ -81,7 +81,7 @@ class DSRGraph:
         self,
         root: int,
         name: str,
-        agent_id: int,
+        agent_id: int | None = None,
         config_file: str = "",
         all_same_host: bool = True,
         *,
@@ -90,7 +90,11 @@ class DSRGraph:
         listen: Iterable[str] | str | None = None,
         zenoh_config: str | None = None,
         ontology: Ontology | str | None = None,
+        id: int | None = None,  # noqa: A002 - pydsr's keyword for agent_id
+        dsr_input_file: str | None = None,  # pydsr's keyword for config_file
     ) -> None:
+        agent_id = agent_id if id is None else id
+        config_file = config_file if dsr_input_file is None else dsr_input_file
         _check_id(root, "root")
         if not isinstance(name, str) or not isinstance(config_file, str):
             raise DSRTypeError("name and config_file are str")
@@ -178,6 +182,12 @@ class DSRGraph:
             self._g.load_json(Path(config_file))
         else:
             log.info("graph %r already holds %d nodes; %s not loaded", self._graph_name, self._g.node_count(), config_file)
+
+    def get_agent_id(self) -> int:
+        return self.agent_id
+
+    def get_agent_name(self) -> str:
+        return self.agent_name
 
     # -- nodes ------------------------------------------------------------------
 
@@ -289,6 +299,9 @@ class DSRGraph:
         src, dst, type_name = _ref(frm, "delete_edge from"), _ref(to, "delete_edge to"), _type_name(type)
 
         return self._call(lambda: _succeeds(lambda: self._g.delete_edge(src, dst, type_name)))
+
+    def get_edges(self) -> list[Edge]:
+        return self._call(lambda: [Edge.of(e, self.agent_id, self.ontology) for e in self._g.edges()])
 
     def get_edges_by_type(self, type: str) -> list[Edge]:  # noqa: A002
         type_name = _type_name(type)
