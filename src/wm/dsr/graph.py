@@ -74,7 +74,8 @@ class DSRGraph:
     ``root`` and ``all_same_host`` are accepted for compatibility: the RT root
     is the graph's, and Zenoh chooses its transport from the endpoints. With a
     ``config_file`` (a DSR scene file), the scene is loaded if the joined graph
-    holds no node yet.
+    holds no node yet. pydsr's keywords ``id`` and ``dsr_input_file`` stand for
+    ``agent_id`` and ``config_file``.
     """
 
     def __init__(
