@@ -135,17 +135,17 @@ def test_dsr_scene_imports_with_skipped_attributes_reported() -> None:
     assert (report.nodes, report.edges) == (4, 3)
     assert sorted(report.skipped) == sorted(
         [
-            "node 'world'.OuterRegionLeft",
             "edge 100-[RT]->300.rt_parent_id",
             "node 'robot'.base_target_x",
-            "node 'camera'.cam_rgb",
+            "node 'robot'.max_speed",
+            "node 'wall_1'.size",
         ]
     )
     world = g.get_node(100)
     assert (world.type, world.name) == ("world", "world")
-    assert world.attrs == {"level": 0, "parent": 0, "pos_x": -350.0, "pos_y": 12.5, "color": "SeaGreen"}
-    assert g.get_node("robot").attrs == {"level": 1, "parent": 100, "max_speed": 0.8}
-    assert g.get_node("wall_1").attrs["size"] == (4.0, 0.1, 2.5)
+    assert world.attrs == {"level": 0, "parent": 0, "pos_x": -350.0, "pos_y": 12.5, "color": "SeaGreen", "OuterRegionLeft": -5000}
+    assert g.get_node("robot").attrs == {"level": 1, "parent": 100}
+    assert g.get_node("camera").attrs["cam_rgb"] == bytes([1, 2])
     x, y, yaw = g.rt.pose2d("world", "camera")
     assert (x, y, yaw) == pytest.approx((1.5, -1.9, 1.5707963))
     assert g.rt.transform("world", "camera")[2] == pytest.approx(1.0)
@@ -188,7 +188,7 @@ def _bad_scenes() -> list[tuple[object, type]]:
     cycle = json.loads(json.dumps(good))
     cycle["edges"].append({"src": ids[2], "dst": ids[0], "type": "RT", "attrs": {}})
     dsr_big_int = json.loads(json.dumps(DSR_SCENE))
-    dsr_big_int["DSRModel"]["symbols"]["300"]["attribute"]["parent"]["value"] = "18446744073709551615"
+    dsr_big_int["DSRModel"]["symbols"]["300"]["attribute"]["parent"]["value"] = "18446744073709551616"  # 2**64: past uint64
     dsr_unknown_type = json.loads(json.dumps(DSR_SCENE))
     dsr_unknown_type["DSRModel"]["symbols"]["300"]["type"] = "dragon"
     dsr_no_name = json.loads(json.dumps(DSR_SCENE))

@@ -1,5 +1,5 @@
 """The ``wm`` command line: serve, load, dump, watch, members, set, rm, the
-monitoring commands of :mod:`wm.monitoring.cli` (monitor, view, record, replay, reactions)
+monitoring commands of :mod:`wm.monitoring.cli` (monitor, view, foxglove, record, replay, reactions)
 ``launch`` (:mod:`wm.launch.cli`) and ``experiment`` (:mod:`caregiving_stack.cli`).
 
 Every command takes ``--graph``, ``--connect ENDPOINT`` (repeatable) and
@@ -21,6 +21,7 @@ from caregiving_stack import cli as experiment_cli
 
 from .launch import cli as launch_cli
 from .monitoring import cli as monitoring_cli
+from . import dsr_json
 from .errors import NotFoundError, UnknownAttributeError, WMError
 from .graph import Graph
 from .ontology import Ontology
@@ -34,7 +35,7 @@ def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--graph", default="default", help="graph name (default: %(default)s)")
     parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT", help="Zenoh endpoint, e.g. tcp/127.0.0.1:7447")
     parser.add_argument("--config", help="Zenoh config file (JSON5)")
-    parser.add_argument("--ontology", help="ontology file (default: the packaged one)")
+    parser.add_argument("--ontology", help="ontology file, or a packaged one by name: default, dsr (default: %(default)s)", default="default")
     parser.add_argument("--timeout", type=float, default=3.0, help="seconds to wait for a peer (default: %(default)s)")
     parser.add_argument("-v", "--verbose", action="store_true", help="log replication details")
 
@@ -56,7 +57,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = commands.add_parser("dump", help="print the current graph, read from the network")
     _common(p)
-    p.add_argument("--format", choices=["text", "json"], default="text")
+    p.add_argument("--format", choices=["text", "json", "dsr"], default="text", help="dsr: a DSR scene file, as DSR writes it")
     monitoring_cli.add_dump_source(p)
 
     p = commands.add_parser("watch", help="print live events, one per line")
@@ -91,8 +92,10 @@ def parse_value(ontology: Ontology, attr: str, text: str) -> Any:
             if lowered not in ("true", "false", "1", "0"):
                 raise ValueError(text)
             return lowered in ("true", "1")
-        if spec.type == "int":
+        if spec.type in ("int", "u64"):
             return int(text)
+        if spec.type == "u64vec":
+            return [int(x) for x in (json.loads(text) if text.strip().startswith("[") else text.split(","))]
         if spec.type == "float":
             return float(text)
         if spec.type == "vec":
@@ -134,6 +137,16 @@ async def _confirmed(g: Graph, timeout: float) -> None:
         raise CommandError(f"no replica acknowledged the write within {timeout:g} s")
 
 
+def print_graph(g: Graph, output_format: str) -> None:
+    """``wm dump``'s output: one line per node and edge, our JSON, or a DSR scene file."""
+    if output_format == "json":
+        print(g.to_json())
+    elif output_format == "dsr":
+        print(json.dumps(dsr_json.graph_to_dsr(g), indent=4))
+    else:
+        _print_text(g)
+
+
 def _print_text(g: Graph) -> None:
     for node in g.nodes():
         attrs = " ".join(f"{k}={_short(v)}" for k, v in sorted(node.attrs.items()))
@@ -151,7 +164,7 @@ def _short(value: Any) -> str:
 
 
 async def run(args: argparse.Namespace) -> int:
-    ontology = Ontology.load(args.ontology) if args.ontology else None
+    ontology = Ontology.load(args.ontology)
     if args.command == "serve":
         from .serve import serve
 
@@ -167,10 +180,7 @@ async def run(args: argparse.Namespace) -> int:
             return 0
         await _joined(g, args.graph, args.timeout)
         if args.command == "dump":
-            if args.format == "json":
-                print(g.to_json())
-            else:
-                _print_text(g)
+            print_graph(g, args.format)
         elif args.command == "load":
             report = g.load_json(args.file, keep_ids=not args.new_ids)
             await _confirmed(g, args.timeout)

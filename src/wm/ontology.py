@@ -9,20 +9,25 @@ type and edge type may carry. Every write is checked against it; see
 
 from __future__ import annotations
 
+import functools
 import re
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 import yaml
 
+from .dsr_codes import DSR_TYPES
 from .errors import AttributeTypeError, OntologyError, UnknownAttributeError, UnknownTypeError
 
-VALUE_TYPES = ("bool", "int", "float", "str", "vec", "bytes")
+VALUE_TYPES = ("bool", "int", "float", "str", "vec", "bytes", "u64", "u64vec")
 MAX_EXACT_INT = 2**53  # values travel as float64 inside the CRDT
+U64_RANGE = 2**64  # u64 values travel as decimal strings, so that every uint64 is exact
+PACKAGED = {"default": "default_ontology.yaml", "dsr": "dsr_ontology.yaml"}
 _IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 Value = bool | int | float | str | bytes | tuple[float, ...]
@@ -30,16 +35,21 @@ Value = bool | int | float | str | bytes | tuple[float, ...]
 
 @dataclass(frozen=True)
 class AttributeSpec:
-    """One declared attribute: its value type, optional vector length and volatility."""
+    """One declared attribute: its value type, optional vector length, volatility and DSR type."""
 
     name: str
     type: str
     length: int | None = None
     volatile: bool = False
     doc: str = ""
+    dsr: str | None = None  # the DSR value type name (wm.dsr_codes) it is written as in DSR files
 
     def coerce(self, value: Any, owner: str) -> Value:
-        """Return ``value`` in canonical form, or raise :class:`AttributeTypeError`."""
+        """Return ``value`` in the form it is stored in, or raise :class:`AttributeTypeError`.
+
+        That is the canonical Python value, except that a ``u64`` is stored as a
+        decimal string (and a ``u64vec`` as a tuple of them).
+        """
         checker = _COERCERS[self.type]
         try:
             result = checker(value)
@@ -61,12 +71,26 @@ class AttributeSpec:
             return tuple(float(x) for x in stored)
         if self.type == "bytes":
             return bytes(stored)
+        if self.type == "u64":
+            return int(stored)
+        if self.type == "u64vec":
+            return tuple(int(x) for x in stored)
         return stored
 
     def describe(self) -> str:
         if self.type == "vec" and self.length is not None:
             return f"vec[{self.length}]"
         return self.type
+
+    def holds(self, stored: Any) -> bool:
+        """Whether a stored value has this attribute's storage form (to tell clashing declarations apart)."""
+        storage = {"bool": bool, "int": (int, float), "float": (int, float), "str": str, "u64": str,
+                   "bytes": (bytes, bytearray), "vec": (list, tuple), "u64vec": (list, tuple)}[self.type]
+        if not isinstance(stored, storage) or (self.type in ("int", "float") and isinstance(stored, bool)):
+            return False
+        if self.type in ("vec", "u64vec") and len(stored):
+            return isinstance(stored[0], str) == (self.type == "u64vec")
+        return True
 
 
 def _as_bool(value: Any) -> bool:
@@ -101,6 +125,20 @@ def _as_bytes(value: Any) -> bytes:
     return bytes(value)
 
 
+def _as_u64(value: Any) -> str:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError("not an int")
+    if not 0 <= int(value) < U64_RANGE:
+        raise ValueError("out of the uint64 range 0..2**64-1")
+    return str(int(value))
+
+
+def _as_u64vec(value: Any) -> tuple[str, ...]:
+    if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, (Iterable, np.ndarray)):
+        raise TypeError("not a sequence")
+    return tuple(_as_u64(x) for x in value)
+
+
 def _as_vec(value: Any) -> tuple[float, ...]:
     if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, (Iterable, np.ndarray)):
         raise TypeError("not a sequence")
@@ -117,6 +155,8 @@ _COERCERS = {
     "str": _as_str,
     "bytes": _as_bytes,
     "vec": _as_vec,
+    "u64": _as_u64,
+    "u64vec": _as_u64vec,
 }
 
 
@@ -128,6 +168,8 @@ class ElementType:
     name: str
     attributes: frozenset[str]
     doc: str = ""
+    # attributes whose declaration here differs from the ontology-wide one (an included ontology's, see include)
+    overrides: Mapping[str, AttributeSpec] = field(default_factory=lambda: MappingProxyType({}))
 
 
 class Ontology:
@@ -144,18 +186,33 @@ class Ontology:
         self.node_types = dict(node_types)
         self.edge_types = dict(edge_types)
         self.source = source
+        self._variants: dict[str, list[AttributeSpec]] = {}
+        for element in (*self.node_types.values(), *self.edge_types.values()):
+            for name, spec in element.overrides.items():
+                variants = self._variants.setdefault(name, [self.attributes[name]])
+                if spec not in variants:
+                    variants.append(spec)
 
     # -- loading ---------------------------------------------------------------
 
     @classmethod
     def default(cls) -> Ontology:
-        """The ontology shipped with the package (the caregiving scenario and DSR basics)."""
-        text = resources.files("wm").joinpath("default_ontology.yaml").read_text(encoding="utf-8")
-        return cls.from_text(text, source="wm/default_ontology.yaml")
+        """The ontology shipped with the package: the caregiving scenario, including all of DSR's."""
+        return cls.named("default")
+
+    @classmethod
+    def named(cls, name: str) -> Ontology:
+        """A packaged ontology by name: ``default`` or ``dsr`` (every type and attribute DSR registers)."""
+        if name not in PACKAGED:
+            raise OntologyError(f"no packaged ontology named {name!r}; known: {', '.join(sorted(PACKAGED))}")
+        built = _packaged(name)
+        return cls(built.attributes, built.node_types, built.edge_types, built.source)  # its own dicts, shared frozen specs
 
     @classmethod
     def load(cls, path: str | Path) -> Ontology:
-        """Load and validate an ontology file (YAML or JSON)."""
+        """Load and validate an ontology file (YAML or JSON), or a packaged one by name (see :meth:`named`)."""
+        if isinstance(path, str) and path in PACKAGED and not Path(path).exists():
+            return cls.named(path)
         path = Path(path)
         try:
             text = path.read_text(encoding="utf-8")
@@ -176,16 +233,36 @@ class Ontology:
         """Validate a parsed ontology document; errors name the offending key."""
         if not isinstance(data, Mapping):
             raise OntologyError(f"{source}: the ontology must be a mapping with 'attributes', 'nodes' and 'edges'")
-        unknown = set(data) - {"version", "attributes", "nodes", "edges"}
+        unknown = set(data) - {"version", "include", "attributes", "nodes", "edges"}
         if unknown:
             raise OntologyError(f"{source}: unknown top-level key {sorted(unknown)[0]!r}")
         attributes = {
             name: _parse_attribute(name, spec, f"{source}: attributes.{name}")
             for name, spec in _mapping(data.get("attributes", {}), f"{source}: attributes").items()
         }
-        node_types = _parse_types("node", data.get("nodes", {}), attributes, f"{source}: nodes")
-        edge_types = _parse_types("edge", data.get("edges", {}), attributes, f"{source}: edges")
-        return cls(attributes, node_types, edge_types, source)
+        included = [cls._include(ref, source) for ref in _include_list(data.get("include"), source)]
+        known = {name: spec for base in included for name, spec in base.attributes.items()} | attributes
+        node_types = _parse_types("node", data.get("nodes", {}), known, f"{source}: nodes")
+        edge_types = _parse_types("edge", data.get("edges", {}), known, f"{source}: edges")
+        ontology = cls(attributes, node_types, edge_types, source)
+        for base in reversed(included):
+            ontology = _merge(base, ontology)
+        return ontology
+
+    @classmethod
+    def _include(cls, ref: str, source: str) -> Ontology:
+        if ref in PACKAGED:
+            return cls.named(ref)
+        path = Path(ref) if Path(ref).is_absolute() or source in PACKAGED else Path(source).parent / ref
+        return cls.load(path)
+
+    def declares(self, kind: str, type_name: str) -> bool:
+        return type_name in (self.node_types if kind == "node" else self.edge_types)
+
+    @staticmethod
+    def packaged_declaring(kind: str, type_name: str) -> list[str]:
+        """The names of the packaged ontologies that declare this node or edge type."""
+        return [name for name in PACKAGED if Ontology.named(name).declares(kind, type_name)]
 
     # -- checking writes -------------------------------------------------------
 
@@ -215,7 +292,7 @@ class Ontology:
             raise UnknownAttributeError(
                 f"attribute {name!r} is not allowed on {element.kind} type {element.name!r} (ontology {self.source})"
             )
-        return self.attributes[name]
+        return element.overrides.get(name) or self.attributes[name]
 
     def is_volatile(self, name: str) -> bool:
         spec = self.attributes.get(name)
@@ -224,6 +301,8 @@ class Ontology:
     def decode(self, name: str, stored: Any) -> Any:
         """Decode a stored value; attributes unknown to this ontology pass through unchanged."""
         spec = self.attributes.get(name)
+        if name in self._variants:  # declared differently on different types: the stored form tells which
+            spec = next((v for v in self._variants[name] if v.holds(stored)), spec)
         return stored if spec is None else spec.decode(stored)
 
 
@@ -238,12 +317,61 @@ def _mapping(value: Any, where: str) -> Mapping[str, Any]:
     return value
 
 
+@functools.cache
+def _packaged(name: str) -> Ontology:
+    """A packaged ontology, read and validated once per process."""
+    return Ontology.from_text(resources.files("wm").joinpath(PACKAGED[name]).read_text(encoding="utf-8"), source=name)
+
+
+def _include_list(value: Any, source: str) -> list[str]:
+    if value is None:
+        return []
+    if not isinstance(value, list) or not all(isinstance(ref, str) for ref in value):
+        raise OntologyError(f"{source}: include: expected a list of packaged names or file paths")
+    return value
+
+
+def _merge(base: Ontology, top: Ontology) -> Ontology:
+    """``top`` over an included ``base``: types are united, ``top``'s declarations win.
+
+    An attribute that ``top`` declares with another value type than ``base``
+    keeps ``base``'s declaration wherever only ``base`` lists it on a type.
+    """
+    attributes = dict(base.attributes)
+    clashes: dict[str, AttributeSpec] = {}
+    for name, spec in top.attributes.items():
+        below = base.attributes.get(name)
+        if below is not None and below.type != spec.type:
+            if below.volatile != spec.volatile:
+                raise OntologyError(f"{top.source}: attributes.{name}: redeclares {base.source}'s attribute with another volatility")
+            clashes[name] = below
+            attributes[name] = spec
+        else:
+            attributes[name] = replace(spec, dsr=spec.dsr or (below.dsr if below else None))
+
+    def united(mine: Mapping[str, ElementType], theirs: Mapping[str, ElementType]) -> dict[str, ElementType]:
+        types: dict[str, ElementType] = {}
+        for name, lower in theirs.items():
+            upper = mine.get(name)
+            own = upper.attributes if upper is not None else frozenset()
+            overrides = {**lower.overrides, **{a: clashes[a] for a in lower.attributes - own if a in clashes},
+                         **(upper.overrides if upper is not None else {})}
+            types[name] = replace(lower, overrides=MappingProxyType(overrides))
+            if upper is not None:
+                types[name] = replace(types[name], attributes=own | lower.attributes, doc=upper.doc or lower.doc)
+        for name, upper in mine.items():
+            types.setdefault(name, upper)
+        return types
+
+    return Ontology(attributes, united(top.node_types, base.node_types), united(top.edge_types, base.edge_types), top.source)
+
+
 def _parse_attribute(name: str, spec: Any, where: str) -> AttributeSpec:
     if isinstance(spec, str):
         spec = {"type": spec}
     if not isinstance(spec, Mapping):
         raise OntologyError(f"{where}: expected a mapping or a type name, got {type(spec).__name__}")
-    unknown = set(spec) - {"type", "length", "volatile", "doc"}
+    unknown = set(spec) - {"type", "length", "volatile", "doc", "dsr"}
     if unknown:
         raise OntologyError(f"{where}.{sorted(unknown)[0]}: unknown key")
     value_type = spec.get("type")
@@ -255,7 +383,14 @@ def _parse_attribute(name: str, spec: Any, where: str) -> AttributeSpec:
     volatile = spec.get("volatile", False)
     if not isinstance(volatile, bool):
         raise OntologyError(f"{where}.volatile: expected true or false, got {volatile!r}")
-    return AttributeSpec(name, value_type, length, volatile, str(spec.get("doc", "")))
+    dsr = spec.get("dsr")
+    if dsr is not None:
+        dsr_type = DSR_TYPES.get(dsr)
+        if dsr_type is None:
+            raise OntologyError(f"{where}.dsr: expected one of {', '.join(DSR_TYPES)}, got {dsr!r}")
+        if dsr_type.ours != value_type or (dsr_type.length is not None and dsr_type.length != length):
+            raise OntologyError(f"{where}.dsr: a DSR {dsr} is not held by {value_type}" + (f"[{length}]" if length else ""))
+    return AttributeSpec(name, value_type, length, volatile, str(spec.get("doc", "")), dsr)
 
 
 def _parse_types(kind: str, section: Any, attributes: Mapping[str, AttributeSpec], where: str) -> dict[str, ElementType]:

@@ -6,11 +6,10 @@ Our format::
      "nodes": [{"id": 1, "type": "world", "name": "world", "attrs": {...}}],
      "edges": [{"src": 1, "dst": 2, "type": "RT", "attrs": {...}}]}
 
-Bytes are written as ``{"$bytes": "<base64>"}``. DSR's format is
-``{"DSRModel": {"symbols": {"<id>": {"id", "name", "type", "attribute": {...},
-"links": [...]}}}}``; attributes our ontology does not know are skipped and
-listed in the :class:`LoadReport`, because DSR files carry many viewer-only
-attributes. Unknown node or edge types are an error.
+Bytes are written as ``{"$bytes": "<base64>"}``. DSR's format
+(``{"DSRModel": ...}``) is read by :mod:`wm.dsr_json`; attributes our ontology
+does not know are skipped and listed in the :class:`LoadReport`, because DSR
+files carry many viewer-only attributes. Unknown node or edge types are an error.
 
 A load is checked in full before anything is written: either the whole scene
 goes in, or nothing does.
@@ -25,15 +24,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .errors import NameExistsError, NodeExistsError, SceneFormatError, UnknownAttributeError
+from . import dsr_json
+from .errors import NameExistsError, NodeExistsError, SceneFormatError, ValidationError
 
 if TYPE_CHECKING:
     from .graph import Graph
 
 FORMAT = "cortex-wm"
 VERSION = 1
-_DSR_INT_TYPES = {1, 6, 7}  # int, uint, uint64 (DSR writes the 64-bit ones as strings)
-_DSR_BYTES_TYPE = 5  # a vector of uint8, written as a list of numbers
 
 
 @dataclass
@@ -124,47 +122,8 @@ def _parse_ours(data: Mapping[str, Any]) -> _Scene:
     return _Scene(nodes, edges, [])
 
 
-def _dsr_attrs(graph: Graph, raw: Any, element_kind: str, element_type: str, where: str, skipped: list[str]) -> dict[str, Any]:
-    ontology = graph.ontology
-    element = ontology.node_type(element_type) if element_kind == "node" else ontology.edge_type(element_type)
-    attrs: dict[str, Any] = {}
-    for name, entry in (raw or {}).items():
-        value = entry.get("value") if isinstance(entry, Mapping) else entry
-        if isinstance(entry, Mapping) and entry.get("type") in _DSR_INT_TYPES and isinstance(value, str):
-            value = int(value)
-        elif isinstance(entry, Mapping) and entry.get("type") == _DSR_BYTES_TYPE and isinstance(value, list):
-            value = bytes(value)
-        try:
-            ontology.attribute_for(element, name)
-        except UnknownAttributeError:
-            skipped.append(f"{where}.{name}")
-            continue
-        attrs[name] = value
-    return attrs
-
-
 def _parse_dsr(graph: Graph, data: Mapping[str, Any]) -> _Scene:
-    model = data["DSRModel"]
-    symbols = model.get("symbols", model.get("symbol")) if isinstance(model, Mapping) else None
-    if isinstance(symbols, Mapping):
-        symbols = list(symbols.values())
-    if not isinstance(symbols, list):
-        raise SceneFormatError("DSRModel.symbols must be an object or a list of symbols")
-    skipped: list[str] = []
-    nodes, edges = [], []
-    try:
-        for symbol in symbols:
-            node_id, node_type, name = int(symbol["id"]), str(symbol["type"]), str(symbol["name"])
-            attrs = _dsr_attrs(graph, symbol.get("attribute"), "node", node_type, f"node {name!r}", skipped)
-            nodes.append((node_id, node_type, name, attrs))
-            for link in symbol.get("links", []) or []:
-                edge_type = str(link["label"])
-                where = f"edge {link['src']}-[{edge_type}]->{link['dst']}"
-                link_attrs = _dsr_attrs(graph, link.get("linkAttribute"), "edge", edge_type, where, skipped)
-                edges.append((int(link["src"]), int(link["dst"]), edge_type, link_attrs))
-    except (KeyError, TypeError, ValueError, AttributeError) as exc:
-        raise SceneFormatError(f"malformed DSR scene: {exc!r}") from exc
-    return _Scene(nodes, edges, skipped)
+    return _Scene(*dsr_json.parse(graph.ontology, data))
 
 
 def parse(graph: Graph, data: Mapping[str, Any]) -> _Scene:
@@ -188,7 +147,10 @@ def _check(graph: Graph, scene: _Scene, keep_ids: bool) -> None:
         if node_id in ids:
             raise NodeExistsError(f"scene node id {node_id} is used twice")
         if keep_ids:
-            graph.check_new_id(node_id)
+            try:
+                graph.check_new_id(node_id)
+            except (ValidationError, NodeExistsError) as exc:
+                raise type(exc)(f"{exc}; load the scene with fresh ids instead (wm load --new-ids, keep_ids=False)") from None
         names.add(name)
         ids.add(node_id)
     rt_parents: dict[int, int] = {}

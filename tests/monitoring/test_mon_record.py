@@ -10,7 +10,8 @@ from mcap.reader import make_reader
 
 from mon_helpers import GRAPH, RISKY_SCENE, SCENE_NAMES, dump_json, node_names, run_wm, served_scene
 from procs import PYTHON, REPO, WM, wait_until
-from wm.monitoring.recording import CHANGES, SCENE, graph_at, iter_messages
+from foxglove_helpers import message_class
+from wm.monitoring.recording import CHANGES, LOG, SCENE, TF, UPDATES, graph_at, iter_messages
 
 REPLICA = str(REPO / "tests" / "replica_proc.py")
 
@@ -18,8 +19,11 @@ REPLICA = str(REPO / "tests" / "replica_proc.py")
 def test_record_replay_and_dump_at_time_round_trip(spawner, tmp_path: Path) -> None:
     where = served_scene(spawner, tmp_path / "data", "copy")
     recording = tmp_path / "run.mcap"
-    recorder = spawner([*WM, "record", str(recording), "--graph", GRAPH, "--connect", where], name="record")
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    recorder = spawner([*WM, "record", str(recording), "--graph", GRAPH, "--connect", where, "--logs", str(logs)], name="record")
     recorder.wait_line("wm record: recording", 20)
+    (logs / "perception.log").write_text("2026-11-23T14:25:02.276Z INFO agent=perception alice seen\n")
     run_wm("set", "alice", "speed=0.9", "--connect", where)
     run_wm("rm", "ball", "--connect", where)
     final = dump_json(where)
@@ -42,13 +46,21 @@ def test_record_replay_and_dump_at_time_round_trip(spawner, tmp_path: Path) -> N
     assert after_rm == final and "ball" not in node_names(after_rm)
     assert json.loads(run_wm("dump", "--from", str(recording), "--format", "json")) == final
 
-    # the file is plain MCAP: indexed, with a Foxglove scene channel
+    # the file is plain MCAP: indexed, with the channels of a live `wm foxglove` view
     with open(recording, "rb") as f:
         summary = make_reader(f).get_summary()
-    schemas = {summary.schemas[c.schema_id].name for c in summary.channels.values() if c.schema_id}
-    assert schemas == {"foxglove.SceneUpdate", "wm.GraphChange"}
-    scenes = [json.loads(data) for _, _, data in iter_messages(recording, [SCENE])]
-    assert any(e["id"].startswith("path/") and e["lines"][0]["color"]["r"] > 0.8 for e in scenes[-1]["entities"])
+    schemas = {c.topic: summary.schemas[c.schema_id] for c in summary.channels.values() if c.schema_id}
+    assert {topic: schema.name for topic, schema in schemas.items()} == {
+        SCENE: "foxglove.SceneUpdate", TF: "foxglove.FrameTransforms", CHANGES: "wm.GraphChange", UPDATES: "wm.Update", LOG: "foxglove.Log"}
+    scene_update = message_class("foxglove.SceneUpdate", schemas[SCENE].data)
+    scenes = [scene_update.FromString(data) for _, _, data in iter_messages(recording, [SCENE])]
+    assert any(e.id.startswith("path/") and e.lines[0].color.r > 0.8 for e in scenes[-1].entities)
+    frame_transforms = message_class("foxglove.FrameTransforms", schemas[TF].data)
+    last_tf = [frame_transforms.FromString(data) for _, _, data in iter_messages(recording, [TF])][-1]
+    assert {(t.parent_frame_id, t.child_frame_id) for t in last_tf.transforms} >= {("world", "alice")}
+    log = message_class("foxglove.Log", schemas[LOG].data)
+    assert [(m.name, m.message) for m in map(log.FromString, (d for _, _, d in iter_messages(recording, [LOG])))] == [
+        ("perception", "agent=perception alice seen")]
 
     # wm replay into another graph gives the same graph there
     out = run_wm("replay", str(recording), "--as", "copy", "--speed", "50", "--connect", where)

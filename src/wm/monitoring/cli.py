@@ -1,4 +1,4 @@
-"""The monitoring commands of ``wm``: monitor, view, record, replay, reactions and ``dump --from``.
+"""The monitoring commands of ``wm``: monitor, view, foxglove, record, replay, reactions and ``dump --from``.
 
 :mod:`wm.cli` adds them with :func:`add_commands` and hands them to :func:`run`.
 """
@@ -12,8 +12,8 @@ from pathlib import Path
 
 from ..ontology import Ontology
 
-COMMANDS = ("monitor", "view", "record", "replay", "reactions")
-RUN_UNTIL_STOPPED = ("monitor", "view", "record")
+COMMANDS = ("monitor", "view", "foxglove", "record", "replay", "reactions")
+RUN_UNTIL_STOPPED = ("monitor", "view", "foxglove", "record")
 
 
 def add_event_filters(parser: argparse.ArgumentParser, verb: str) -> None:
@@ -34,10 +34,17 @@ def add_commands(commands: argparse._SubParsersAction, common: Callable[[argpars
     p.add_argument("--port", type=int, default=8765, help="HTTP and websocket port, 0 for any (default: %(default)s)")
     p.add_argument("--host", default="127.0.0.1", help="address to serve on (default: %(default)s)")
 
+    p = commands.add_parser("foxglove", help="live view of a graph for the Foxglove app (read-only), on ws://HOST:PORT")
+    common(p)
+    p.add_argument("--port", type=int, default=8765, help="Foxglove WebSocket port, 0 for any (default: %(default)s)")
+    p.add_argument("--host", default="127.0.0.1", help="address to serve on (default: %(default)s)")
+    p.add_argument("--logs", metavar="DIR", help="also send the agents' log lines, from wm launch's log directory")
+
     p = commands.add_parser("record", help="record a graph's changes into an MCAP file (read-only)")
     common(p)
     p.add_argument("file")
     p.add_argument("--duration", type=float, help="stop after this many seconds (default: until stopped)")
+    p.add_argument("--logs", metavar="DIR", help="also record the agents' log lines, from wm launch's log directory")
 
     p = commands.add_parser("replay", help="republish a recording into a live graph")
     common(p)
@@ -63,13 +70,9 @@ async def run(args: argparse.Namespace, ontology: Ontology | None) -> int:
     if args.command == "dump":
         from .recording import graph_at
 
-        g = graph_at(args.source, args.at, ontology)
-        if args.format == "json":
-            print(g.to_json())
-        else:
-            from ..cli import _print_text
+        from ..cli import print_graph
 
-            _print_text(g)
+        print_graph(graph_at(args.source, args.at, ontology), args.format)
     elif args.command == "monitor":
         from .monitor import monitor
 
@@ -78,10 +81,16 @@ async def run(args: argparse.Namespace, ontology: Ontology | None) -> int:
         from .view import view
 
         await view(args.graph, host=args.host, port=args.port, config=args.config, connect_to=endpoints, ontology=ontology)
+    elif args.command == "foxglove":
+        from .foxglove_live import serve_foxglove
+
+        await serve_foxglove(args.graph, host=args.host, port=args.port, config=args.config, connect_to=endpoints, ontology=ontology,
+                             log_dir=args.logs)
     elif args.command == "record":
         from .record import record
 
-        count = await record(args.file, args.graph, config=args.config, connect_to=endpoints, ontology=ontology, duration=args.duration)
+        count = await record(args.file, args.graph, config=args.config, connect_to=endpoints, ontology=ontology, duration=args.duration,
+                             log_dir=args.logs)
         print(f"wm record: {count} updates in {args.file}")
     elif args.command == "replay":
         from .replay import replay

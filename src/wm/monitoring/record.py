@@ -3,8 +3,8 @@
 The recorder observes its own replica: every CRDT update and volatile change
 it applies (the catch-up first, then live deltas and repairs) becomes a
 ``/wm/updates`` message, every event a ``/wm/changes`` message with values,
-and the 2D scene a ``/wm/scene`` message at most every ``scene_period``
-seconds. The file is flushed every ``flush_period`` seconds (at most one), so
+and the RT tree and the 2D scene ``/wm/tf`` and ``/wm/scene`` messages at
+most every ``scene_period`` seconds (see :mod:`wm.monitoring.recording`). The file is flushed every ``flush_period`` seconds (at most one), so
 a recording killed with ``kill -9`` loses at most that much.
 """
 
@@ -12,34 +12,16 @@ from __future__ import annotations
 
 import asyncio
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from pycrdt import merge_updates
 
-from . import foxglove, scene2d
 from ..connection import connect
 from ..events import Event
 from ..graph import Graph
 from ..ontology import Ontology
 from .recording import RecordingWriter
-from ..scene_json import encode_value
-
-
-def change_of(g: Graph, event: Event) -> dict[str, Any]:
-    """An event as JSON-ready data, with the current values of the attributes it names."""
-    element = None
-    if event.id is not None:
-        element = g.find_node(event.id)
-    elif event.src is not None and event.dst is not None:
-        element = g.find_edge(event.src, event.dst, event.type)
-    attrs: Mapping[str, Any] = element.attrs if element is not None else {}
-    return {
-        "kind": event.kind.value, "type": event.type, "writer": event.writer, "id": event.id, "name": event.name,
-        "src": event.src, "dst": event.dst, "src_name": event.src_name, "dst_name": event.dst_name,
-        "attrs": {k: encode_value(attrs[k]) for k in sorted(event.attrs) if k in attrs},
-    }
 
 
 class Recorder:
@@ -60,7 +42,7 @@ class Recorder:
     def _on_event(self, event: Event) -> None:
         now = time.time_ns()
         self.capture(now)
-        self.writer.change(now, change_of(self.graph, event))
+        self.writer.channels.publish_change(self.graph, event, now)
         self._scene_dirty = True
 
     def capture(self, t_ns: int) -> None:
@@ -75,9 +57,10 @@ class Recorder:
         """Capture, and write the scene if the graph changed since the last one."""
         now = time.time_ns()
         self.capture(now)
+        self.writer.channels.publish_logs(now)
         if self._scene_dirty:
             self._scene_dirty = False
-            self.writer.scene(now, foxglove.scene_update(scene2d.build(self.graph), now))
+            self.writer.channels.publish_view(self.graph, now)
 
     async def run(self) -> None:
         """Tick every ``scene_period`` and flush every ``flush_period`` until cancelled; then flush."""
@@ -102,10 +85,11 @@ async def record(
     connect_to: Sequence[str] = (),
     ontology: Ontology | None = None,
     duration: float | None = None,
+    log_dir: str | Path | None = None,
 ) -> int:
     """Record ``graph_name`` into ``path`` until cancelled (or for ``duration`` s); returns the update count."""
     graph = Graph(ontology)
-    writer = RecordingWriter(path, graph_name)
+    writer = RecordingWriter(path, graph_name, log_dir)
     recorder = Recorder(graph, writer)
     try:
         async with connect(graph_name, config, "wm-record", connect=list(connect_to) or None, replica=graph, read_only=True):

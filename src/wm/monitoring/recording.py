@@ -1,89 +1,59 @@
 """The recording file: a graph's change stream in MCAP, readable without our code.
 
-Three channels, each message stamped with the time the recorder applied it:
+It is written with ``foxglove-sdk``'s MCAP writer and holds the channels of a
+live ``wm foxglove`` view (:class:`wm.monitoring.foxglove.GraphChannels`:
+``/wm/tf``, ``/wm/scene``, ``/wm/changes``, ``/wm/log``), so a recording and a live session
+look alike in Foxglove, plus the one replay needs:
 
-``/wm/updates``  message encoding ``msgpack``: ``[crdt_update_or_nil, volatile_records]``,
+``/wm/updates``  message encoding ``msgpack`` (schema ``wm.Update``): ``[crdt_update_or_nil, volatile_records]``,
                  everything the recording replica applied (catch-up included).
                  Applying them in order rebuilds the graph at any time.
-``/wm/changes``  message encoding ``json`` (schema ``wm.GraphChange``): one graph
-                 event with the values of the attributes it changed.
-``/wm/scene``    message encoding ``json`` (schema ``foxglove.SceneUpdate``): the
-                 2D scene, for Foxglove's 3D panel.
 
-The writer closes an uncompressed chunk at every :meth:`RecordingWriter.flush`
-(the recorder flushes every 0.5 s by default), so a file cut off by ``kill -9``
+Each message is stamped with the time the recorder applied it. The writer
+closes an uncompressed chunk at every :meth:`RecordingWriter.flush` (the
+recorder flushes every 0.5 s by default), so a file cut off by ``kill -9``
 holds every flushed chunk; :func:`iter_messages` reads up to the torn end.
 """
 
 from __future__ import annotations
 
-import json
 from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Any, BinaryIO
 
+import foxglove
 import msgpack
+from foxglove.mcap import MCAPWriteOptions
 from mcap.exceptions import McapError
 from mcap.records import Channel, Message
 from mcap.stream_reader import StreamReader
-from mcap.writer import CompressionType, Writer
 
-from . import foxglove
 from ..graph import Graph
 from ..ontology import Ontology
 from ..volatile import Record, check_records
+from .foxglove import CHANGES, LOG, SCENE, TF, GraphChannels
+
+__all__ = ["CHANGES", "LOG", "SCENE", "TF", "UPDATES", "RecordingWriter", "graph_at", "iter_messages", "iter_updates"]
 
 UPDATES = "/wm/updates"
-CHANGES = "/wm/changes"
-SCENE = "/wm/scene"
 RECORDING_WRITER = "recording"
-CHANGE_SCHEMA = {
-    "title": "wm.GraphChange",
-    "type": "object",
-    "properties": {
-        "kind": {"type": "string"},
-        "type": {"type": "string"},
-        "writer": {"type": "string"},
-        "id": {"type": ["integer", "null"]},
-        "name": {"type": ["string", "null"]},
-        "src": {"type": ["integer", "null"]},
-        "dst": {"type": ["integer", "null"]},
-        "src_name": {"type": ["string", "null"]},
-        "dst_name": {"type": ["string", "null"]},
-        "attrs": {"type": "object"},
-    },
-}
+CHUNK_SIZE = 256 * 1024
+# the SDK gives every non-JSON channel a schema; this one says, in words, what the msgpack holds
+UPDATE_SCHEMA = foxglove.Schema(name="wm.Update", encoding="text", data=b"msgpack array: [crdt_update_or_nil, volatile_records]")
 
 
 class RecordingWriter:
-    """Writes the three channels of one recording to ``path``."""
+    """Writes the channels of one recording to ``path`` (replacing any file there)."""
 
-    def __init__(self, path: str | Path, graph_name: str) -> None:
-        self._file: BinaryIO = open(path, "wb")  # noqa: SIM115 - open for the recording's life
-        self._mcap = Writer(self._file, compression=CompressionType.NONE, chunk_size=256 * 1024)
-        self._mcap.start(profile="", library="cortex-wm")
-        self._mcap.add_metadata("wm", {"graph": graph_name})
-        change_schema = self._mcap.register_schema("wm.GraphChange", "jsonschema", json.dumps(CHANGE_SCHEMA).encode())
-        scene_schema = self._mcap.register_schema(foxglove.SCHEMA_NAME, "jsonschema", json.dumps(foxglove.SCHEMA).encode())
-        self._channels = {
-            UPDATES: self._mcap.register_channel(UPDATES, "msgpack", 0),
-            CHANGES: self._mcap.register_channel(CHANGES, "json", change_schema),
-            SCENE: self._mcap.register_channel(SCENE, "json", scene_schema),
-        }
-        self._sequence = 0
-
-    def _add(self, topic: str, t_ns: int, data: bytes) -> None:
-        self._sequence += 1
-        self._mcap.add_message(self._channels[topic], log_time=t_ns, data=data, publish_time=t_ns, sequence=self._sequence)
+    def __init__(self, path: str | Path, graph_name: str, log_dir: str | Path | None = None) -> None:
+        self._context = context = foxglove.Context()  # the channels live as long as their context
+        options = MCAPWriteOptions(compression=None, chunk_size=CHUNK_SIZE, profile="")
+        self._mcap = foxglove.open_mcap(path, allow_overwrite=True, context=context, writer_options=options)
+        self._mcap.write_metadata("wm", {"graph": graph_name})
+        self.channels = GraphChannels(context, log_dir)
+        self._updates = foxglove.Channel(UPDATES, message_encoding="msgpack", schema=UPDATE_SCHEMA, context=context)
 
     def update(self, t_ns: int, update: bytes | None, records: list[Record]) -> None:
-        self._add(UPDATES, t_ns, msgpack.packb([update, records], use_bin_type=True))
-
-    def change(self, t_ns: int, change: dict[str, Any]) -> None:
-        self._add(CHANGES, t_ns, json.dumps(change).encode())
-
-    def scene(self, t_ns: int, scene_update: dict[str, Any]) -> None:
-        self._add(SCENE, t_ns, json.dumps(scene_update).encode())
+        self._updates.log(msgpack.packb([update, records], use_bin_type=True), log_time=t_ns)
 
     def flush(self) -> None:
         """Close the open chunk and hand it to the OS."""
@@ -91,8 +61,7 @@ class RecordingWriter:
 
     def close(self) -> None:
         """Write the index and footer (a recording that never gets here is still readable)."""
-        self._mcap.finish()
-        self._file.close()
+        self._mcap.close()
 
 
 def iter_messages(path: str | Path, topics: Iterable[str] | None = None) -> Iterator[tuple[str, int, bytes]]:
