@@ -184,7 +184,8 @@ class Action(Agent):
 
     def _current(self) -> Node | None:
         """The robot's move under way (or about to be), if any."""
-        return next((n for n in self.g.nodes(INTENTION) if n.get("status") in LIVE), None)
+        live = [n for n in self.g.nodes(INTENTION) if n.get("status") in LIVE]
+        return max(live, key=lambda n: n.get("created_at", 0.0), default=None)
 
     @staticmethod
     def _move_of(node: Node) -> RobotMove:

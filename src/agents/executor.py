@@ -6,6 +6,9 @@ A ``proposed`` robot ``intention`` (``move_to`` with a ``final_pose``) is sent
 as a command on ``robot/cmd``; it becomes ``active`` when the world accepts it
 and ``failed`` when it refuses (no path) or cannot be reached. An active
 intention is ``done`` once the robot, as placed in W, rests at the final pose.
+A new proposed intention while one is under way is sent at once: the world
+changes the robot's course without stopping (the action agent has marked the
+old one ``superseded``).
 The status is written on the node and on its ``robot -has-> intention`` edge.
 """
 
@@ -66,7 +69,8 @@ class Executor(Agent):
                 self.log.warning("command refused", intention=node.name, error=str(exc))
                 continue
             self.commands += 1
-            if self.g.find_node(node.id) is not None:
+            now = self.g.find_node(node.id)
+            if now is not None and now.get("status") == "proposed":  # not superseded meanwhile
                 self._status(node, "active" if reply["accepted"] else "failed",
                              None if reply["accepted"] else "no path to the final pose")
             self.log.info("command sent", intention=node.name, accepted=reply["accepted"])

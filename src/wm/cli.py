@@ -217,6 +217,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return launch_cli.main(args)
     if args.command == "experiment":
         return experiment_cli.main(args)
+    if args.command == "reactions":
+        return monitoring_cli.reactions_command(args)
     logging.basicConfig(
         level=logging.INFO if args.verbose or args.command == "serve" else logging.WARNING,
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import subprocess
 import time
 from pathlib import Path
 
@@ -109,3 +110,14 @@ def test_reaction_times_pair_each_risky_intention_with_the_next_action(tmp_path:
     ]
     assert found[0].reaction_ms >= 0 and summary(found)["missed"] == 1
     assert plot_svg(found).startswith("<svg") and "missed 1" in plot_svg(found)
+    out = subprocess.run([*WM, "reactions", str(tmp_path / "trial.mcap"), "--json"], capture_output=True, text=True,
+                         timeout=60)
+    assert out.returncode == 0 and json.loads(out.stdout)["missed"] == 1
+
+
+def test_reactions_of_a_file_that_is_no_recording_is_a_one_line_error(tmp_path: Path) -> None:
+    bogus = tmp_path / "notes.mcap"
+    bogus.write_text("not a recording")
+    out = subprocess.run([*WM, "reactions", str(bogus)], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 1 and out.stderr.strip().count("\n") == 0
+    assert "is not an MCAP recording" in out.stderr

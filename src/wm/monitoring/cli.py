@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -98,18 +99,27 @@ async def run(args: argparse.Namespace, ontology: Ontology | None) -> int:
         target = args.as_graph or args.graph
         count = await replay(args.file, target, speed=args.speed, config=args.config, connect_to=endpoints, ontology=ontology)
         print(f"wm replay: {count} updates republished into {target!r}")
-    elif args.command == "reactions":
-        from .reactions import plot_svg, reactions, summary
+    return 0
 
+
+def reactions_command(args: argparse.Namespace) -> int:
+    """``wm reactions FILE``: reaction times of a recording (offline: no graph, no network)."""
+    from .reactions import plot_svg, reactions, summary
+
+    try:
         found = reactions(args.file)
-        stats = summary(found)
-        if args.json:
-            print(json.dumps(stats))
-        else:
-            for r in found:
-                answer = f"{r.action} after {r.reaction_ms:.1f} ms" if r.reaction_ms is not None else "no action"
-                print(f"{r.person} -> {r.target}: {answer}")
-            print(f"{stats['risky']} risky, {stats['missed']} missed, mean {stats['reaction_ms_mean']:.1f} ms, sd {stats['reaction_ms_sd']:.1f} ms")
-        if args.svg:
-            Path(args.svg).write_text(plot_svg(found, title=f"Reaction times: {Path(args.file).name}"))
+    except (OSError, ValueError) as exc:
+        print(f"wm reactions: error: cannot read {args.file}: {exc}", file=sys.stderr)
+        return 1
+    stats = summary(found)
+    if args.json:
+        print(json.dumps(stats))
+    else:
+        for r in found:
+            answer = f"{r.action} after {r.reaction_ms:.1f} ms" if r.reaction_ms is not None else "no action"
+            print(f"{r.person} -> {r.target}: {answer}")
+        print(f"{stats['risky']} risky, {stats['missed']} missed, mean {stats['reaction_ms_mean']:.1f} ms, "
+              f"sd {stats['reaction_ms_sd']:.1f} ms")
+    if args.svg:
+        Path(args.svg).write_text(plot_svg(found, title=f"Reaction times: {Path(args.file).name}"))
     return 0

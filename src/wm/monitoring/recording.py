@@ -17,6 +17,7 @@ holds every flushed chunk; :func:`iter_messages` reads up to the torn end.
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
@@ -65,16 +66,25 @@ class RecordingWriter:
 
 
 def iter_messages(path: str | Path, topics: Iterable[str] | None = None) -> Iterator[tuple[str, int, bytes]]:
-    """(topic, log time in ns, data) of every message in file order, up to a torn end if any."""
+    """(topic, log time in ns, data) of every message in file order, up to a torn end if any.
+
+    Raises ``ValueError`` when the file does not even start as an MCAP recording.
+    """
     wanted = set(topics) if topics is not None else None
     channels: dict[int, str] = {}
     with open(path, "rb") as stream:
         records = StreamReader(stream, validate_crcs=True).records
+        first = True
         while True:
             try:
                 record = next(records)
-            except (StopIteration, McapError, EOFError, ValueError):
+            except StopIteration:
                 return
+            except (McapError, EOFError, ValueError, struct.error) as exc:
+                if first:
+                    raise ValueError(f"{path} is not an MCAP recording") from exc
+                return
+            first = False
             if isinstance(record, Channel):
                 channels[record.id] = record.topic
             elif isinstance(record, Message):
