@@ -28,13 +28,13 @@ from __future__ import annotations
 import argparse
 import math
 import time
+from dataclasses import replace
 from itertools import count, islice
 from typing import Any
 
 from bridges import bus, keys
 from caregiving.move_search import Danger, SearchSpec, Verdict, candidates, choose, judge
 from caregiving.robot_moves import RobotMove
-from caregiving.rollout import DT
 from caregiving.service import JointAnswer
 from caregiving.visibility import GazeClass, gaze_classes
 from caregiving.world_model import Walk
@@ -48,6 +48,8 @@ from .runtime import Agent, main
 
 INTENTION = "intention"
 LIVE = ("proposed", "active")
+#: Seconds one candidate move takes to judge in the simulator (the joint imagination of its walk sets).
+JUDGING = 0.05
 
 
 def risky_first(classes: tuple[GazeClass, ...], risky: float) -> tuple[float, ...]:
@@ -70,15 +72,15 @@ class Action(Agent):
         parser.add_argument("--max-moves", type=int, default=24, help="moves tried per search at most")
         parser.add_argument("--retry", type=float, default=1.0,
                             help="simulated seconds before a danger no move removed is searched again")
-        parser.add_argument("--command-delay", type=float, default=0.2,
-                            help="simulated seconds from the context to the robot's command, at first; then measured")
+        parser.add_argument("--dispatch", type=float, default=0.1,
+                            help="simulated seconds from writing a move to the world acting on it (executor, command, "
+                            "a world step)")
 
     async def setup(self) -> None:
         self.size_error = size_error(self.args)
         self.session = self.g.network.session  # type: ignore[union-attr]
         self.episode: int | None = None
         self.names = count(1)
-        self.delay = self.args.command_delay
         self.rpc_ms = self.sim_ms = 0.0
         self.pending: set[tuple[int, int]] = set()
         self.tried: list[Verdict] = []  # the moves the last search judged, for its log line
@@ -120,14 +122,15 @@ class Action(Agent):
         self.rpc_ms = self.sim_ms = 0.0
         current = self._current()
         spec = self._spec(ctx, dangers, current)
-        if current is not None and (await self._judge(spec, [self._move_of(current)]))[0].safe(self.args.risk_threshold):
+        keep = replace(spec, delay=self._delay(ctx, 1))
+        if current is not None and (await self._judge(keep, [self._move_of(current)]))[0].safe(self.args.risk_threshold):
             return  # the move under way still keeps everyone safe
         idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
         self.tried = []
         chosen, unsaved = await self._find(ctx, spec, idle_risk), ""
         if chosen is None and len(spec.dangers) > 1:
             for d in sorted(spec.dangers, key=lambda d: d.time_to_collision):
-                alone = SearchSpec((d,), spec.gazes, spec.known, spec.bystanders, spec.current, spec.delay)
+                alone = replace(spec, dangers=(d,))
                 chosen = await self._find(ctx, alone, dangers[d.person][0].get("probability", 1.0))
                 if chosen is not None:
                     unsaved = ", ".join(sorted(p for p in dangers if p != d.person))
@@ -180,7 +183,7 @@ class Action(Agent):
                 e = max(walks, key=lambda e: e.get("updated_at", 0.0))
                 bystanders.append(Walk(p.name, names[e.dst], e.get("gaze", 0.0)))
         return SearchSpec(tuple(d for _, d in dangers.values()), gazes, known, tuple(bystanders),
-                          self._move_of(current) if current is not None else None, self.delay)
+                          self._move_of(current) if current is not None else None)
 
     def _current(self) -> Node | None:
         """The robot's move under way (or about to be), if any."""
@@ -227,7 +230,7 @@ class Action(Agent):
         verdicts: list[Verdict] = []
         batch = 1
         while chunk := list(islice(moves, batch)):
-            verdicts += await self._judge(spec, chunk)
+            verdicts += await self._judge(replace(spec, delay=self._delay(ctx, len(chunk))), chunk)
             self.tried += verdicts[-len(chunk):]
             if any(v.safe(self.args.risk_threshold) for v in verdicts):
                 break
@@ -257,7 +260,6 @@ class Action(Agent):
                 "at_time": ctx.scene.time, "time_to_collision": danger.time_to_collision,
                 "in_time": chosen.in_time(danger), "reason": reason})
             g.insert_or_assign_edge(ctx.ids[robot.name], node, "has", {"status": "proposed", "updated_at": time.time()})
-        self._measure_delay(ctx)
         self.log.info("move chosen", target=move.target, x=round(move.x, 2), y=round(move.y, 2),
                       in_time=chosen.in_time(danger), risk=round(chosen.risk, 2), people=len(dangers),
                       tried=len(self.tried), refused=sorted({v.reason for v in self.tried if not v.clear})[:4],
@@ -265,11 +267,16 @@ class Action(Agent):
                       rpc_ms=round(self.rpc_ms, 1), sim_ms=round(self.sim_ms, 1),
                       since_risk_ms=round((time.time() - edge.get("updated_at", time.time())) * 1e3, 1))
 
-    def _measure_delay(self, ctx: Context) -> None:
-        """Learn how far the world has gone on past the context by the time a move is written."""
+    def _delay(self, ctx: Context, moves: int) -> float:
+        """When a move judged now would reach the world, in seconds after the context.
+
+        The world has gone on past the context already (sensor latency, then Algorithm 1 and the search so
+        far: the robot's odometry in W says by how much); judging the moves takes about :data:`JUDGING`
+        each, and the executor and the world take ``--dispatch`` more.
+        """
         robot = next(iter(self.g.nodes("robot")), None)
         lag = (robot.get("stamp", ctx.scene.time) if robot is not None else ctx.scene.time) - ctx.scene.time
-        self.delay = max(self.args.command_delay, (self.delay + lag + DT) / 2)  # plus a world step to act on it
+        return max(lag, 0.0) + JUDGING * moves + self.args.dispatch
 
     @staticmethod
     def _ms(started: float) -> float:
