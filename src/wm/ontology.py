@@ -20,6 +20,7 @@ import numpy as np
 import yaml
 
 from .errors import AttributeTypeError, OntologyError, UnknownAttributeError, UnknownTypeError
+from .limits import Limits, non_finite
 
 VALUE_TYPES = ("bool", "int", "float", "str", "vec", "bytes")
 MAX_EXACT_INT = 2**53  # values travel as float64 inside the CRDT
@@ -37,6 +38,7 @@ class AttributeSpec:
     length: int | None = None
     volatile: bool = False
     doc: str = ""
+    nonfinite: bool = False  # whether NaN and ±inf are allowed (float and vec)
 
     def coerce(self, value: Any, owner: str) -> Value:
         """Return ``value`` in canonical form, or raise :class:`AttributeTypeError`."""
@@ -51,6 +53,8 @@ class AttributeSpec:
             raise AttributeTypeError(
                 f"{owner}.{self.name}: expected {self.describe()}, got a vector of length {len(result)}"  # type: ignore[arg-type]
             )
+        if not self.nonfinite and non_finite(result):
+            raise AttributeTypeError(f"{owner}.{self.name}: NaN and infinity are not allowed (the ontology entry says so)")
         return result
 
     def decode(self, stored: Any) -> Value:
@@ -139,11 +143,13 @@ class Ontology:
         node_types: Mapping[str, ElementType],
         edge_types: Mapping[str, ElementType],
         source: str = "<dict>",
+        limits: Limits = Limits(),
     ) -> None:
         self.attributes = dict(attributes)
         self.node_types = dict(node_types)
         self.edge_types = dict(edge_types)
         self.source = source
+        self.limits = limits
 
     # -- loading ---------------------------------------------------------------
 
@@ -176,7 +182,7 @@ class Ontology:
         """Validate a parsed ontology document; errors name the offending key."""
         if not isinstance(data, Mapping):
             raise OntologyError(f"{source}: the ontology must be a mapping with 'attributes', 'nodes' and 'edges'")
-        unknown = set(data) - {"version", "attributes", "nodes", "edges"}
+        unknown = set(data) - {"version", "attributes", "nodes", "edges", "limits"}
         if unknown:
             raise OntologyError(f"{source}: unknown top-level key {sorted(unknown)[0]!r}")
         attributes = {
@@ -185,7 +191,7 @@ class Ontology:
         }
         node_types = _parse_types("node", data.get("nodes", {}), attributes, f"{source}: nodes")
         edge_types = _parse_types("edge", data.get("edges", {}), attributes, f"{source}: edges")
-        return cls(attributes, node_types, edge_types, source)
+        return cls(attributes, node_types, edge_types, source, _parse_limits(data.get("limits"), f"{source}: limits"))
 
     # -- checking writes -------------------------------------------------------
 
@@ -207,7 +213,14 @@ class Ontology:
             return {}
         if not isinstance(attrs, Mapping):
             raise AttributeTypeError(f"{element.name}: attributes must be a mapping, got {type(attrs).__name__}")
-        return {name: self.attribute_for(element, name).coerce(value, element.name) for name, value in attrs.items()}
+        return {name: self._checked(self.attribute_for(element, name), value, element.name) for name, value in attrs.items()}
+
+    def _checked(self, spec: AttributeSpec, value: Any, owner: str) -> Value:
+        result = spec.coerce(value, owner)
+        problem = self.limits.size_problem(result)
+        if problem is not None:
+            raise AttributeTypeError(f"{owner}.{spec.name}: {problem}")
+        return result
 
     def attribute_for(self, element: ElementType, name: str) -> AttributeSpec:
         """The spec of ``name`` on this type, or :class:`UnknownAttributeError`."""
@@ -243,7 +256,7 @@ def _parse_attribute(name: str, spec: Any, where: str) -> AttributeSpec:
         spec = {"type": spec}
     if not isinstance(spec, Mapping):
         raise OntologyError(f"{where}: expected a mapping or a type name, got {type(spec).__name__}")
-    unknown = set(spec) - {"type", "length", "volatile", "doc"}
+    unknown = set(spec) - {"type", "length", "volatile", "doc", "nonfinite"}
     if unknown:
         raise OntologyError(f"{where}.{sorted(unknown)[0]}: unknown key")
     value_type = spec.get("type")
@@ -255,7 +268,22 @@ def _parse_attribute(name: str, spec: Any, where: str) -> AttributeSpec:
     volatile = spec.get("volatile", False)
     if not isinstance(volatile, bool):
         raise OntologyError(f"{where}.volatile: expected true or false, got {volatile!r}")
-    return AttributeSpec(name, value_type, length, volatile, str(spec.get("doc", "")))
+    nonfinite = spec.get("nonfinite", False)
+    if not isinstance(nonfinite, bool) or (nonfinite and value_type not in ("float", "vec")):
+        raise OntologyError(f"{where}.nonfinite: only a float or a vec may allow NaN and infinity (true or false)")
+    return AttributeSpec(name, value_type, length, volatile, str(spec.get("doc", "")), nonfinite)
+
+
+def _parse_limits(section: Any, where: str) -> Limits:
+    defaults = Limits()
+    values = {}
+    for key, value in _mapping(section, where).items():
+        if not hasattr(defaults, key):
+            raise OntologyError(f"{where}.{key}: unknown limit")
+        if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+            raise OntologyError(f"{where}.{key}: expected a positive int, got {value!r}")
+        values[key] = value
+    return Limits(**values)
 
 
 def _parse_types(kind: str, section: Any, attributes: Mapping[str, AttributeSpec], where: str) -> dict[str, ElementType]:

@@ -47,6 +47,7 @@ class ReplicationStats:
     syncs_served: int = 0
     heartbeats: int = 0
     withheld: int = 0
+    failed: int = 0  # messages whose application raised something unexpected (logged with a traceback)
     caught_up_from: str | None = None
 
 
@@ -200,15 +201,24 @@ class Replicator:
         if message is None or message.sender == self.graph.replica_id:
             return
         gap = self._tracker.on_delta(message.sender, message.seq)
-        try:
-            proto.apply_delta(self.graph, message)
-        except DecodeError as exc:
-            self._reject(key, exc)
+        if not self._apply(key, message):
             return
         self.stats.applied += 1
         if gap:
             self.stats.gaps += 1
             self.repair(message.sender)
+
+    def _apply(self, key: str, message: proto.Delta | proto.SyncReply) -> bool:
+        """Apply a remote message; nothing it holds may stop replication, so every failure is caught and counted."""
+        try:
+            proto.apply_delta(self.graph, message)
+            return True
+        except DecodeError as exc:
+            self._reject(key, exc)
+        except Exception:
+            self.stats.failed += 1
+            log.exception("applying a message on %s (from replica %r) failed; replication goes on", key, message.sender)
+        return False
 
     def _on_heartbeat(self, key: str, payload: bytes) -> None:
         message = self._decode(key, payload, proto.Heartbeat)
@@ -251,6 +261,10 @@ class Replicator:
         except DecodeError as exc:
             self._reject(str(query.key_expr), exc)
             query.reply_err(str(exc))
+        except Exception as exc:
+            self.stats.failed += 1
+            log.exception("answering a query on %s failed", key)
+            query.reply_err(f"cannot answer: {exc}")
         finally:
             query.drop()
 
@@ -274,12 +288,7 @@ class Replicator:
         request = proto.encode(proto.SyncRequest(self.graph.replica_id, self.graph.state_vector()))
         for key, payload in await self._query(keys.sync(self.name, replica), request):
             reply = self._decode(key, payload, proto.SyncReply)
-            if reply is None:
-                continue
-            try:
-                proto.apply_delta(self.graph, reply)
-            except DecodeError as exc:
-                self._reject(key, exc)
+            if reply is None or not self._apply(key, reply):
                 continue
             self._tracker.on_sync(reply.sender, reply.seq)
             return True

@@ -27,9 +27,7 @@ from typing import TYPE_CHECKING, Any
 import msgpack
 from pycrdt import merge_updates
 
-from .crdt_store import EMPTY_STATE_VECTOR
 from .errors import DecodeError
-from .model import parse_edge_key
 from .volatile import Record, check_records
 
 if TYPE_CHECKING:
@@ -74,7 +72,7 @@ class SyncReply:
     seq: int
     update: bytes
     volatile: list[Record] = field(default_factory=list)
-    heads: list[Any] | None = None  # [node heads, edge heads] for a fresh asker, see Graph.load_fresh
+    heads: list[Any] | None = None  # ignored; older versions sent their index to a fresh asker here
 
 
 @dataclass(frozen=True)
@@ -136,28 +134,8 @@ def decode(data: bytes) -> Message:
             value = check_records(value)
         elif name == "state_vector":
             parse_state_vector(value)
-        elif name == "heads" and value is not None:
-            _check_heads(value)
         values[name] = value
     return cls(sender=sender, **values)
-
-
-def _check_heads(heads: list[Any]) -> None:
-    nodes, edges = heads if len(heads) == 2 else (None, None)
-    if not isinstance(nodes, list) or not isinstance(edges, list):
-        raise DecodeError("heads are [nodes, edges]")
-    for node in nodes:
-        if not (isinstance(node, list) and len(node) == 3 and type(node[0]) is int
-                and isinstance(node[1], str) and isinstance(node[2], str)):
-            raise DecodeError("a node head is [id, type, name]")
-    for edge in edges:
-        if not (isinstance(edge, list) and len(edge) == 2 and isinstance(edge[0], str) and edge[0].count(">") >= 2
-                and isinstance(edge[1], list) and all(isinstance(a, str) for a in edge[1])):
-            raise DecodeError("an edge head is [key, [attribute names]]")
-        try:
-            parse_edge_key(edge[0])
-        except ValueError:
-            raise DecodeError(f"malformed edge key {edge[0]!r}") from None
 
 
 # -- state vectors -------------------------------------------------------------
@@ -208,8 +186,8 @@ def make_delta(sender: str, seq: int, updates: list[bytes], records: list[Record
 
 def apply_delta(graph: Graph, message: Delta | SyncReply) -> None:
     """Apply a delta or a sync reply; the sender is reported as the writer."""
-    if isinstance(message, SyncReply) and message.heads is not None:
-        graph.load_fresh(message.update, (message.heads[0], message.heads[1]), message.sender)
+    if isinstance(message, SyncReply) and graph.is_fresh():
+        graph.load_fresh(message.update, message.sender)
     elif message.update:
         graph.apply_update(message.update, message.sender)
     if message.volatile:
@@ -217,10 +195,8 @@ def apply_delta(graph: Graph, message: Delta | SyncReply) -> None:
 
 
 def answer_sync(graph: Graph, request: SyncRequest, seq: int) -> SyncReply:
-    """Everything the asker lacks; a fresh asker also gets this replica's index heads."""
-    fresh = request.state_vector == EMPTY_STATE_VECTOR
-    heads = list(graph.index_heads()) if fresh else None
-    return SyncReply(graph.replica_id, seq, graph.diff(request.state_vector), graph.volatile_records(), heads)
+    """Everything the asker lacks, and every volatile register."""
+    return SyncReply(graph.replica_id, seq, graph.diff(request.state_vector), graph.volatile_records())
 
 
 class SequenceTracker:
