@@ -32,6 +32,7 @@ def sample() -> wm.Graph:
         proto.SyncReply("a1", 2, b"\x00\x00", [], [[[1, "world", "w"]], [["1>2>RT", ["status"]]]]),
         proto.AckRequest("a1", 5),
         proto.AckReply("a1", 5),
+        proto.AckReply("a1", 5, 4),
     ],
 )
 def test_every_message_round_trips(message: proto.Message) -> None:
@@ -74,6 +75,13 @@ def test_heads_sent_by_an_older_version_are_ignored() -> None:
     lying = proto.SyncReply(reply.sender, reply.seq, reply.update, reply.volatile, [[[1, "world", "w"]], []])
     proto.apply_delta(fresh, proto.decode(proto.encode(lying)))
     assert fresh.to_dict() == source.to_dict()
+
+
+def test_an_ack_reply_of_an_older_version_has_nothing_on_disk() -> None:
+    raw = msgpack.packb([proto.VERSION, int(proto.Kind.ACK_REPLY), "a1", 7])
+    assert proto.decode(raw) == proto.AckReply("a1", 7, 0)
+    with pytest.raises(wm.DecodeError):
+        proto.decode(msgpack.packb([proto.VERSION, int(proto.Kind.ACK_REPLY), "a1"]))
 
 
 def test_heads_of_the_wrong_type_are_refused() -> None:

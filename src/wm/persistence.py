@@ -26,6 +26,7 @@ import os
 import struct
 import time
 import zlib
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -133,6 +134,9 @@ class Persister:
         self.interval = interval
         self.fsync_interval = fsync_interval
         self.compact_bytes = compact_bytes
+        # what was received from whom, asked at each flush (see Replicator.received); afterwards it is on disk
+        self.progress: Callable[[], dict[str, int]] | None = None
+        self.persisted: dict[str, int] = {}
         self._updates: dict[str, list[bytes]] = {}  # writer -> its updates since the last flush
         graph.observe_updates(self._on_update)
         graph.track_volatile_changes()
@@ -145,14 +149,21 @@ class Persister:
         """Append one record per writer of the updates since the last flush (volatile registers with the first)."""
         by_writer, self._updates = self._updates, {}
         records = self.graph.take_volatile_changes()
+        received = self.progress() if self.progress is not None else {}
         if not by_writer and not records:
+            self.persisted = received
             return
         for writer, updates in by_writer.items() or [(self.graph.replica_id, [])]:
             update = None if not updates else updates[0] if len(updates) == 1 else merge_updates(*updates)
             self.disk.append(update, records, writer, self.fsync_interval)
             records = []
+        self.persisted = received
         if self.disk.log_size() > self.compact_bytes:
             self.disk.compact(self.graph)
+
+    def on_disk(self, sender: str) -> int:
+        """The last sequence number of ``sender`` whose writes are in the log (handed to the OS)."""
+        return self.persisted.get(sender, 0)
 
     async def run(self) -> None:
         """Flush every ``interval`` until cancelled, then flush, compact and close."""

@@ -11,7 +11,8 @@ Six messages, each a msgpack array ``[version, kind, sender, ...]``:
 ``SYNC_REPLY``    the CRDT diff against that state vector, every volatile
                   register, and the replier's last sequence number.
 ``ACK_REQUEST``   "have you received my messages up to seq N?".
-``ACK_REPLY``     the highest sequence number the replier has from the asker.
+``ACK_REPLY``     the highest sequence number the replier has from the asker, and
+                  the highest one it holds on disk (a durable member; 0 otherwise).
 
 :func:`decode` checks every field's type, so malformed bytes raise
 :class:`wm.errors.DecodeError` before anything touches the graph. The functions
@@ -85,6 +86,7 @@ class AckRequest:
 class AckReply:
     sender: str
     acked: int
+    on_disk: int = 0
 
 
 Message = Delta | Heartbeat | SyncRequest | SyncReply | AckRequest | AckReply
@@ -95,8 +97,9 @@ _FIELDS: dict[Kind, tuple[type, tuple[tuple[str, tuple[type, ...]], ...]]] = {
     Kind.SYNC_REQUEST: (SyncRequest, (("state_vector", (bytes,)),)),
     Kind.SYNC_REPLY: (SyncReply, (("seq", (int,)), ("update", (bytes,)), ("volatile", (list,)), ("heads", (list, type(None))))),
     Kind.ACK_REQUEST: (AckRequest, (("seq", (int,)),)),
-    Kind.ACK_REPLY: (AckReply, (("acked", (int,)),)),
+    Kind.ACK_REPLY: (AckReply, (("acked", (int,)), ("on_disk", (int,)))),
 }
+_OPTIONAL_TAIL = {Kind.ACK_REPLY: 1}  # fields added later: an older sender leaves them out
 _KIND_OF = {cls: kind for kind, (cls, _) in _FIELDS.items()}
 
 
@@ -124,7 +127,7 @@ def decode(data: bytes) -> Message:
     if not isinstance(sender, str) or not sender:
         raise DecodeError("the sender must be a non-empty string")
     cls, fields = _FIELDS[kind]
-    if len(rest) != len(fields):
+    if not len(fields) - _OPTIONAL_TAIL.get(kind, 0) <= len(rest) <= len(fields):
         raise DecodeError(f"{kind.name} has {len(fields)} fields after the sender, got {len(rest)}")
     values: dict[str, Any] = {}
     for (name, types), value in zip(fields, rest):
