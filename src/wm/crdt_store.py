@@ -185,6 +185,19 @@ class CrdtStore:
                 )
         return contents
 
+    def node_values(self, key: str) -> dict[str, Any] | None:
+        """Every entry of one node map as stored (``@type`` and ``@name`` included), or None if it is not a map.
+
+        One transaction on the integrated map: the wrappers' ``items()`` opens
+        one per value.
+        """
+        with self.doc.transaction() as txn:
+            raw_txn, root = txn._txn, self.nodes.integrated
+            node = root.get(raw_txn, key) if root.has(raw_txn, key) else None
+            if not isinstance(node, type(root)):
+                return None
+            return {k: node.get(raw_txn, k) for k in node.keys(raw_txn)}
+
     def read_node_attrs(self, wanted: dict[str, set[str]]) -> dict[str, dict[str, Any]]:
         """The stored values of some attributes of some nodes (absent ones left out), in one transaction."""
         values: dict[str, dict[str, Any]] = {}
@@ -207,12 +220,10 @@ class CrdtStore:
         return key in self.deleted
 
     def edge_attr_values(self, key: str, attrs: set[str]) -> dict[str, Any]:
-        values = {}
-        for attr in attrs:
-            value = self.edge_attrs.get(f"{key}.{attr}")
-            if value is not None:
-                values[attr] = value
-        return values
+        """The stored values of some attributes of one edge, in one transaction."""
+        with self.doc.transaction() as txn:
+            raw_txn, root = txn._txn, self.edge_attrs.integrated
+            return {attr: root.get(raw_txn, flat) for attr in attrs if root.has(raw_txn, flat := f"{key}.{attr}")}
 
     # -- writes (call inside a transaction) ----------------------------------
 

@@ -395,12 +395,10 @@ class Graph:
     def _node_snapshot(self, node_id: int) -> Node:
         node_type, name = self._index.node_meta[node_id]
         element = self.ontology.node_types[node_type]
-        node_map = self._store.node_map(str(node_id))
-        decode, problem = self.ontology.decode, self._rules.attr_problem
-        attrs = {}
-        if node_map is not None:
-            # the view rules, on every read: a peer's value that does not fit is never shown (docs/replication.md)
-            attrs = {k: decode(k, v) for k, v in node_map.items() if not k.startswith("@") and problem(element, k, v) is None}
+        stored = self._store.node_values(str(node_id)) or {}
+        decode, fits = self.ontology.decode, self._rules.attr_fits
+        # the view rules, on every read: a peer's value that does not fit is never shown (docs/replication.md)
+        attrs = {k: decode(k, v) for k, v in stored.items() if fits(element, k, v)}
         for attr, value in self._volatile.values(node_owner(node_id)).items():
             if attr in element.attributes:
                 attrs[attr] = decode(attr, value)
@@ -474,9 +472,9 @@ class Graph:
     def _edge_snapshot(self, key: str) -> Edge:
         src, dst, edge_type = self._index.markers[key]
         element = self.ontology.edge_types[edge_type]
-        decode, problem = self.ontology.decode, self._rules.attr_problem
+        decode, fits = self.ontology.decode, self._rules.attr_fits
         stored = self._store.edge_attr_values(key, self._index.edge_attr_names.get(key, set()))
-        attrs = {k: decode(k, v) for k, v in stored.items() if problem(element, k, v) is None}
+        attrs = {k: decode(k, v) for k, v in stored.items() if fits(element, k, v)}
         for attr, value in self._volatile.values(edge_owner(key)).items():
             if attr in element.attributes:
                 attrs[attr] = decode(attr, value)

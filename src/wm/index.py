@@ -36,12 +36,15 @@ class IndexResult:
     left_out: list[LeftOut] = field(default_factory=list)  # entries newly left out by this round
 
 
+LEFT_OUT_KINDS = ("node", "edge", "node_attr", "edge_attr")
+
+
 class LeftOutEntries:
     """The document entries the view currently leaves out, by (kind, key), and how many each writer sent."""
 
     def __init__(self) -> None:
         self.entries: dict[tuple[str, str], LeftOut] = {}
-        self.counts: Counter[str] = Counter()  # kind -> entries now
+        self.counts = dict.fromkeys(LEFT_OUT_KINDS, 0)  # kind -> entries now (a plain dict: read on every write)
         self.by_writer: Counter[str] = Counter()  # writer -> entries ever left out
 
     def add(self, entry: LeftOut, result: IndexResult) -> None:
@@ -170,7 +173,7 @@ class GraphIndex:
         touched_edges = dict.fromkeys(changes.edges_added + changes.edges_removed)
         for event in added_nodes + removed_nodes:
             touched_edges.update(dict.fromkeys(self.edges_of(event.id)))  # type: ignore[arg-type]
-        present = self._present_markers(store, touched_edges, writer, local, result)
+        present = self._present_markers(store, touched_edges, writer, local, result) if touched_edges else set()
         added_edges, removed_edges = [], []
         for key in touched_edges:
             parsed = self.markers.get(key) or self.rules.edge_parts(key)
@@ -217,12 +220,10 @@ class GraphIndex:
 
         Returns the added, removed and re-typed (removed, then added again) events.
         """
-        touched = list(dict.fromkeys(
-            changes.nodes_added + changes.nodes_removed
-            + [key for key, attrs in changes.node_attrs.items() if NAME_KEY in attrs or TYPE_KEY in attrs]
-        ))
-        if not touched:
+        heads = [key for key, attrs in changes.node_attrs.items() if NAME_KEY in attrs or TYPE_KEY in attrs]
+        if not (changes.nodes_added or changes.nodes_removed or heads):
             return [], [], []
+        touched = list(dict.fromkeys(changes.nodes_added + changes.nodes_removed + heads))
         contents = store.read_nodes(touched)
         new: list[tuple[str, int]] = []
         removed: list[Event] = []
@@ -336,7 +337,8 @@ class GraphIndex:
     ) -> dict[str, set[str]]:
         """Track which durable attributes each edge carries; returns, per edge, the changed attributes the view shows."""
         if local:
-            self._note_local_edge_attrs(store, changes)
+            if changes.edge_attrs:
+                self._note_local_edge_attrs(store, changes)
             for flat_key in changes.malformed_edge_attrs:  # only `wm check --repair` deletes these locally
                 self.left_out.discard("edge_attr", flat_key)
             return {}
@@ -453,14 +455,16 @@ class GraphIndex:
         self, store: CrdtStore, changes: RawChanges, writer: str, local: bool, fresh: set[int], result: IndexResult
     ) -> dict[str, set[str]]:
         """Per node in the view, the changed attributes an update event lists (remote values checked)."""
-        live = {key: attrs for key, attrs in changes.node_attrs.items()
-                if (node_id := node_id_of(key)) is not None and node_id in self.node_meta and node_id not in fresh}
-        if local:
+        if local:  # this replica writes only into its live nodes
+            meta = self.node_meta
+            live = {key: attrs for key, attrs in changes.node_attrs.items() if (i := int(key)) in meta and i not in fresh}
             if self.left_out.counts["node_attr"]:
                 for key, attrs in live.items():
                     for attr in attrs:
                         self.left_out.discard("node_attr", f"{key}.{attr}")
             return live
+        live = {key: attrs for key, attrs in changes.node_attrs.items()
+                if (node_id := node_id_of(key)) is not None and node_id in self.node_meta and node_id not in fresh}
         stored = store.read_node_attrs({key: {a for a in attrs if type(a) is str} for key, attrs in live.items()})
         shown: dict[str, set[str]] = {}
         for key, attrs in live.items():

@@ -23,6 +23,8 @@ from .errors import AttributeTypeError, OntologyError, UnknownAttributeError, Un
 from .limits import Limits, non_finite
 
 VALUE_TYPES = ("bool", "int", "float", "str", "vec", "bytes")
+_REAL = frozenset({"float", "vec"})  # may hold NaN or infinity
+_SIZED = frozenset({"str", "bytes", "vec"})  # capped by Limits.max_value_bytes
 MAX_EXACT_INT = 2**53  # values travel as float64 inside the CRDT
 _IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
@@ -53,7 +55,7 @@ class AttributeSpec:
             raise AttributeTypeError(
                 f"{owner}.{self.name}: expected {self.describe()}, got a vector of length {len(result)}"  # type: ignore[arg-type]
             )
-        if not self.nonfinite and non_finite(result):
+        if self.type in _REAL and not self.nonfinite and non_finite(result):
             raise AttributeTypeError(f"{owner}.{self.name}: NaN and infinity are not allowed (the ontology entry says so)")
         return result
 
@@ -217,8 +219,7 @@ class Ontology:
 
     def _checked(self, spec: AttributeSpec, value: Any, owner: str) -> Value:
         result = spec.coerce(value, owner)
-        problem = self.limits.size_problem(result)
-        if problem is not None:
+        if spec.type in _SIZED and (problem := self.limits.size_problem(result)) is not None:
             raise AttributeTypeError(f"{owner}.{spec.name}: {problem}")
         return result
 

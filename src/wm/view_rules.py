@@ -21,10 +21,12 @@ dumps, and reported as a :class:`LeftOut` with the replica that sent it.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from math import isfinite
 from typing import Any
 
-from .limits import non_finite
+from .limits import FLOAT_BYTES, non_finite
 from .ontology import MAX_EXACT_INT, AttributeSpec, ElementType, Ontology
 
 MAX_NODE_ID = 2**53
@@ -57,6 +59,7 @@ class ViewRules:
     def __init__(self, ontology: Ontology) -> None:
         self.ontology = ontology
         self.limits = ontology.limits
+        self._fits = {name: _fits(spec, ontology.limits.max_value_bytes) for name, spec in ontology.attributes.items()}
 
     def node_problem(self, node_type: Any, name: Any) -> str | None:
         """Why a node map with this ``@type`` and ``@name`` is left out, or None."""
@@ -76,6 +79,10 @@ class ViewRules:
             return None
         return src, dst, parts[2]
 
+    def attr_fits(self, element: ElementType, attr: str, stored: Any) -> bool:
+        """Whether the view shows a stored attribute of a node or edge of type ``element`` (the fast check of reads)."""
+        return attr in element.attributes and self._fits[attr](stored)
+
     def attr_problem(self, element: ElementType, attr: Any, stored: Any) -> str | None:
         """Why a stored attribute of a node or edge of type ``element`` is left out, or None."""
         if attr not in element.attributes:
@@ -84,6 +91,11 @@ class ViewRules:
 
     def value_problem(self, spec: AttributeSpec, stored: Any) -> str | None:
         """Why a value as stored (in the document or a volatile record) does not fit ``spec``, or None."""
+        if self._fits[spec.name](stored):
+            return None
+        return self._explain(spec, stored) or f"{spec.name}: does not fit {spec.describe()}"
+
+    def _explain(self, spec: AttributeSpec, stored: Any) -> str | None:
         if not _STORED_CHECKS[spec.type](stored):
             return f"{spec.name}: expected {spec.describe()}, got {type(stored).__name__}"
         if spec.type == "vec":
@@ -115,6 +127,32 @@ def _is_int(value: Any) -> bool:
 
 def _is_vec(value: Any) -> bool:
     return type(value) in (list, tuple) and all(map(_is_number, value))
+
+
+def _fits(spec: AttributeSpec, max_bytes: int) -> Callable[[Any], bool]:
+    """One attribute's whole rule (type, length, finite, size) as a single fast predicate on stored values.
+
+    Stored strings are valid UTF-8 (pycrdt and msgpack refuse anything else),
+    so a lone surrogate never needs looking for here.
+    """
+    finite = not spec.nonfinite
+    if spec.type == "float":
+        return (lambda v: type(v) is int or (type(v) is float and isfinite(v))) if finite else _is_number
+    if spec.type == "str":
+        return lambda v: type(v) is str and (len(v) * 4 <= max_bytes or len(v.encode("utf-8")) <= max_bytes)
+    if spec.type == "bytes":
+        return lambda v: type(v) in (bytes, bytearray) and len(v) <= max_bytes
+    if spec.type == "vec":
+        length, elements = spec.length, max_bytes // FLOAT_BYTES
+
+        def fits_vec(v: Any) -> bool:
+            return (
+                type(v) in (list, tuple) and (len(v) == length if length is not None else len(v) <= elements)
+                and all(type(x) is int or (type(x) is float and (not finite or isfinite(x))) for x in v)
+            )
+
+        return fits_vec
+    return _STORED_CHECKS[spec.type]
 
 
 _STORED_CHECKS = {
