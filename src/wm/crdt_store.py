@@ -158,13 +158,14 @@ class CrdtStore:
         value = self.nodes.get(key)
         return value if isinstance(value, Map) else None
 
-    def read_nodes(self, keys: Iterable[str]) -> dict[str, NodeContent | None]:
+    def read_nodes(self, keys: Iterable[str], attr_names: bool = True) -> dict[str, NodeContent | None]:
         """What each present key holds, read in one transaction: its head if it is a map, else None.
 
         The pycrdt wrappers open a transaction per call (about 60 us per node);
         a catch-up reading thousands of new nodes goes through the integrated
         maps underneath them instead, the same objects the wrappers call.
-        ``@type`` and ``@name`` come back as stored, whatever their type.
+        ``@type`` and ``@name`` come back as stored, whatever their type; the
+        attribute names only with ``attr_names``.
         """
         contents: dict[str, NodeContent | None] = {}
         with self.doc.transaction() as txn:
@@ -177,11 +178,10 @@ class CrdtStore:
                 if not isinstance(node, raw_map):
                     contents[key] = None
                     continue
-                names = list(node.keys(raw_txn))
                 contents[key] = NodeContent(
-                    node.get(raw_txn, TYPE_KEY) if TYPE_KEY in names else None,
-                    node.get(raw_txn, NAME_KEY) if NAME_KEY in names else None,
-                    {k for k in names if not k.startswith("@")},
+                    node.get(raw_txn, TYPE_KEY) if node.has(raw_txn, TYPE_KEY) else None,
+                    node.get(raw_txn, NAME_KEY) if node.has(raw_txn, NAME_KEY) else None,
+                    {k for k in node.keys(raw_txn) if not k.startswith("@")} if attr_names else set(),
                 )
         return contents
 

@@ -144,11 +144,13 @@ class Graph:
         if self._depth == 0:
             self._flush_events()
 
-    def _apply_to_index(self, changes: RawChanges, writer: str, local: bool, check_values: bool = True) -> IndexResult | None:
+    def _apply_to_index(
+        self, changes: RawChanges, writer: str, local: bool, check_values: bool = True, describe: bool = True
+    ) -> IndexResult | None:
         """Update the index and queue the events; the repairs it calls for come after, from :meth:`_repair`."""
         if not changes:
             return None
-        result = self._index.apply(self._store, changes, writer, local, self._volatile_attr_names, check_values)
+        result = self._index.apply(self._store, changes, writer, local, self._volatile_attr_names, check_values, describe)
         if result.left_out:
             first = result.left_out[0]
             log.warning("left out %d entr%s of the document sent by %s, e.g. %s",
@@ -554,7 +556,8 @@ class Graph:
             self.apply_update(update, writer)
             return
         self._store.apply_unobserved(update, writer)
-        self._repair([self._apply_to_index(self._index.missed_changes(self._store), writer, False, check_values=False)], writer)
+        changes = self._index.missed_changes(self._store)
+        self._repair([self._apply_to_index(changes, writer, False, check_values=False, describe=self._hub.has_consumers)], writer)
         if self._depth == 0:
             self._flush_events()
 

@@ -156,6 +156,7 @@ class GraphIndex:
         local: bool,
         volatile_attrs: Callable[[str], Iterable[str]],
         check_values: bool = True,
+        describe: bool = True,
     ) -> IndexResult:
         """Bring the index up to date with ``changes`` and return the events they amount to.
 
@@ -163,11 +164,14 @@ class GraphIndex:
         that an *added* event lists every attribute the element carries. Remote
         content is checked against :class:`wm.view_rules.ViewRules`; attribute
         values of added nodes only when ``check_values`` (a catch-up skips it:
-        reads check values anyway, see :meth:`wm.Graph.left_out`).
+        reads check values anyway, see :meth:`wm.Graph.left_out`). Without
+        ``describe`` (nobody listens), added events carry no attribute names.
         """
         result = IndexResult()
         check = check_values and not local
-        added_nodes, removed_nodes, retyped = self._apply_nodes(store, changes, writer, local, check, volatile_attrs, result)
+        added_nodes, removed_nodes, retyped = self._apply_nodes(
+            store, changes, writer, local, check, volatile_attrs if describe else None, result
+        )
         gone_names = {e.id: e.name for e in removed_nodes + retyped}
         accepted_edge_attrs = self._note_edge_attrs(store, changes, writer, local, result)
         touched_edges = dict.fromkeys(changes.edges_added + changes.edges_removed)
@@ -213,7 +217,7 @@ class GraphIndex:
         writer: str,
         local: bool,
         check_values: bool,
-        volatile_attrs: Callable[[str], Iterable[str]],
+        volatile_attrs: Callable[[str], Iterable[str]] | None,
         result: IndexResult,
     ) -> tuple[list[Event], list[Event], list[Event]]:
         """Add, remove, rename and re-type nodes whose key, ``@type`` or ``@name`` changed.
@@ -224,7 +228,7 @@ class GraphIndex:
         if not (changes.nodes_added or changes.nodes_removed or heads):
             return [], [], []
         touched = list(dict.fromkeys(changes.nodes_added + changes.nodes_removed + heads))
-        contents = store.read_nodes(touched)
+        contents = store.read_nodes(touched, attr_names=check_values or volatile_attrs is not None)
         new: list[tuple[str, int]] = []
         removed: list[Event] = []
         retyped: list[Event] = []
@@ -255,7 +259,9 @@ class GraphIndex:
         added = []
         for key, node_id in new:
             node_type, name = self.node_meta[node_id]
-            attrs = shown.get(key, frozenset(contents[key].attrs)) | frozenset(volatile_attrs(f"n:{key}"))  # type: ignore[union-attr]
+            attrs: frozenset[str] = frozenset()
+            if volatile_attrs is not None:
+                attrs = shown.get(key, frozenset(contents[key].attrs)) | frozenset(volatile_attrs(f"n:{key}"))  # type: ignore[union-attr]
             added.append(Event(EventKind.NODE_ADDED, node_type, writer, local, attrs, node_id, name))
         return added, removed, retyped
 
