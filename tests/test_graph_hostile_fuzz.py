@@ -20,7 +20,6 @@ from __future__ import annotations
 import json
 import math
 import tempfile
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -29,9 +28,10 @@ from hypothesis import strategies as st
 from pycrdt import Array, Doc, Map, Text
 
 import wm
+from test_graph_properties import REPLICAS
+from test_graph_properties import Net as ReplicaNet
 from wm.persistence import DiskLog, Persister
 
-REPLICAS = 3
 ROOTS = ("nodes", "edges", "edge_attrs", "deleted")
 
 plain_values = st.one_of(
@@ -39,7 +39,7 @@ plain_values = st.one_of(
     st.text(max_size=8), st.binary(max_size=8), st.lists(st.floats(-10, 10), max_size=4),
     st.sampled_from(["object", "person", "bogus_type", "RT", "has", "", "@x"]),
 )
-real_ids = st.builds(lambda prefix, counter: str(prefix << 21 | counter), st.integers(10, 12), st.integers(1, 4))  # ids the replicas use
+real_ids = st.builds(lambda prefix, counter: str(prefix << 21 | counter), st.integers(1000, 1002), st.integers(1, 4))  # ids in use
 keys = st.one_of(
     real_ids,
     st.builds(lambda a, b, t: f"{a}>{b}>{t}", real_ids, real_ids, st.sampled_from(["has", "RT", "has.status", "has.bogus"])),
@@ -68,25 +68,11 @@ def shaped_values(draw: st.DrawFn) -> Any:
     return draw(plain_values)
 
 
-@dataclass
-class Net:
-    """Three replicas, a hostile document, and the messages in flight."""
-
-    graphs: list[wm.Graph]
-    in_flight: list[tuple[int, bytes, str]] = field(default_factory=list)  # (destination, update, writer)
-
-    @classmethod
-    def build(cls) -> Net:
-        net = cls([wm.Graph(replica_id=f"r{i}", id_prefix=10 + i) for i in range(REPLICAS)])
-        for i, graph in enumerate(net.graphs):
-            graph.observe_updates(lambda update, origin, i=i: net.broadcast(i, update, origin))
-        return net
-
-    def broadcast(self, source: int, update: bytes, origin: Any) -> None:
-        if origin == self.graphs[source].replica_id:
-            self.in_flight += [(dst, update, origin) for dst in range(REPLICAS) if dst != source]
+class Net(ReplicaNet):
+    """The property tests' three replicas and messages in flight, plus a hostile writer."""
 
     def hostile(self, base: int, writes: list[tuple[str, str, str | None, Any]]) -> None:
+        """One update of ``writes``, made on a copy of replica ``base``'s document, sent to every replica."""
         doc = Doc()
         doc.apply_update(self.graphs[base].diff())
         before = doc.get_state()
@@ -99,18 +85,7 @@ class Net:
                 else:
                     target[key] = value
         update = doc.get_update(before)
-        self.in_flight += [(dst, update, "mallory") for dst in range(REPLICAS)]
-
-    def full_exchange(self) -> None:
-        for _ in range(3):
-            for a in self.graphs:
-                for b in self.graphs:
-                    if a is not b:
-                        b.apply_update(a.diff(b.state_vector()), a.replica_id)
-                        b.merge_volatile(a.volatile_records(), a.replica_id)
-            for graph in self.graphs:
-                graph.reconcile()
-        self.in_flight.clear()
+        self.in_flight += [(dst, "crdt", update, "mallory") for dst in range(REPLICAS)]
 
 
 def legitimate(net: Net, r: int, op: str, pick: int, value: float) -> None:
@@ -159,9 +134,7 @@ def test_hostile_documents_never_break_a_replica_and_every_replica_shows_the_sam
                 record = (owner, data.draw(attr_names), data.draw(plain_values), data.draw(st.integers(0, 9)), "mallory")
                 net.graphs[r].merge_volatile([record], "mallory")
             elif net.in_flight:
-                index = data.draw(st.integers(0, 10**6)) % len(net.in_flight)
-                dst, update, writer = net.in_flight[index] if data.draw(st.booleans()) else net.in_flight.pop(index)
-                net.graphs[dst].apply_update(update, writer)
+                net.deliver(data.draw(st.integers(0, 10**6)) % len(net.in_flight), keep_copy=data.draw(st.booleans()))
             persister.flush()
         net.full_exchange()
         persister.flush()
