@@ -38,7 +38,7 @@ from .index import GraphIndex, IndexResult
 from .model import Edge, Node, edge_key, freeze
 from .ontology import ElementType, Ontology, Value
 from .rt import RTApi
-from .view_rules import LeftOut, ViewRules, node_id_of
+from .view_rules import LeftOut, ViewRules
 from .volatile import Record, VolatileStore, check_records, edge_owner, node_owner
 
 if TYPE_CHECKING:

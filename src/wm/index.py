@@ -9,7 +9,11 @@ visibility rules live:
 * an edge is visible only while its marker exists **and** both its endpoints
   are live nodes, so a dangling edge left by a concurrent delete is never seen;
 * a name belongs to the live node with the **lowest id** carrying it; the
-  others are reported as conflicts so the graph can rename them.
+  others are reported as conflicts so the graph can rename them;
+* a document entry the view rules (:mod:`wm.view_rules`) refuse is left out,
+  and kept in :class:`LeftOutEntries` with the replica that sent it. Remote
+  changes are checked; a local one was checked by the ontology before it was
+  made, so the write path pays nothing for the rules.
 """
 
 from __future__ import annotations
