@@ -36,6 +36,7 @@ from .events import Event, EventFilter, EventHub, EventKind, EventStream, Subscr
 from .ids import IdAllocator
 from .index import GraphIndex, IndexResult
 from .model import Edge, Node, edge_key, freeze
+from .limits import CONFLICT_SUFFIX_ROOM
 from .ontology import ElementType, Ontology, Value
 from .rt import RTApi
 from .view_rules import LeftOut, ViewRules
@@ -46,7 +47,6 @@ if TYPE_CHECKING:
 
 NodeRef = int | str
 SNAPSHOT_VERSION = 1
-CONFLICT_SUFFIX_ROOM = 17  # "~" and up to 16 digits of an id, see _rename_losers
 log = logging.getLogger(__name__)
 
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any
 
 FLOAT_BYTES = 8  # a vec element travels as a float64
+CONFLICT_SUFFIX_ROOM = 17  # "~" and up to 16 digits of an id: what a name conflict adds (wm.Graph._rename_losers)
 
 
 @dataclass(frozen=True)
@@ -22,6 +23,13 @@ class Limits:
 
     max_value_bytes: int = 1_000_000  # a str (UTF-8), bytes, or a vec (8 bytes an element)
     max_name_length: int = 256  # characters of a node name
+
+    def __post_init__(self) -> None:
+        if self.max_value_bytes < 1:
+            raise ValueError(f"max_value_bytes must be positive, got {self.max_value_bytes}")
+        if self.max_name_length <= CONFLICT_SUFFIX_ROOM:
+            raise ValueError(f"max_name_length must leave room for a conflict suffix (> {CONFLICT_SUFFIX_ROOM}), "
+                             f"got {self.max_name_length}")
 
     def size_problem(self, value: Any) -> str | None:
         """Why a canonical value (str, bytes or a tuple of floats) is too large or not encodable, or None."""

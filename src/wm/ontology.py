@@ -284,7 +284,10 @@ def _parse_limits(section: Any, where: str) -> Limits:
         if not isinstance(value, int) or isinstance(value, bool) or value < 1:
             raise OntologyError(f"{where}.{key}: expected a positive int, got {value!r}")
         values[key] = value
-    return Limits(**values)
+    try:
+        return Limits(**values)
+    except ValueError as exc:
+        raise OntologyError(f"{where}: {exc}") from None
 
 
 def _parse_types(kind: str, section: Any, attributes: Mapping[str, AttributeSpec], where: str) -> dict[str, ElementType]:
