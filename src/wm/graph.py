@@ -583,12 +583,12 @@ class Graph:
         accepted = []
         live = self._index.node_meta
         problem = self._rules.volatile_problem
+        refused: list[str] = []
         for record in records:
             owner, attr, value = record[0], record[1], record[2]
-            refused = problem(owner, attr, value)
-            if refused is not None:
-                self.refused_volatile[writer] += 1
-                log.warning("refused a volatile record from %s: %s", writer, refused)
+            why = problem(owner, attr, value)
+            if why is not None:
+                refused.append(why)
                 continue
             if owner.startswith("n:"):
                 ident = owner[2:]
@@ -596,6 +596,9 @@ class Graph:
                 if int(ident) not in live and self._store.is_deleted(ident):
                     continue
             accepted.append(record)
+        if refused:
+            self.refused_volatile[writer] += len(refused)
+            log.warning("refused %d volatile record(s) from %s, e.g. %s", len(refused), writer, refused[0])
         changed = self._volatile.merge(accepted)
         if changed and self._hub.has_consumers:
             self._pending.extend(self._index.volatile_events(changed, writer, False))

@@ -216,7 +216,7 @@ def test_volatile_records_of_the_wrong_shape_are_refused(network: dict[str, Any]
         [f"n:{ball}", "bogus", 1.0, 10**6, ATTACKER],
         [f"n:{ball}", "stamp", math.nan, 10**6, ATTACKER],
     ])
-    network["serve"].wait_line("", 10, contains=f"refused a volatile record from {ATTACKER}")
+    network["serve"].wait_line("", 10, contains=f"refused 4 volatile record(s) from {ATTACKER}")
     survive_and_restart(network, with_color(before, "red"), left_out=False)
 
 
