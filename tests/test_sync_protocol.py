@@ -33,6 +33,7 @@ def sample() -> wm.Graph:
         proto.AckRequest("a1", 5),
         proto.AckReply("a1", 5),
         proto.AckReply("a1", 5, 4),
+        proto.AckReply("a1", 5, -1),
     ],
 )
 def test_every_message_round_trips(message: proto.Message) -> None:
@@ -79,7 +80,7 @@ def test_heads_sent_by_an_older_version_are_ignored() -> None:
 
 def test_an_ack_reply_of_an_older_version_has_nothing_on_disk() -> None:
     raw = msgpack.packb([proto.VERSION, int(proto.Kind.ACK_REPLY), "a1", 7])
-    assert proto.decode(raw) == proto.AckReply("a1", 7, 0)
+    assert proto.decode(raw) == proto.AckReply("a1", 7, -1)
     with pytest.raises(wm.DecodeError):
         proto.decode(msgpack.packb([proto.VERSION, int(proto.Kind.ACK_REPLY), "a1"]))
 

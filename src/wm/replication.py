@@ -272,7 +272,7 @@ class Replicator:
                 reply: proto.Message = proto.answer_sync(self.graph, message, self.seq)
                 self.stats.syncs_served += 1
             elif isinstance(message, proto.AckRequest):
-                on_disk = self.on_disk(message.sender) if self.on_disk is not None else 0
+                on_disk = self.on_disk(message.sender) if self.on_disk is not None else -1
                 reply = proto.AckReply(self.graph.replica_id, self._tracker.last.get(message.sender, 0), on_disk)
             else:
                 raise DecodeError(f"cannot answer a {type(message).__name__}")

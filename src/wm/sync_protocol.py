@@ -12,7 +12,7 @@ Six messages, each a msgpack array ``[version, kind, sender, ...]``:
                   register, and the replier's last sequence number.
 ``ACK_REQUEST``   "have you received my messages up to seq N?".
 ``ACK_REPLY``     the highest sequence number the replier has from the asker, and
-                  the highest one it holds on disk (a durable member; 0 otherwise).
+                  the highest one it holds on disk (a durable member; -1 otherwise).
 
 :func:`decode` checks every field's type, so malformed bytes raise
 :class:`wm.errors.DecodeError` before anything touches the graph. The functions
@@ -86,7 +86,7 @@ class AckRequest:
 class AckReply:
     sender: str
     acked: int
-    on_disk: int = 0
+    on_disk: int = -1  # -1: the replier keeps nothing on disk
 
 
 Message = Delta | Heartbeat | SyncRequest | SyncReply | AckRequest | AckReply

@@ -67,6 +67,8 @@ def test_without_a_durable_member_a_durable_confirmation_fails_but_names_who_ack
     async def run() -> None:
         async with wm.connect(GRAPH, name="writer", connect=[endpoint(port)]) as g:
             await members_named(g, 1)
+            nothing_yet = await g.network.confirm(1.0, durable=True)  # type: ignore[union-attr]
+            assert not nothing_yet and nothing_yet.acked == {peer_id}, "a replica without a disk never counts as durable"
             g.insert_node("world", "world")
             plain = await g.network.confirm(10.0)  # type: ignore[union-attr]
             assert plain and plain.acked == {peer_id}
