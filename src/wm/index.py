@@ -63,7 +63,7 @@ class LeftOutEntries:
         result.left_out.append(entry)
 
     def discard(self, kind: str, key: str) -> None:
-        if self.entries.pop((kind, key), None) is not None:
+        if self.counts[kind] and self.entries.pop((kind, key), None) is not None:
             self.counts[kind] -= 1
 
     def keys(self, kind: str) -> list[str]:
@@ -179,8 +179,10 @@ class GraphIndex:
         gone_names = {e.id: e.name for e in removed_nodes + retyped}
         accepted_edge_attrs = self._note_edge_attrs(store, changes, writer, local, result)
         touched_edges = dict.fromkeys(changes.edges_added + changes.edges_removed)
+        out_edges, in_edges = self.out_edges, self.in_edges
         for event in added_nodes + removed_nodes:
-            touched_edges.update(dict.fromkeys(self.edges_of(event.id)))  # type: ignore[arg-type]
+            if event.id in out_edges or event.id in in_edges:
+                touched_edges.update(dict.fromkeys(self.edges_of(event.id)))  # type: ignore[arg-type]
         present = self._present_markers(store, touched_edges, writer, local, result) if touched_edges else set()
         added_edges, removed_edges = [], []
         for key in touched_edges:
