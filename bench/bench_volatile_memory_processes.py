@@ -85,7 +85,7 @@ async def writer(port: int, seconds: float, target: int) -> None:
             tick += 1
             await asyncio.sleep(0)  # the replicator publishes the tick
         elapsed = time.monotonic() - start
-        confirmed = await g.network.confirm(timeout=30.0)  # type: ignore[union-attr]
+        confirmed = bool(await g.network.confirm(timeout=30.0))  # type: ignore[union-attr]
         result = {"ticks": tick, "writes": tick * ATTRIBUTES, "seconds": elapsed, "final_last_seen": (tick - 1) / HZ,
                   "confirmed": confirmed, "published": g.network.stats.published,  # type: ignore[union-attr]
                   "rss_growth_mb": rss_mb() - rss_before}

@@ -72,7 +72,7 @@ async def main() -> None:
         changed = asyncio.Event()
         g.on(lambda _event: changed.set())
         await write(g, args)
-        print("wrote", await g.network.confirm(10.0) if args.nodes or args.updates or args.volatile else "", flush=True)
+        print("wrote", bool(await g.network.confirm(10.0)) if args.nodes or args.updates or args.volatile else "", flush=True)
         while True:
             if args.dump is not None:
                 dump(g, args.dump)

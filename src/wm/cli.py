@@ -1,4 +1,4 @@
-"""The ``wm`` command line: serve, load, dump, watch, members, set, rm, the
+"""The ``wm`` command line: serve, load, dump, watch, members, set, rm, check, the
 monitoring commands of :mod:`wm.monitoring.cli` (monitor, view, foxglove, record, replay, reactions)
 ``launch`` (:mod:`wm.launch.cli`) and ``experiment`` (:mod:`caregiving_stack.cli`).
 
@@ -16,6 +16,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
+from .check import check
 from .connection import connect
 from caregiving_stack import cli as experiment_cli
 
@@ -71,6 +72,13 @@ def build_parser() -> argparse.ArgumentParser:
     _common(p)
     p.add_argument("node")
     p.add_argument("assignments", nargs="+", metavar="ATTR=VALUE")
+
+    p = commands.add_parser("check", help="list what the view of a graph on disk leaves out, and who sent it")
+    p.add_argument("--data", required=True, help="the data directory of `wm serve`")
+    p.add_argument("--graph", default="default", help="graph name (default: %(default)s)")
+    p.add_argument("--ontology", default="default", help="ontology file, or a packaged one by name (default: %(default)s)")
+    p.add_argument("--repair", action="store_true", help="delete what is left out and compact the files (stop `wm serve` first)")
+    p.add_argument("-v", "--verbose", action="store_true", help="log each record replayed")
 
     p = commands.add_parser("rm", help="delete a node and its edges")
     _common(p)
@@ -170,6 +178,8 @@ async def run(args: argparse.Namespace) -> int:
 
         await serve(args.data, [args.graph, *args.also], config=args.config, connect=args.connect, listen=args.listen, ontology=ontology)
         return 0
+    if args.command == "check":
+        return _check(args, ontology)
     if args.command in monitoring_cli.COMMANDS or getattr(args, "source", None):
         return await monitoring_cli.run(args, ontology)
     async with connect(args.graph, args.config, f"wm-{args.command}", connect=args.connect or None, ontology=ontology) as g:
@@ -205,6 +215,20 @@ async def run(args: argparse.Namespace) -> int:
                 async for event in stream:
                     print(event, flush=True)
     return 0
+
+
+def _check(args: argparse.Namespace, ontology: Ontology | None) -> int:
+    """Print what the view leaves out; exit status 2 if something is (and was not repaired)."""
+    report = check(args.data, args.graph, ontology, repair=args.repair)
+    print(f"graph {args.graph!r}: {report.nodes} nodes, {report.edges} edges, {report.records} log records replayed; "
+          f"{len(report.left_out)} entries left out of the view")
+    for entry in report.left_out:
+        print(f"  {entry}")
+    for writer, count in sorted(report.by_writer().items()):
+        print(f"  sent by {writer}: {count}")
+    if report.repaired:
+        print(f"deleted {len(report.left_out)} entries from the document and compacted {args.data}/{args.graph}")
+    return 2 if report.left_out and not report.repaired else 0
 
 
 def _node_ref(text: str) -> int | str:

@@ -35,6 +35,15 @@ EMPTY_STATE_VECTOR = b"\x00"
 NAME_KEY = "@name"
 
 
+@dataclass(frozen=True)
+class NodeContent:
+    """A node map's head as stored: ``@type`` and ``@name`` as found (any type, or None), and its attribute names."""
+
+    type: Any
+    name: Any
+    attrs: set[str]
+
+
 @dataclass
 class RawChanges:
     """The keys one or more transactions touched, in the order they were reported."""
@@ -45,6 +54,7 @@ class RawChanges:
     edges_added: list[str] = field(default_factory=list)
     edges_removed: list[str] = field(default_factory=list)
     edge_attrs: dict[str, set[str]] = field(default_factory=dict)
+    malformed_edge_attrs: list[str] = field(default_factory=list)  # edge_attrs keys without a '.' (only a peer writes them)
     # pycrdt occasionally reports a nested change with no keys (seen when concurrent
     # writes to one key are merged); the index then re-checks every node's name.
     unreliable: bool = False
@@ -52,6 +62,7 @@ class RawChanges:
     def __bool__(self) -> bool:
         return bool(
             self.nodes_added or self.nodes_removed or self.node_attrs or self.edges_added or self.edges_removed or self.edge_attrs
+            or self.malformed_edge_attrs
         )
 
 
@@ -117,7 +128,8 @@ class CrdtStore:
                     if action in ("add", "update"):
                         self.pending.nodes_added.append(key)
             else:
-                changed = event.keys
+                # a change inside an attribute's value (only a peer writes shared types there) touches that attribute
+                changed = set(event.keys) if len(path) == 1 else {str(path[1])}
                 if not changed:
                     self.pending.unreliable = True
                 self.pending.node_attrs.setdefault(str(path[0]), set()).update(changed)
@@ -126,19 +138,18 @@ class CrdtStore:
         for key, change in event.keys.items():
             if change["action"] == "delete":
                 self.pending.edges_removed.append(key)
-            elif change["action"] == "add":
+            else:  # "add", or "update" when a peer overwrote a marker
                 self.pending.edges_added.append(key)
 
     def _on_edge_attrs(self, event: Any) -> None:
         for flat_key in event.keys:
-            key, attr = flat_key.rsplit(".", 1)
-            self.pending.edge_attrs.setdefault(key, set()).add(attr)
+            key, dot, attr = flat_key.rpartition(".")
+            if dot:
+                self.pending.edge_attrs.setdefault(key, set()).add(attr)
+            else:
+                self.pending.malformed_edge_attrs.append(flat_key)
 
     # -- reads ---------------------------------------------------------------
-
-    def node_names(self) -> dict[str, str]:
-        """Every node key with its stored name (a full scan: for repairs only)."""
-        return {key: str(node.get(NAME_KEY)) for key, node in self.nodes.items() if isinstance(node, Map)}
 
     def has_node(self, key: str) -> bool:
         return key in self.nodes
@@ -147,38 +158,72 @@ class CrdtStore:
         value = self.nodes.get(key)
         return value if isinstance(value, Map) else None
 
-    def node_heads(self, keys: Iterable[str]) -> dict[str, tuple[str, str, list[str]]]:
-        """Type, name and attribute names of each key that holds a node map, read in one transaction.
+    def read_nodes(self, keys: Iterable[str], attr_names: bool = True) -> dict[str, NodeContent | None]:
+        """What each present key holds, read in one transaction: its head if it is a map, else None.
 
         The pycrdt wrappers open a transaction per call (about 60 us per node);
         a catch-up reading thousands of new nodes goes through the integrated
         maps underneath them instead, the same objects the wrappers call.
+        ``@type`` and ``@name`` come back as stored, whatever their type; the
+        attribute names only with ``attr_names``.
         """
-        heads = {}
+        contents: dict[str, NodeContent | None] = {}
         with self.doc.transaction() as txn:
             raw_txn, root = txn._txn, self.nodes.integrated
             raw_map = type(root)
             for key in keys:
+                if not root.has(raw_txn, key):
+                    continue
+                node = root.get(raw_txn, key)
+                if not isinstance(node, raw_map):
+                    contents[key] = None
+                    continue
+                contents[key] = NodeContent(
+                    node.get(raw_txn, TYPE_KEY) if node.has(raw_txn, TYPE_KEY) else None,
+                    node.get(raw_txn, NAME_KEY) if node.has(raw_txn, NAME_KEY) else None,
+                    {k for k in node.keys(raw_txn) if not k.startswith("@")} if attr_names else set(),
+                )
+        return contents
+
+    def node_values(self, key: str) -> dict[str, Any] | None:
+        """Every entry of one node map as stored (``@type`` and ``@name`` included), or None if it is not a map.
+
+        One transaction on the integrated map: the wrappers' ``items()`` opens
+        one per value.
+        """
+        with self.doc.transaction() as txn:
+            raw_txn, root = txn._txn, self.nodes.integrated
+            node = root.get(raw_txn, key) if root.has(raw_txn, key) else None
+            if not isinstance(node, type(root)):
+                return None
+            return {k: node.get(raw_txn, k) for k in node.keys(raw_txn)}
+
+    def read_node_attrs(self, wanted: dict[str, set[str]]) -> dict[str, dict[str, Any]]:
+        """The stored values of some attributes of some nodes (absent ones left out), in one transaction."""
+        values: dict[str, dict[str, Any]] = {}
+        with self.doc.transaction() as txn:
+            raw_txn, root = txn._txn, self.nodes.integrated
+            raw_map = type(root)
+            for key, attrs in wanted.items():
                 node = root.get(raw_txn, key) if root.has(raw_txn, key) else None
                 if isinstance(node, raw_map):
-                    names = list(node.keys(raw_txn))
-                    heads[key] = (
-                        str(node.get(raw_txn, TYPE_KEY) if TYPE_KEY in names else None),
-                        str(node.get(raw_txn, NAME_KEY) if NAME_KEY in names else None),
-                        [k for k in names if not k.startswith("@")],
-                    )
-        return heads
+                    values[key] = {a: node.get(raw_txn, a) for a in attrs if node.has(raw_txn, a)}
+        return values
+
+    def read_flat(self, root_map: Map, keys: Iterable[str]) -> dict[str, Any]:
+        """The stored values of the present ``keys`` of a root map (edges or edge_attrs), in one transaction."""
+        with self.doc.transaction() as txn:
+            raw_txn, root = txn._txn, root_map.integrated
+            return {key: root.get(raw_txn, key) for key in keys if root.has(raw_txn, key)}
 
     def is_deleted(self, key: str) -> bool:
         return key in self.deleted
 
     def edge_attr_values(self, key: str, attrs: set[str]) -> dict[str, Any]:
-        values = {}
-        for attr in attrs:
-            value = self.edge_attrs.get(f"{key}.{attr}")
-            if value is not None:
-                values[attr] = value
-        return values
+        """The stored values of some attributes of one edge, in one transaction."""
+        with self.doc.transaction() as txn:
+            raw_txn, root = txn._txn, self.edge_attrs.integrated
+            return {attr: root.get(raw_txn, flat) for attr in attrs if root.has(raw_txn, flat := f"{key}.{attr}")}
 
     # -- writes (call inside a transaction) ----------------------------------
 
@@ -205,7 +250,7 @@ class CrdtStore:
         self.deleted[key] = True
 
     def set_edge(self, key: str, attrs: dict[str, Any]) -> None:
-        if key not in self.edges:
+        if self.edges.get(key) is not True:  # absent, or overwritten by a peer with something else
             self.edges[key] = True
         for attr, value in attrs.items():
             self.edge_attrs[f"{key}.{attr}"] = value

@@ -12,6 +12,8 @@ A Graph is not thread-safe; use it from one thread (the asyncio loop).
 
 from __future__ import annotations
 
+import logging
+from collections import Counter
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import AbstractContextManager, contextmanager
 from dataclasses import replace
@@ -34,8 +36,10 @@ from .events import Event, EventFilter, EventHub, EventKind, EventStream, Subscr
 from .ids import IdAllocator
 from .index import GraphIndex, IndexResult
 from .model import Edge, Node, edge_key, freeze
+from .limits import CONFLICT_SUFFIX_ROOM
 from .ontology import ElementType, Ontology, Value
 from .rt import RTApi
+from .view_rules import LeftOut, ViewRules
 from .volatile import Record, VolatileStore, check_records, edge_owner, node_owner
 
 if TYPE_CHECKING:
@@ -43,6 +47,7 @@ if TYPE_CHECKING:
 
 NodeRef = int | str
 SNAPSHOT_VERSION = 1
+log = logging.getLogger(__name__)
 
 
 class Graph:
@@ -54,7 +59,9 @@ class Graph:
         self._ids = IdAllocator(id_prefix)
         self.replica_id = replica_id or f"{self._ids.prefix:08x}"
         self._store = CrdtStore()
-        self._index = GraphIndex()
+        self._rules = ViewRules(self.ontology)
+        self._index = GraphIndex(self._rules)
+        self.refused_volatile: Counter[str] = Counter()  # writer -> volatile records refused by the view rules
         self._volatile = VolatileStore(self.replica_id)
         self._hub = EventHub()
         self._depth = 0
@@ -124,7 +131,7 @@ class Graph:
         repairs = [self._apply_to_index(changes, writer, local)]
         if not local and (changes.unreliable or self._index.out_of_step(self._store)):
             repairs.append(self._apply_to_index(self._index.missed_changes(self._store), writer, local))
-        self._repair(repairs)
+        self._repair(repairs, writer)
         if local:
             for listener in self._write_listeners:
                 listener()
@@ -133,15 +140,21 @@ class Graph:
 
     def reconcile(self) -> None:
         """Compare the whole index with the document and publish what differed (replication calls it now and then)."""
-        self._repair([self._apply_to_index(self._index.missed_changes(self._store), "reconcile", local=False)])
+        self._repair([self._apply_to_index(self._index.missed_changes(self._store), "reconcile", local=False)], "reconcile")
         if self._depth == 0:
             self._flush_events()
 
-    def _apply_to_index(self, changes: RawChanges, writer: str, local: bool) -> IndexResult | None:
+    def _apply_to_index(
+        self, changes: RawChanges, writer: str, local: bool, check_values: bool = True, describe: bool = True
+    ) -> IndexResult | None:
         """Update the index and queue the events; the repairs it calls for come after, from :meth:`_repair`."""
         if not changes:
             return None
-        result = self._index.apply(self._store, changes, writer, local, self._volatile_attr_names)
+        result = self._index.apply(self._store, changes, writer, local, self._volatile_attr_names, check_values, describe)
+        if result.left_out:
+            first = result.left_out[0]
+            log.warning("left out %d entr%s of the document sent by %s, e.g. %s",
+                        len(result.left_out), "y" if len(result.left_out) == 1 else "ies", writer, first)
         for node_id in result.removed_nodes:
             self._volatile.drop_owner(node_owner(node_id))
         for key in result.removed_edges:
@@ -149,14 +162,14 @@ class Graph:
         self._pending.extend(result.events)
         return result
 
-    def _repair(self, results: list[IndexResult | None]) -> None:
+    def _repair(self, results: list[IndexResult | None], writer: str) -> None:
         """Delete dangling edge markers and rename the losers of name conflicts, once the index is right."""
         dangling = [key for r in results if r for key in r.dangling_edges]
         conflicts = [name for r in results if r for name in r.name_conflicts]
         if dangling:
             self._delete_dangling(dangling)
         if conflicts:
-            self._rename_losers(conflicts)
+            self._rename_losers(conflicts, writer)
 
     def _flush_events(self) -> None:
         events, self._pending = self._pending, []
@@ -205,6 +218,58 @@ class Graph:
     def callback_errors(self) -> int:
         return self._hub.callback_errors
 
+    def left_out(self) -> list[LeftOut]:
+        """Every entry of the document that this replica's view leaves out, now (a full scan).
+
+        Each entry names the replica whose message brought it when this replica
+        saw it arrive, else ``"unknown"`` (a catch-up, or a read from disk).
+        """
+        recorded = self._index.left_out.entries
+        found = [entry for (kind, _), entry in recorded.items() if kind in ("node", "edge")]
+
+        def entry(kind: str, key: str, problem: str) -> LeftOut:
+            seen = recorded.get((kind, key))
+            return LeftOut(kind, key, problem, seen.writer if seen is not None else "unknown")
+
+        heads = self._store.read_nodes([str(node_id) for node_id in self._index.node_meta])
+        stored = self._store.read_node_attrs({key: content.attrs for key, content in heads.items() if content is not None})
+        for key, values in stored.items():
+            element = self.ontology.node_types[self._index.node_meta[int(key)][0]]
+            for attr, value in values.items():
+                problem = self._rules.attr_problem(element, attr, value)
+                if problem is not None:
+                    found.append(entry("node_attr", f"{key}.{attr}", problem))
+        for flat_key, value in self._store.read_flat(self._store.edge_attrs, self._store.edge_attrs.keys()).items():
+            key, dot, attr = flat_key.rpartition(".")
+            parsed = self._rules.edge_parts(key) if dot else None
+            if parsed is None:
+                found.append(entry("edge_attr", flat_key, "the key is not \"src>dst>type.attribute\" with node ids and a known edge type"))
+                continue
+            problem = self._rules.attr_problem(self.ontology.edge_types[parsed[2]], attr, value)
+            if problem is not None:
+                found.append(entry("edge_attr", flat_key, problem))
+        return sorted(found, key=lambda e: (e.kind, e.key))
+
+    def delete_left_out(self, entries: Iterable[LeftOut]) -> None:
+        """Delete from the document entries the view leaves out (``wm check --repair``).
+
+        These are ordinary CRDT deletes, made by this replica, that every other
+        replica receives; entries that are no longer there are skipped.
+        """
+        roots = {"node": self._store.nodes, "edge": self._store.edges, "edge_attr": self._store.edge_attrs}
+        with self._transaction(structural=True):
+            for entry in entries:
+                if entry.kind == "node_attr":
+                    node_key, _, attr = entry.key.partition(".")
+                    if self._store.node_map(node_key) is not None:
+                        self._store.delete_node_attr(node_key, attr)
+                elif entry.key in roots[entry.kind]:
+                    del roots[entry.kind][entry.key]
+
+    def left_out_by_writer(self) -> dict[str, int]:
+        """Writer -> how many document entries and volatile records it sent that the view left out (since start)."""
+        return dict(self._index.left_out.by_writer + self.refused_volatile)
+
     # -- nodes ---------------------------------------------------------------
 
     def insert_node(self, type: str, name: str | None = None, attrs: Mapping[str, Any] | None = None) -> int:  # noqa: A002
@@ -229,9 +294,10 @@ class Graph:
             raise NodeExistsError(f"node id {node_id} is in use or was deleted")
 
     def check_new_name(self, name: str) -> None:
-        """Refuse a name that is malformed or already taken."""
-        if not isinstance(name, str) or not name or name.startswith("@"):
-            raise ValidationError(f"a node name must be a non-empty str not starting with '@', got {name!r}")
+        """Refuse a name that is malformed, too long or already taken."""
+        problem = self.ontology.limits.name_problem(name)
+        if problem is not None:
+            raise ValidationError(f"{problem}, got {name!r:.80}")
         if self._index.resolve_name(name) is not None:
             raise NameExistsError(f"a node named {name!r} already exists")
 
@@ -330,11 +396,14 @@ class Graph:
 
     def _node_snapshot(self, node_id: int) -> Node:
         node_type, name = self._index.node_meta[node_id]
-        node_map = self._store.node_map(str(node_id))
-        decode = self.ontology.decode
-        attrs = {k: decode(k, v) for k, v in node_map.items() if k[0] != "@"} if node_map is not None else {}
+        element = self.ontology.node_types[node_type]
+        stored = self._store.node_values(str(node_id)) or {}
+        decode, fits = self.ontology.decode, self._rules.attr_fits
+        # the view rules, on every read: a peer's value that does not fit is never shown (docs/replication.md)
+        attrs = {k: decode(k, v) for k, v in stored.items() if fits(element, k, v)}
         for attr, value in self._volatile.values(node_owner(node_id)).items():
-            attrs[attr] = decode(attr, value)
+            if attr in element.attributes:
+                attrs[attr] = decode(attr, value)
         return Node(node_id, node_type, name, freeze(attrs))
 
     # -- edges ---------------------------------------------------------------
@@ -404,11 +473,13 @@ class Graph:
 
     def _edge_snapshot(self, key: str) -> Edge:
         src, dst, edge_type = self._index.markers[key]
-        decode = self.ontology.decode
+        element = self.ontology.edge_types[edge_type]
+        decode, fits = self.ontology.decode, self._rules.attr_fits
         stored = self._store.edge_attr_values(key, self._index.edge_attr_names.get(key, set()))
-        attrs = {k: decode(k, v) for k, v in stored.items()}
+        attrs = {k: decode(k, v) for k, v in stored.items() if fits(element, k, v)}
         for attr, value in self._volatile.values(edge_owner(key)).items():
-            attrs[attr] = decode(attr, value)
+            if attr in element.attributes:
+                attrs[attr] = decode(attr, value)
         return Edge(src, dst, edge_type, freeze(attrs))
 
     # -- shared write helpers ------------------------------------------------
@@ -433,13 +504,22 @@ class Graph:
                 if key in self._store.edges:
                     self._store.delete_edge(key, self._index.edge_attr_names.get(key, set()))
 
-    def _rename_losers(self, names: list[str]) -> None:
-        """Every replica renames the same losers to the same names, so the repair converges."""
+    def _rename_losers(self, names: list[str], writer: str) -> None:
+        """Every replica renames the same losers to the same names, so the repair converges.
+
+        The lowest id keeps the name (docs/replication.md, "Names"). A loser's
+        new name is ``<name>~<id>``, the name cut short if needed to stay
+        within the name limit. ``writer`` sent the change that showed the conflict.
+        """
+        room = self.ontology.limits.max_name_length - CONFLICT_SUFFIX_ROOM
         with self._transaction(structural=True):
-            for name in names:
+            for name in dict.fromkeys(names):
                 ids = sorted(self._index.names.get(name, ()))
                 for loser in ids[1:]:
-                    self._store.set_node_attrs(str(loser), {NAME_KEY: f"{name}~{loser}"})
+                    new_name = f"{name[:room]}~{loser}"
+                    log.warning("name %r: node %d keeps it, node %d is renamed %r (conflict shown by a change from %s)",
+                                name, ids[0], loser, new_name, writer)
+                    self._store.set_node_attrs(str(loser), {NAME_KEY: new_name})
 
     # -- replication hooks (used by wm.replication and wm.persistence) --------
 
@@ -465,25 +545,19 @@ class Graph:
         """Whether this replica holds nothing yet (no write made, no update applied)."""
         return self._store.is_empty()
 
-    def index_heads(self) -> tuple[list[list[Any]], list[list[Any]]]:
-        """This replica's index, for a fresh replica's catch-up (see :meth:`load_fresh`)."""
-        return self._index.heads()
+    def load_fresh(self, update: bytes, writer: str) -> None:
+        """Catch a fresh replica up: apply a full update unobserved, then build the index from the document.
 
-    def load_fresh(self, update: bytes, heads: tuple[list[list[Any]], list[list[Any]]], writer: str) -> None:
-        """Catch a fresh replica up: apply a full update and install the sender's index as is.
-
-        Reading thousands of new nodes back out of the document costs more than
-        applying them; the sender's index says the same in a few lists. The
-        added events carry no attribute names. The counts are checked after,
-        and a full reconcile runs if they disagree.
+        Reporting the keys of thousands of new nodes one by one costs more than
+        reading the document once; the index is built from it with the view
+        rules (attribute values are checked when read, see :meth:`left_out`).
         """
         if not self.is_fresh():
             self.apply_update(update, writer)
             return
         self._store.apply_unobserved(update, writer)
-        self._pending.extend(self._index.install(*heads, writer, with_events=self._hub.has_consumers))
-        if self._index.out_of_step(self._store):
-            self._apply_to_index(self._index.missed_changes(self._store), writer, local=False)
+        changes = self._index.missed_changes(self._store)
+        self._repair([self._apply_to_index(changes, writer, False, check_values=False, describe=self._hub.has_consumers)], writer)
         if self._depth == 0:
             self._flush_events()
 
@@ -508,14 +582,23 @@ class Graph:
         """Merge volatile registers received from ``writer`` (records of deleted nodes are ignored)."""
         accepted = []
         live = self._index.node_meta
+        problem = self._rules.volatile_problem
+        refused: list[str] = []
         for record in records:
-            owner = record[0]
+            owner, attr, value = record[0], record[1], record[2]
+            why = problem(owner, attr, value)
+            if why is not None:
+                refused.append(why)
+                continue
             if owner.startswith("n:"):
                 ident = owner[2:]
                 # a live node is not deleted; only others need the (slower) look-up in the document
-                if not (ident.isdecimal() and int(ident) in live) and self._store.is_deleted(ident):
+                if int(ident) not in live and self._store.is_deleted(ident):
                     continue
             accepted.append(record)
+        if refused:
+            self.refused_volatile[writer] += len(refused)
+            log.warning("refused %d volatile record(s) from %s, e.g. %s", len(refused), writer, refused[0])
         changed = self._volatile.merge(accepted)
         if changed and self._hub.has_consumers:
             self._pending.extend(self._index.volatile_events(changed, writer, False))

@@ -23,8 +23,11 @@ import yaml
 
 from .dsr_codes import DSR_TYPES
 from .errors import AttributeTypeError, OntologyError, UnknownAttributeError, UnknownTypeError
+from .limits import Limits, non_finite
 
 VALUE_TYPES = ("bool", "int", "float", "str", "vec", "bytes", "u64", "u64vec")
+_REAL = frozenset({"float", "vec"})  # may hold NaN or infinity
+_SIZED = frozenset({"str", "bytes", "vec", "u64vec"})  # capped by Limits.max_value_bytes
 MAX_EXACT_INT = 2**53  # values travel as float64 inside the CRDT
 U64_RANGE = 2**64  # u64 values travel as decimal strings, so that every uint64 is exact
 PACKAGED = {"default": "default_ontology.yaml", "dsr": "dsr_ontology.yaml"}
@@ -43,6 +46,7 @@ class AttributeSpec:
     volatile: bool = False
     doc: str = ""
     dsr: str | None = None  # the DSR value type name (wm.dsr_codes) it is written as in DSR files
+    nonfinite: bool = False  # whether NaN and ±inf are allowed (float and vec)
 
     def coerce(self, value: Any, owner: str) -> Value:
         """Return ``value`` in the form it is stored in, or raise :class:`AttributeTypeError`.
@@ -61,6 +65,8 @@ class AttributeSpec:
             raise AttributeTypeError(
                 f"{owner}.{self.name}: expected {self.describe()}, got a vector of length {len(result)}"  # type: ignore[arg-type]
             )
+        if self.type in _REAL and not self.nonfinite and non_finite(result):
+            raise AttributeTypeError(f"{owner}.{self.name}: NaN and infinity are not allowed (the ontology entry says so)")
         return result
 
     def decode(self, stored: Any) -> Value:
@@ -181,6 +187,7 @@ class Ontology:
         node_types: Mapping[str, ElementType],
         edge_types: Mapping[str, ElementType],
         source: str = "<dict>",
+        limits: Limits = Limits(),
     ) -> None:
         self.attributes = dict(attributes)
         self.node_types = dict(node_types)
@@ -192,6 +199,7 @@ class Ontology:
                 variants = self._variants.setdefault(name, [self.attributes[name]])
                 if spec not in variants:
                     variants.append(spec)
+        self.limits = limits
 
     # -- loading ---------------------------------------------------------------
 
@@ -206,7 +214,7 @@ class Ontology:
         if name not in PACKAGED:
             raise OntologyError(f"no packaged ontology named {name!r}; known: {', '.join(sorted(PACKAGED))}")
         built = _packaged(name)
-        return cls(built.attributes, built.node_types, built.edge_types, built.source)  # its own dicts, shared frozen specs
+        return cls(built.attributes, built.node_types, built.edge_types, built.source, built.limits)  # own dicts, shared specs
 
     @classmethod
     def load(cls, path: str | Path) -> Ontology:
@@ -233,7 +241,7 @@ class Ontology:
         """Validate a parsed ontology document; errors name the offending key."""
         if not isinstance(data, Mapping):
             raise OntologyError(f"{source}: the ontology must be a mapping with 'attributes', 'nodes' and 'edges'")
-        unknown = set(data) - {"version", "include", "attributes", "nodes", "edges"}
+        unknown = set(data) - {"version", "include", "attributes", "nodes", "edges", "limits"}
         if unknown:
             raise OntologyError(f"{source}: unknown top-level key {sorted(unknown)[0]!r}")
         attributes = {
@@ -244,7 +252,8 @@ class Ontology:
         known = {name: spec for base in included for name, spec in base.attributes.items()} | attributes
         node_types = _parse_types("node", data.get("nodes", {}), known, f"{source}: nodes")
         edge_types = _parse_types("edge", data.get("edges", {}), known, f"{source}: edges")
-        ontology = cls(attributes, node_types, edge_types, source)
+        limits = _parse_limits(data.get("limits"), f"{source}: limits")
+        ontology = cls(attributes, node_types, edge_types, source, limits)
         for base in reversed(included):
             ontology = _merge(base, ontology)
         return ontology
@@ -284,7 +293,13 @@ class Ontology:
             return {}
         if not isinstance(attrs, Mapping):
             raise AttributeTypeError(f"{element.name}: attributes must be a mapping, got {type(attrs).__name__}")
-        return {name: self.attribute_for(element, name).coerce(value, element.name) for name, value in attrs.items()}
+        return {name: self._checked(self.attribute_for(element, name), value, element.name) for name, value in attrs.items()}
+
+    def _checked(self, spec: AttributeSpec, value: Any, owner: str) -> Value:
+        result = spec.coerce(value, owner)
+        if spec.type in _SIZED and (problem := self.limits.size_problem(result)) is not None:
+            raise AttributeTypeError(f"{owner}.{spec.name}: {problem}")
+        return result
 
     def attribute_for(self, element: ElementType, name: str) -> AttributeSpec:
         """The spec of ``name`` on this type, or :class:`UnknownAttributeError`."""
@@ -363,7 +378,8 @@ def _merge(base: Ontology, top: Ontology) -> Ontology:
             types.setdefault(name, upper)
         return types
 
-    return Ontology(attributes, united(top.node_types, base.node_types), united(top.edge_types, base.edge_types), top.source)
+    return Ontology(attributes, united(top.node_types, base.node_types), united(top.edge_types, base.edge_types),
+                    top.source, top.limits)
 
 
 def _parse_attribute(name: str, spec: Any, where: str) -> AttributeSpec:
@@ -371,7 +387,7 @@ def _parse_attribute(name: str, spec: Any, where: str) -> AttributeSpec:
         spec = {"type": spec}
     if not isinstance(spec, Mapping):
         raise OntologyError(f"{where}: expected a mapping or a type name, got {type(spec).__name__}")
-    unknown = set(spec) - {"type", "length", "volatile", "doc", "dsr"}
+    unknown = set(spec) - {"type", "length", "volatile", "doc", "dsr", "nonfinite"}
     if unknown:
         raise OntologyError(f"{where}.{sorted(unknown)[0]}: unknown key")
     value_type = spec.get("type")
@@ -390,7 +406,25 @@ def _parse_attribute(name: str, spec: Any, where: str) -> AttributeSpec:
             raise OntologyError(f"{where}.dsr: expected one of {', '.join(DSR_TYPES)}, got {dsr!r}")
         if dsr_type.ours != value_type or (dsr_type.length is not None and dsr_type.length != length):
             raise OntologyError(f"{where}.dsr: a DSR {dsr} is not held by {value_type}" + (f"[{length}]" if length else ""))
-    return AttributeSpec(name, value_type, length, volatile, str(spec.get("doc", "")), dsr)
+    nonfinite = spec.get("nonfinite", False)
+    if not isinstance(nonfinite, bool) or (nonfinite and value_type not in ("float", "vec")):
+        raise OntologyError(f"{where}.nonfinite: only a float or a vec may allow NaN and infinity (true or false)")
+    return AttributeSpec(name, value_type, length, volatile, str(spec.get("doc", "")), dsr, nonfinite)
+
+
+def _parse_limits(section: Any, where: str) -> Limits:
+    defaults = Limits()
+    values = {}
+    for key, value in _mapping(section, where).items():
+        if not hasattr(defaults, key):
+            raise OntologyError(f"{where}.{key}: unknown limit")
+        if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+            raise OntologyError(f"{where}.{key}: expected a positive int, got {value!r}")
+        values[key] = value
+    try:
+        return Limits(**values)
+    except ValueError as exc:
+        raise OntologyError(f"{where}: {exc}") from None
 
 
 def _parse_types(kind: str, section: Any, attributes: Mapping[str, AttributeSpec], where: str) -> dict[str, ElementType]:

@@ -1,7 +1,7 @@
 """The graph on disk: a snapshot plus an append-only log, safe against ``kill -9``.
 
 ``<data>/<graph>/snapshot.bin``  :meth:`wm.Graph.encode_state` at the last compaction
-``<data>/<graph>/log.bin``       records since then: ``<u32 length><u32 crc32><msgpack [update, volatile]>``
+``<data>/<graph>/log.bin``       records since then: ``<u32 length><u32 crc32><msgpack [update, volatile, writer]>``
 
 :class:`Persister` appends every change the replica applies (its own and its
 peers') every ``interval`` seconds (50 ms by default) and hands the bytes to
@@ -10,6 +10,12 @@ interval; ``fsync_interval`` bounds what a power cut can lose. Loading
 replays the snapshot and then the log, and cuts off a torn last record. CRDT
 updates are idempotent, so replaying a record twice is harmless, which is what
 makes compaction (new snapshot, then empty log) crash-safe.
+
+Each record names the replica that sent its update, so that ``wm check`` can
+say who wrote what the view leaves out; a replayed update is attributed to
+``disk:<writer>``. Whatever a record holds, loading goes on: an unreadable
+record is logged and skipped, and content the view rules refuse stays out of
+the view (docs/replication.md, "Trust and validation").
 """
 
 from __future__ import annotations
@@ -20,19 +26,28 @@ import os
 import struct
 import time
 import zlib
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import msgpack
 from pycrdt import merge_updates
 
-from .errors import DecodeError
 from .graph import Graph
 from .volatile import Record, check_records
 
 log = logging.getLogger(__name__)
 _HEADER = struct.Struct("<II")
 DISK_WRITER = "disk"
+
+
+def disk_writer(writer: Any) -> str:
+    """The origin of an update replayed from disk, naming the replica that sent it when known."""
+    return f"{DISK_WRITER}:{writer}" if isinstance(writer, str) and writer else DISK_WRITER
+
+
+def is_from_disk(origin: Any) -> bool:
+    return isinstance(origin, str) and (origin == DISK_WRITER or origin.startswith(DISK_WRITER + ":"))
 
 
 class DiskLog:
@@ -58,12 +73,13 @@ class DiskLog:
             if len(body) < length or zlib.crc32(body) != crc:
                 break
             try:
-                update, records = msgpack.unpackb(body, raw=False)
+                update, records, *writer = msgpack.unpackb(body, raw=False)
+                origin = disk_writer(writer[0] if writer else None)
                 if update:
-                    graph.apply_update(update, DISK_WRITER)
+                    graph.apply_update(update, origin)
                 if records:
-                    graph.merge_volatile(check_records(records), DISK_WRITER)
-            except (DecodeError, ValueError, TypeError) as exc:
+                    graph.merge_volatile(check_records(records), origin)
+            except Exception as exc:  # nothing on disk may stop a restart
                 log.error("%s: skipping an unreadable record at byte %d: %s", self.log_path, position, exc)
             position += _HEADER.size + length
             count += 1
@@ -72,8 +88,8 @@ class DiskLog:
             self._log.truncate(position)
         return count
 
-    def append(self, update: bytes | None, records: list[Record], fsync_interval: float) -> None:
-        body = msgpack.packb([update, records], use_bin_type=True)
+    def append(self, update: bytes | None, records: list[Record], writer: str, fsync_interval: float) -> None:
+        body = msgpack.packb([update, records, writer], use_bin_type=True)
         self._log.write(_HEADER.pack(len(body), zlib.crc32(body)) + body)
         self._log.flush()
         if time.monotonic() - self._last_fsync >= fsync_interval:
@@ -118,23 +134,36 @@ class Persister:
         self.interval = interval
         self.fsync_interval = fsync_interval
         self.compact_bytes = compact_bytes
-        self._updates: list[bytes] = []
+        # what was received from whom, asked at each flush (see Replicator.received); afterwards it is on disk
+        self.progress: Callable[[], dict[str, int]] | None = None
+        self.persisted: dict[str, int] = {}
+        self._updates: dict[str, list[bytes]] = {}  # writer -> its updates since the last flush
         graph.observe_updates(self._on_update)
         graph.track_volatile_changes()
 
     def _on_update(self, update: bytes, origin: Any) -> None:
-        if origin != DISK_WRITER:
-            self._updates.append(update)
+        if not is_from_disk(origin):
+            self._updates.setdefault(str(origin), []).append(update)
 
     def flush(self) -> None:
-        updates, self._updates = self._updates, []
+        """Append one record per writer of the updates since the last flush (volatile registers with the first)."""
+        by_writer, self._updates = self._updates, {}
         records = self.graph.take_volatile_changes()
-        if not updates and not records:
+        received = self.progress() if self.progress is not None else {}
+        if not by_writer and not records:
+            self.persisted = received
             return
-        update = None if not updates else updates[0] if len(updates) == 1 else merge_updates(*updates)
-        self.disk.append(update, records, self.fsync_interval)
+        for writer, updates in by_writer.items() or [(self.graph.replica_id, [])]:
+            update = None if not updates else updates[0] if len(updates) == 1 else merge_updates(*updates)
+            self.disk.append(update, records, writer, self.fsync_interval)
+            records = []
+        self.persisted = received
         if self.disk.log_size() > self.compact_bytes:
             self.disk.compact(self.graph)
+
+    def on_disk(self, sender: str) -> int:
+        """The last sequence number of ``sender`` whose writes are in the log (handed to the OS)."""
+        return self.persisted.get(sender, 0)
 
     async def run(self) -> None:
         """Flush every ``interval`` until cancelled, then flush, compact and close."""

@@ -20,6 +20,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -47,7 +48,24 @@ class ReplicationStats:
     syncs_served: int = 0
     heartbeats: int = 0
     withheld: int = 0
+    failed: int = 0  # messages whose application raised something unexpected (logged with a traceback)
     caught_up_from: str | None = None
+
+
+@dataclass(frozen=True)
+class Confirmation:
+    """Which other replicas acknowledged every DELTA a replica had published, and which hold them on disk.
+
+    True when it holds what was asked for: one acknowledgement, or with
+    ``durable=True`` one durable member with the writes on disk.
+    """
+
+    acked: frozenset[str]
+    on_disk: frozenset[str]
+    durable: bool = False
+
+    def __bool__(self) -> bool:
+        return bool(self.on_disk if self.durable else self.acked)
 
 
 class Replicator:
@@ -82,6 +100,7 @@ class Replicator:
         self._declared: list[Any] = []
         self._loop: asyncio.AbstractEventLoop | None = None
         self._publisher: zenoh.Publisher | None = None
+        self.on_disk: Callable[[str], int] | None = None  # a durable member: sender -> last sequence number on disk
 
     # -- lifecycle -----------------------------------------------------------
 
@@ -200,15 +219,24 @@ class Replicator:
         if message is None or message.sender == self.graph.replica_id:
             return
         gap = self._tracker.on_delta(message.sender, message.seq)
-        try:
-            proto.apply_delta(self.graph, message)
-        except DecodeError as exc:
-            self._reject(key, exc)
+        if not self._apply(key, message):
             return
         self.stats.applied += 1
         if gap:
             self.stats.gaps += 1
             self.repair(message.sender)
+
+    def _apply(self, key: str, message: proto.Delta | proto.SyncReply) -> bool:
+        """Apply a remote message; nothing it holds may stop replication, so every failure is caught and counted."""
+        try:
+            proto.apply_delta(self.graph, message)
+            return True
+        except DecodeError as exc:
+            self._reject(key, exc)
+        except Exception:
+            self.stats.failed += 1
+            log.exception("applying a message on %s (from replica %r) failed; replication goes on", key, message.sender)
+        return False
 
     def _on_heartbeat(self, key: str, payload: bytes) -> None:
         message = self._decode(key, payload, proto.Heartbeat)
@@ -244,13 +272,18 @@ class Replicator:
                 reply: proto.Message = proto.answer_sync(self.graph, message, self.seq)
                 self.stats.syncs_served += 1
             elif isinstance(message, proto.AckRequest):
-                reply = proto.AckReply(self.graph.replica_id, self._tracker.last.get(message.sender, 0))
+                on_disk = self.on_disk(message.sender) if self.on_disk is not None else -1
+                reply = proto.AckReply(self.graph.replica_id, self._tracker.last.get(message.sender, 0), on_disk)
             else:
                 raise DecodeError(f"cannot answer a {type(message).__name__}")
             query.reply(key, proto.encode(reply))
         except DecodeError as exc:
             self._reject(str(query.key_expr), exc)
             query.reply_err(str(exc))
+        except Exception as exc:
+            self.stats.failed += 1
+            log.exception("answering a query on %s failed", key)
+            query.reply_err(f"cannot answer: {exc}")
         finally:
             query.drop()
 
@@ -274,12 +307,7 @@ class Replicator:
         request = proto.encode(proto.SyncRequest(self.graph.replica_id, self.graph.state_vector()))
         for key, payload in await self._query(keys.sync(self.name, replica), request):
             reply = self._decode(key, payload, proto.SyncReply)
-            if reply is None:
-                continue
-            try:
-                proto.apply_delta(self.graph, reply)
-            except DecodeError as exc:
-                self._reject(key, exc)
+            if reply is None or not self._apply(key, reply):
                 continue
             self._tracker.on_sync(reply.sender, reply.seq)
             return True
@@ -317,18 +345,33 @@ class Replicator:
         members.pop(self.graph.replica_id, None)
         return members
 
-    async def confirm(self, timeout: float = 2.0) -> bool:
-        """Wait until some other replica acknowledges every DELTA we published."""
+    def received(self) -> dict[str, int]:
+        """Sender -> the last sequence number received from it (what a durable member has once it is on disk)."""
+        return dict(self._tracker.last)
+
+    async def confirm(self, timeout: float = 2.0, durable: bool = False) -> Confirmation:
+        """Wait until another replica acknowledges every DELTA we published; with ``durable``, a durable member on disk.
+
+        Every live replica is asked, every round, until the first
+        acknowledgement (or the first one on disk) or ``timeout``; the result
+        lists all that acknowledged in that round. A silent replica delays
+        nobody's confirmation beyond one round (0.5 s).
+        """
         self._flush()
         request = proto.encode(proto.AckRequest(self.graph.replica_id, self.seq))
         deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
+        while True:
+            acked, on_disk = set(), set()
             for key, payload in await self._query(keys.sync(self.name), request, timeout=0.5):
                 reply = self._decode(key, payload, proto.AckReply)
                 if reply is not None and reply.acked >= self.seq:
-                    return True
+                    acked.add(reply.sender)
+                if reply is not None and reply.on_disk >= self.seq:
+                    on_disk.add(reply.sender)
+            result = Confirmation(frozenset(acked), frozenset(on_disk), durable)
+            if result or time.monotonic() >= deadline:
+                return result
             await asyncio.sleep(0.05)
-        return False
 
     async def _query(self, selector: str, payload: bytes, timeout: float | None = None) -> list[tuple[str, bytes]]:
         """A Zenoh get, run in a worker thread; returns (key, payload) of every good reply."""

@@ -6,10 +6,12 @@ Our format::
      "nodes": [{"id": 1, "type": "world", "name": "world", "attrs": {...}}],
      "edges": [{"src": 1, "dst": 2, "type": "RT", "attrs": {...}}]}
 
-Bytes are written as ``{"$bytes": "<base64>"}``. DSR's format
-(``{"DSRModel": ...}``) is read by :mod:`wm.dsr_json`; attributes our ontology
-does not know are skipped and listed in the :class:`LoadReport`, because DSR
-files carry many viewer-only attributes. Unknown node or edge types are an error.
+Bytes are written as ``{"$bytes": "<base64>"}``, and NaN or infinity (only
+where the ontology entry allows them) as ``{"$float": "nan"}``, so the output
+is always strict JSON. DSR's format (``{"DSRModel": ...}``) is read by
+:mod:`wm.dsr_json`; attributes our ontology does not know are skipped and
+listed in the :class:`LoadReport`, because DSR files carry many viewer-only
+attributes. Unknown node or edge types are an error.
 
 A load is checked in full before anything is written: either the whole scene
 goes in, or nothing does.
@@ -19,6 +21,7 @@ from __future__ import annotations
 
 import base64
 import json
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -55,13 +58,24 @@ def encode_value(value: Any) -> Any:
     if isinstance(value, bytes):
         return {"$bytes": base64.b64encode(value).decode("ascii")}
     if isinstance(value, tuple):
-        return list(value)
+        return [_encode_float(x) for x in value]
+    if isinstance(value, float):
+        return _encode_float(value)
     return value
+
+
+def _encode_float(value: float) -> Any:
+    """JSON has no NaN or infinity: an attribute whose ontology entry allows them writes ``{"$float": "nan"}``."""
+    return value if math.isfinite(value) else {"$float": str(value)}
 
 
 def _decode_value(value: Any) -> Any:
     if isinstance(value, Mapping) and set(value) == {"$bytes"}:
         return base64.b64decode(value["$bytes"])
+    if isinstance(value, list):
+        return [_decode_value(x) for x in value]
+    if isinstance(value, Mapping) and set(value) == {"$float"} and value["$float"] in ("nan", "inf", "-inf"):
+        return float(value["$float"])
     return value
 
 
@@ -81,7 +95,7 @@ def graph_to_dict(graph: Graph) -> dict[str, Any]:
 
 
 def dumps(data: Mapping[str, Any], indent: int | None) -> str:
-    return json.dumps(data, indent=indent, sort_keys=False)
+    return json.dumps(data, indent=indent, sort_keys=False, allow_nan=False)
 
 
 def read_source(source: str | Path | Mapping[str, Any]) -> Mapping[str, Any]:

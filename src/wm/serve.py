@@ -55,6 +55,7 @@ async def serve(
                 persister = Persister(graph, disk, interval=interval)
                 persisters.append(asyncio.ensure_future(persister.run()))
                 replicator = Replicator(graph, session, name, DURABLE_AGENT, heartbeat_period=heartbeat_period)
+                persister.progress, replicator.on_disk = replicator.received, persister.on_disk
                 graph.network = replicator
                 await replicator.start()
                 install_reaper(graph)  # agent nodes of members that leave, even by kill -9

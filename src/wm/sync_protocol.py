@@ -11,7 +11,8 @@ Six messages, each a msgpack array ``[version, kind, sender, ...]``:
 ``SYNC_REPLY``    the CRDT diff against that state vector, every volatile
                   register, and the replier's last sequence number.
 ``ACK_REQUEST``   "have you received my messages up to seq N?".
-``ACK_REPLY``     the highest sequence number the replier has from the asker.
+``ACK_REPLY``     the highest sequence number the replier has from the asker, and
+                  the highest one it holds on disk (a durable member; -1 otherwise).
 
 :func:`decode` checks every field's type, so malformed bytes raise
 :class:`wm.errors.DecodeError` before anything touches the graph. The functions
@@ -27,9 +28,7 @@ from typing import TYPE_CHECKING, Any
 import msgpack
 from pycrdt import merge_updates
 
-from .crdt_store import EMPTY_STATE_VECTOR
 from .errors import DecodeError
-from .model import parse_edge_key
 from .volatile import Record, check_records
 
 if TYPE_CHECKING:
@@ -74,7 +73,7 @@ class SyncReply:
     seq: int
     update: bytes
     volatile: list[Record] = field(default_factory=list)
-    heads: list[Any] | None = None  # [node heads, edge heads] for a fresh asker, see Graph.load_fresh
+    heads: list[Any] | None = None  # ignored; older versions sent their index to a fresh asker here
 
 
 @dataclass(frozen=True)
@@ -87,6 +86,7 @@ class AckRequest:
 class AckReply:
     sender: str
     acked: int
+    on_disk: int = -1  # -1: the replier keeps nothing on disk
 
 
 Message = Delta | Heartbeat | SyncRequest | SyncReply | AckRequest | AckReply
@@ -97,8 +97,9 @@ _FIELDS: dict[Kind, tuple[type, tuple[tuple[str, tuple[type, ...]], ...]]] = {
     Kind.SYNC_REQUEST: (SyncRequest, (("state_vector", (bytes,)),)),
     Kind.SYNC_REPLY: (SyncReply, (("seq", (int,)), ("update", (bytes,)), ("volatile", (list,)), ("heads", (list, type(None))))),
     Kind.ACK_REQUEST: (AckRequest, (("seq", (int,)),)),
-    Kind.ACK_REPLY: (AckReply, (("acked", (int,)),)),
+    Kind.ACK_REPLY: (AckReply, (("acked", (int,)), ("on_disk", (int,)))),
 }
+_OPTIONAL_TAIL = {Kind.ACK_REPLY: 1}  # fields added later: an older sender leaves them out
 _KIND_OF = {cls: kind for kind, (cls, _) in _FIELDS.items()}
 
 
@@ -126,7 +127,7 @@ def decode(data: bytes) -> Message:
     if not isinstance(sender, str) or not sender:
         raise DecodeError("the sender must be a non-empty string")
     cls, fields = _FIELDS[kind]
-    if len(rest) != len(fields):
+    if not len(fields) - _OPTIONAL_TAIL.get(kind, 0) <= len(rest) <= len(fields):
         raise DecodeError(f"{kind.name} has {len(fields)} fields after the sender, got {len(rest)}")
     values: dict[str, Any] = {}
     for (name, types), value in zip(fields, rest):
@@ -136,28 +137,8 @@ def decode(data: bytes) -> Message:
             value = check_records(value)
         elif name == "state_vector":
             parse_state_vector(value)
-        elif name == "heads" and value is not None:
-            _check_heads(value)
         values[name] = value
     return cls(sender=sender, **values)
-
-
-def _check_heads(heads: list[Any]) -> None:
-    nodes, edges = heads if len(heads) == 2 else (None, None)
-    if not isinstance(nodes, list) or not isinstance(edges, list):
-        raise DecodeError("heads are [nodes, edges]")
-    for node in nodes:
-        if not (isinstance(node, list) and len(node) == 3 and type(node[0]) is int
-                and isinstance(node[1], str) and isinstance(node[2], str)):
-            raise DecodeError("a node head is [id, type, name]")
-    for edge in edges:
-        if not (isinstance(edge, list) and len(edge) == 2 and isinstance(edge[0], str) and edge[0].count(">") >= 2
-                and isinstance(edge[1], list) and all(isinstance(a, str) for a in edge[1])):
-            raise DecodeError("an edge head is [key, [attribute names]]")
-        try:
-            parse_edge_key(edge[0])
-        except ValueError:
-            raise DecodeError(f"malformed edge key {edge[0]!r}") from None
 
 
 # -- state vectors -------------------------------------------------------------
@@ -208,8 +189,8 @@ def make_delta(sender: str, seq: int, updates: list[bytes], records: list[Record
 
 def apply_delta(graph: Graph, message: Delta | SyncReply) -> None:
     """Apply a delta or a sync reply; the sender is reported as the writer."""
-    if isinstance(message, SyncReply) and message.heads is not None:
-        graph.load_fresh(message.update, (message.heads[0], message.heads[1]), message.sender)
+    if isinstance(message, SyncReply) and graph.is_fresh():
+        graph.load_fresh(message.update, message.sender)
     elif message.update:
         graph.apply_update(message.update, message.sender)
     if message.volatile:
@@ -217,10 +198,8 @@ def apply_delta(graph: Graph, message: Delta | SyncReply) -> None:
 
 
 def answer_sync(graph: Graph, request: SyncRequest, seq: int) -> SyncReply:
-    """Everything the asker lacks; a fresh asker also gets this replica's index heads."""
-    fresh = request.state_vector == EMPTY_STATE_VECTOR
-    heads = list(graph.index_heads()) if fresh else None
-    return SyncReply(graph.replica_id, seq, graph.diff(request.state_vector), graph.volatile_records(), heads)
+    """Everything the asker lacks, and every volatile register."""
+    return SyncReply(graph.replica_id, seq, graph.diff(request.state_vector), graph.volatile_records())
 
 
 class SequenceTracker:

@@ -44,7 +44,7 @@ def test_put_crosses_three_hosts_via_their_routers(spawn, lab_factory) -> None:
     for i in range(3):
         # host i connects to the routers of the hosts before it (one link per pair is enough)
         connect = [arg for j in range(i) for arg in ("--connect", f"tcp/{lab.addr(j)}:{PORT}")]
-        routers.append(zproc(spawn, lab, i, "router", router, f"ROUTER_PORT={PORT}", *connect, name="router"))
+        routers.append(zproc(spawn, lab, i, "router", router, "LISTEN_HOST=0.0.0.0", f"ROUTER_PORT={PORT}", *connect, name="router"))
     for r in routers:
         r.wait_line("READY", 15)
     subs = [

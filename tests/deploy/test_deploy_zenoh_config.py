@@ -116,7 +116,7 @@ def test_endpoints_and_mode_override_file() -> None:
         connect=["tcp/10.213.77.2:7500"],
     )
     assert get(config, "mode") == "router"
-    assert get(config, "listen/endpoints") == ["tcp/0.0.0.0:7500"]
+    assert get(config, "listen/endpoints") == ["tcp/127.0.0.1:7500"], "the plain TCP router listens on loopback unless told otherwise"
     assert get(config, "connect/endpoints") == ["tcp/10.213.77.2:7500"]
     config = build_config(mode="client", connect="tcp/127.0.0.1:7447")
     assert get(config, "mode") == "client"
