@@ -2,8 +2,9 @@
 
 Reports grid planning time with cached inflated masks versus a cold cache, a
 person rollout in PyBullet versus the numpy fast path (and their ratio),
-imagine_person and imagine_joint latency, and the ground-truth risky rate (robot
-idle, exact geometry) over sampled trials of ``paper_experiment1.yaml``.
+imagine_person latency and that of the joint imagination in time (robot driving,
+person walking, as the world model steps them), and the ground-truth risky rate
+(robot idle, exact geometry) over sampled trials of ``paper_experiment1.yaml``.
 Latencies are medians and 95th percentiles of repeated calls in this process.
 
     python bench/bench_caregiving_core.py [--json PATH] [--trials N] [--seed S] [--repeat N]
@@ -20,12 +21,13 @@ from collections.abc import Callable
 import numpy as np
 
 import benchlib
-from caregiving.imagine import imagine_joint, imagine_person
+from caregiving.imagine import imagine_person
+from caregiving.joint import imagine_joint
 from caregiving.planner import GridPlanner
 from caregiving.robot_moves import standoff_moves
 from caregiving.rollout import BulletRollout, NumpyRollout
 from caregiving.scenario import load_scenario, sample_trial
-from caregiving.world_model import run_idle
+from caregiving.world_model import Walk, run_idle
 
 
 
@@ -74,7 +76,8 @@ def main() -> None:
     person_latency = timings(lambda: imagine_person(scene, person.name, couch.name, gaze), args.repeat)
     person_bullet = timings(lambda: imagine_person(scene, person.name, couch.name, gaze, bullet_rollout), args.repeat)
     move = standoff_moves(scene, "ball")[4]
-    joint_latency = timings(lambda: imagine_joint(scene, person.name, couch.name, gaze, move), args.repeat)
+    walk = [Walk(person.name, couch.name, gaze)]
+    joint_latency = timings(lambda: imagine_joint(scene, walk, move, planner=warm), args.repeat)
 
     rng = np.random.default_rng(args.seed)
     planner = GridPlanner(scene.bounds)
