@@ -33,7 +33,7 @@ from itertools import count, islice
 from typing import Any
 
 from bridges import bus, keys
-from caregiving.move_search import Danger, SearchSpec, Verdict, candidates, choose, judge
+from caregiving.move_search import Danger, SearchSpec, Verdict, judge, search_move
 from caregiving.robot_moves import RobotMove
 from caregiving.service import JointAnswer
 from caregiving.visibility import GazeClass, gaze_classes
@@ -225,17 +225,16 @@ class Action(Agent):
         return {n.name: n.get("position_sigma", 0.0) for t in ("person", "object") for n in self.g.nodes(t)}
 
     async def _find(self, ctx: Context, spec: SearchSpec, idle_risk: float) -> Verdict | None:
-        """Imagine the candidates, the likeliest alone then ``--batch`` at a time, up to the first safe one."""
-        moves = islice(candidates(ctx.scene, spec.dangers), self.args.max_moves)
-        verdicts: list[Verdict] = []
-        batch = 1
-        while chunk := list(islice(moves, batch)):
-            verdicts += await self._judge(replace(spec, delay=self._delay(ctx, len(chunk))), chunk)
-            self.tried += verdicts[-len(chunk):]
-            if any(v.safe(self.args.risk_threshold) for v in verdicts):
-                break
-            batch = self.args.batch
-        return choose(verdicts, self.args.risk_threshold, idle_risk)
+        """Search with the simulator; each round imagines the robot starting when its command would arrive."""
+
+        async def judge_moves(moves: list[RobotMove]) -> list[Verdict]:
+            return await self._judge(replace(spec, delay=self._delay(ctx, len(moves))), moves)
+
+        a = self.args
+        chosen, verdicts = await search_move(ctx.scene, spec, judge_moves, a.risk_threshold, a.max_moves, idle_risk,
+                                             a.batch)
+        self.tried += verdicts
+        return chosen
 
     # -- writing W -----------------------------------------------------------------------------
     def _write(self, ctx: Context, spec: SearchSpec, chosen: Verdict, dangers: dict[str, tuple[Edge, Danger]],

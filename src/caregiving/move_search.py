@@ -26,7 +26,7 @@ or before the collision (stand-offs). The joint imagination in time
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Awaitable, Callable, Iterator
 from dataclasses import dataclass
 from itertools import islice
 from typing import Any
@@ -241,13 +241,32 @@ def choose(verdicts: list[Verdict], threshold: float, idle_risk: float) -> Verdi
     return min(clear, key=lambda v: v.risk) if clear else None
 
 
-def search_move(scene: Scene, spec: SearchSpec, uncertainty: dict[str, Any], threshold: float,
-                max_moves: int, idle_risk: float = 1.0) -> Verdict | None:
-    """Algorithm 2 in one process: the first candidate move the joint imagination finds safe (see :func:`choose`)."""
-    verdicts = []
-    for move in islice(candidates(scene, spec.dangers), max_moves):
-        verdicts.append(judge(move, [JointAnswer.from_wire(serve_one(scene, item))
-                                     for item in spec.items(move, uncertainty)]))
-        if verdicts[-1].safe(threshold):
+#: Judges a round of candidate moves (in the simulator, or in this process) and returns their verdicts in order.
+JudgeMoves = Callable[[list[RobotMove]], Awaitable[list[Verdict]]]
+
+
+async def search_move(scene: Scene, spec: SearchSpec, judge_moves: JudgeMoves, threshold: float, max_moves: int,
+                      idle_risk: float = 1.0, batch: int = 3) -> tuple[Verdict | None, list[Verdict]]:
+    """Algorithm 2's search: the move to send (see :func:`choose`) and every verdict on the way.
+
+    The likeliest candidate is judged alone, then ``batch`` at a time, up to the first safe one or ``max_moves``.
+    """
+    moves = islice(candidates(scene, spec.dangers), max_moves)
+    verdicts: list[Verdict] = []
+    size = 1
+    while chunk := list(islice(moves, size)):
+        verdicts += await judge_moves(chunk)
+        if any(v.safe(threshold) for v in verdicts):
             break
-    return choose(verdicts, threshold, idle_risk)
+        size = batch
+    return choose(verdicts, threshold, idle_risk), verdicts
+
+
+def judge_here(scene: Scene, spec: SearchSpec, uncertainty: dict[str, Any]) -> JudgeMoves:
+    """A :data:`JudgeMoves` that imagines in this process, every walk set of each move (no simulator needed)."""
+
+    async def judge_moves(moves: list[RobotMove]) -> list[Verdict]:
+        return [judge(m, [JointAnswer.from_wire(serve_one(scene, item)) for item in spec.items(m, uncertainty)])
+                for m in moves]
+
+    return judge_moves

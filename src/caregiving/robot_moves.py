@@ -1,10 +1,11 @@
-"""Candidate robot moves for Algorithm 2 and the "can it get there in time" filter.
+"""Robot moves: a pose to drive to, the stand-off poses around an object, and travel time.
 
-The robot's only action is ``move_to(object)``: it drives to a stand-off pose
-around an object, facing it. Travel time follows a trapezoidal speed profile
-(accelerate at ``max_accel`` up to ``max_speed``, cruise, brake to rest) over the
-planned path length, and a move is feasible only if it arrives before the
-predicted time to collision.
+A :class:`RobotMove` is ``move_to`` a pose. The paper's ``move_to(object)`` is a
+stand-off pose around the object, facing it (:func:`standoff_poses`); the move
+search of Algorithm 2 adds free poses (:mod:`caregiving.move_search`). Travel
+time follows a trapezoidal speed profile (accelerate at ``max_accel`` up to
+``max_speed``, cruise, brake to rest): :func:`travel_time` is the lower bound the
+search prunes with; the joint imagination steps the real drive.
 """
 
 from __future__ import annotations
@@ -16,9 +17,7 @@ from typing import Any
 from .errors import RequestError
 from .fields import Fields
 from .geometry import Box, Circle, corners, shapes_overlap, signed_distance
-from .planner import GridPlanner
 from .scene import RobotState, Scene
-from .visibility import WALL_KIND
 
 
 @dataclass(frozen=True)
@@ -82,11 +81,6 @@ def standoff_poses(scene: Scene, target: str, gap: float = 0.1, count: int = 8) 
     return moves
 
 
-def candidate_moves(scene: Scene, gap: float = 0.1, count: int = 8) -> list[RobotMove]:
-    """:func:`standoff_moves` around every non-wall object of the scene."""
-    return [m for o in scene.obstacles if o.kind != WALL_KIND for m in standoff_moves(scene, o.name, gap, count)]
-
-
 def robot_fits(scene: Scene, move: RobotMove) -> bool:
     """Whether the robot's footprint at the move's pose is inside the room and clear of every body."""
     robot = _robot(scene)
@@ -96,40 +90,6 @@ def robot_fits(scene: Scene, move: RobotMove) -> bool:
     inside = bool((signed_distance(Box((x0 + x1) / 2, (y0 + y1) / 2, (x1 - x0) / 2, (y1 - y0) / 2),
                                    corners(footprint)) <= 0.0).all())
     return inside and not any(shapes_overlap(footprint, b) for b in blockers)
-
-
-@dataclass(frozen=True)
-class Arrival:
-    """Whether the robot can reach a move's pose, over what path, and when."""
-
-    reachable: bool
-    length: float
-    time: float
-
-
-def robot_arrival(scene: Scene, move: RobotMove, planner: GridPlanner) -> Arrival:
-    """Plan the robot's drive to the move's pose among static obstacles and people; time it.
-
-    The holonomic base turns along its path, so it is inflated by its half width.
-    """
-    robot = _robot(scene)
-    obstacles = list(scene.obstacles) + [p.body() for p in scene.people]
-    plan = planner.plan_to_point((robot.x, robot.y), (move.x, move.y), obstacles, robot.width / 2)
-    if not plan.reachable:
-        return Arrival(False, math.inf, math.inf)
-    return Arrival(True, plan.length, travel_time(plan.length, robot.max_speed, robot.max_accel))
-
-
-def arrives_in_time(scene: Scene, move: RobotMove, deadline: float, planner: GridPlanner) -> bool:
-    """Feasibility filter: can the robot reach the move's pose before ``deadline`` seconds from now?
-
-    The straight-line time is a lower bound and prunes hopeless moves without planning.
-    """
-    robot = _robot(scene)
-    straight = math.hypot(move.x - robot.x, move.y - robot.y)
-    if travel_time(straight, robot.max_speed, robot.max_accel) >= deadline:
-        return False
-    return robot_arrival(scene, move, planner).time < deadline
 
 
 def _robot(scene: Scene) -> RobotState:

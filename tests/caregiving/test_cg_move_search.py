@@ -5,8 +5,8 @@ import math
 import pytest
 
 from caregiving.imagine import imagine_person
-from caregiving.move_search import (Danger, SearchSpec, Verdict, candidates, choose, judge, ordered_moves,
-                                    search_move)
+from caregiving.move_search import (Danger, SearchSpec, Verdict, candidates, choose, judge, judge_here,
+                                    ordered_moves, search_move)
 from caregiving.robot_moves import RobotMove, robot_fits
 from caregiving.scenario import load_scenario
 from caregiving.scene import Scene
@@ -94,15 +94,15 @@ def test_choose_takes_the_first_safe_move_else_a_clearly_better_one_else_none() 
     assert choose([v(False, 0.0)], 0.2, 1.0) is None
 
 
-def test_the_move_found_saves_the_person_in_the_world() -> None:
+async def test_the_move_found_saves_the_person_in_the_world() -> None:
     s = load_scenario("paper_experiment1")
     world = World.from_scenario(s)
     for _ in range(10):
         world.step()
     scene = world.scene()
     spec = SearchSpec((danger_of(scene),), {"person": (GAZE,)}, {}, delay=0.2)
-    chosen = search_move(scene, spec, UNCERTAINTY, 0.2, 24)
-    assert chosen is not None and chosen.safe(0.2)
+    chosen, verdicts = await search_move(scene, spec, judge_here(scene, spec, UNCERTAINTY), 0.2, 24)
+    assert chosen is not None and chosen.safe(0.2) and verdicts[-1] == chosen
     for _ in range(4):
         world.step()
     assert world.command_robot(chosen.move)

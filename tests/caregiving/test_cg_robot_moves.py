@@ -8,9 +8,7 @@ from hypothesis import strategies as st
 
 from caregiving.errors import RequestError
 from caregiving.geometry import Box, shapes_overlap, signed_distance
-from caregiving.imagine import planner_for
-from caregiving.robot_moves import (RobotMove, arrives_in_time, candidate_moves, robot_arrival, standoff_moves,
-                                    travel_time)
+from caregiving.robot_moves import RobotMove, standoff_moves, travel_time
 from caregiving.scenario import load_scenario
 
 
@@ -46,26 +44,6 @@ def test_standoff_moves_surround_the_object_and_fit() -> None:
     couch = standoff_moves(scene, "couch")
     assert 0 < len(couch) < 8  # the wall side is excluded
     assert all(m.x < 3.05 or abs(m.y) > 1.0 for m in couch)  # beside or in front, never behind
-
-
-def test_candidate_moves_cover_every_object_but_walls() -> None:
-    scene = load_scenario("paper_experiment1").scene()
-    targets = {m.target for m in candidate_moves(scene)}
-    assert targets == {"ball", "couch", "door"}
-
-
-def test_arrival_and_feasibility_filter() -> None:
-    scene = load_scenario("paper_experiment1").scene()
-    planner = planner_for(scene.bounds)
-    move = RobotMove("ball", 0.0, -0.46, math.pi / 2)
-    arrival = robot_arrival(scene, move, planner)
-    assert arrival.reachable and arrival.length == pytest.approx(1.54, abs=0.05)
-    assert arrival.time == pytest.approx(travel_time(arrival.length, 0.8, 0.6))
-    assert arrives_in_time(scene, move, arrival.time + 0.1, planner)
-    assert not arrives_in_time(scene, move, arrival.time - 0.1, planner)
-    assert not arrives_in_time(scene, move, 0.5, planner)  # pruned by the straight-line bound
-    blocked = robot_arrival(scene, RobotMove("couch", 3.5, 0.0, 0.0), planner)
-    assert not blocked.reachable and blocked.time == math.inf
 
 
 def test_moves_need_a_robot_and_a_known_object() -> None:
