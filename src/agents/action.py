@@ -141,7 +141,7 @@ class Action(Agent):
             self.log.warning("no move removes the danger", people=sorted(dangers), search_ms=self._ms(started),
                              tried=len(self.tried), why=sorted({v.reason for v in self.tried})[:4])
             return
-        self._write(ctx, spec, chosen, dangers, current, unsaved, started)
+        self._write(ctx, chosen, dangers, current, unsaved, started)
 
     # -- reading W -----------------------------------------------------------------------------
     def _clear(self, episode: int) -> None:
@@ -178,9 +178,9 @@ class Action(Agent):
                  for p, (edge, _) in dangers.items()}
         bystanders = []
         for p in scene.people:
-            walks = self.g.edges(type=HAS_INTENTION, src=ctx.ids[p.name])
-            if p.name not in dangers and walks and walks[0].dst in names:
-                e = max(walks, key=lambda e: e.get("updated_at", 0.0))
+            walks = [e for e in self.g.edges(type=HAS_INTENTION, src=ctx.ids[p.name]) if e.dst in names]
+            if p.name not in dangers and walks:
+                e = max(walks, key=lambda e: e.get("updated_at", 0.0))  # their likeliest walk: the latest guessed
                 bystanders.append(Walk(p.name, names[e.dst], e.get("gaze", 0.0)))
         return SearchSpec(tuple(d for _, d in dangers.values()), gazes, known, tuple(bystanders),
                           self._move_of(current) if current is not None else None)
@@ -237,13 +237,12 @@ class Action(Agent):
         return chosen
 
     # -- writing W -----------------------------------------------------------------------------
-    def _write(self, ctx: Context, spec: SearchSpec, chosen: Verdict, dangers: dict[str, tuple[Edge, Danger]],
-               current: Node | None, unsaved: str, started: float) -> None:
+    def _write(self, ctx: Context, chosen: Verdict, dangers: dict[str, tuple[Edge, Danger]], current: Node | None,
+               unsaved: str, started: float) -> None:
         g, move = self.g, chosen.move
         robot = ctx.scene.robot
         assert robot is not None and move is not None
-        first = min(dangers.values(), key=lambda x: x[1].time_to_collision)
-        edge, danger = first
+        edge, danger = min(dangers.values(), key=lambda x: x[1].time_to_collision)
         if g.find_node(edge.src) is None:
             return
         reason = f"{chosen.reason}; protects {', '.join(sorted(dangers))}"
