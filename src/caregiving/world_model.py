@@ -2,11 +2,13 @@
 
 The same model serves the world bridge (built from a scenario: the truth) and the
 robot's joint imagination (built from a believed scene and guessed intents; see
-:mod:`caregiving.joint`), as the paper's "like me" simulation implies. Each person walks at constant speed along a plan that avoids only what they have
+:mod:`caregiving.joint`), as the paper's "like me" simulation implies.
+
+Each person walks at constant speed along a plan that avoids only what they have
 seen so far (their true gaze, the robot included); walls are always known. They
-re-plan whenever a new object comes into view or a seen robot/person has moved.
-The robot drives to commanded poses along a planned path with a trapezoidal
-speed profile. Contacts are measured with exact planar geometry every 50 ms; a
+re-plan whenever a new object comes into view, or a seen robot or person has
+moved into the rest of their way. The robot drives to commanded poses along a
+planned path with a trapezoidal speed profile, from the speed it has. Contacts are measured with exact planar geometry every 50 ms; a
 person who touches anything but their target stops there (they trip). The
 :class:`Outcome` lists collisions (time, place, object) and closest approaches.
 """
@@ -17,7 +19,6 @@ import copy
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-
 
 from .errors import CaregivingError
 from .geometry import Polyline, closest_boundary_point, point_distance, signed_distance
@@ -160,16 +161,16 @@ class World:
 
     # -- robot ---------------------------------------------------------------------------------
     def command_robot(self, move: RobotMove | None) -> bool:
-        """Send the robot to a move's pose (``None`` brakes to a stop); False if it does not fit there or cannot get there."""
+        """Send the robot to a move's pose (``None`` brakes to a stop); False if it does not fit or cannot get there."""
         if move is None:
             self._drive = None
             return True
-        if not robot_fits(self.scene(), move):
+        scene = self.scene()
+        if not robot_fits(scene, move):
             return False
-        people = [p.body() for p in self.scene().people]
         self.robot_arrival = None
         plan = self.planner.plan_to_point((self.robot.x, self.robot.y), (move.x, move.y),
-                                          [*self._static, *people], self.robot.width / 2)
+                                          [*self._static, *(p.body() for p in scene.people)], self.robot.width / 2)
         if not plan.reachable:
             return False
         self._drive = _Drive(Polyline.of(plan.path), move.heading)
