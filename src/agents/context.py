@@ -87,8 +87,10 @@ def read_context(g: Graph) -> Context | None:
     r = robots[0]
     pose = _pose(g, r) or (0.0, 0.0, 0.0)
     length, width_r, height = r.get("size", (0.5, 0.4, 1.5))
+    route = r.get("route", ())
     robot = RobotState(r.name, pose[0], pose[1], pose[2], length, width_r, height, r.get("max_speed", 0.5),
-                       r.get("max_accel", 0.5), max(float(r.get("speed", 0.0)), 0.0))
+                       r.get("max_accel", 0.5), max(float(r.get("speed", 0.0)), 0.0),
+                       tuple(zip(route[0::2], route[1::2], strict=True)))
     ids[r.name] = r.id
     stamp = max([world.get("sim_time", 0.0)] + [n.get("stamp", 0.0) for n in g.nodes("person")])
     scene = Scene(room.bounds, tuple(obstacles), tuple(people), robot, stamp)

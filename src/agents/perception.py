@@ -115,7 +115,8 @@ class Perception(Agent):
                         "kind": "wall", "shape": "box", "size": [2 * w["hx"], 2 * w["hy"], m["wall_height"]],
                         "is_obstacle": True, "is_target": False})
                     g.rt.set_pose2d(WORLD, node, w["x"], w["y"], w["theta"])
-            g.update_node(m["name"], {"speed": m["speed"], "stamp": m["time"], "written_at": now})
+            g.update_node(m["name"], {"speed": m["speed"], "route": m.get("route", []), "stamp": m["time"],
+                                      "written_at": now})
             g.update_node(WORLD, {"sim_time": m["time"]})
             g.rt.set_pose2d(WORLD, m["name"], m["x"], m["y"], m["heading"])
 

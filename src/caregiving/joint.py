@@ -3,10 +3,11 @@
 It steps :class:`caregiving.world_model.World`, the same model the world bridge
 uses for the truth, from a believed scene and guessed intents:
 
-* the robot goes on with its ``current`` move (if any) for ``delay`` seconds,
-  the time the pipeline needs to send a command, then drives to the new move's
-  pose along its planned path, under its speed and acceleration limits and from
-  the speed it has now;
+* the robot goes on with its ``current`` move (if any), along the route it
+  reports, for ``delay`` seconds, the time the pipeline needs to send a command;
+  then it drives to the new move's pose along a fresh plan (or, when the new
+  move is the current one, on along the same route), under its speed and
+  acceleration limits and from the speed it has now;
 * each person walks to their guessed target at their gaze class, sees the robot
   when it enters their field of view, and re-plans around it as it is then.
 
@@ -141,10 +142,10 @@ def imagine_joint(scene: Scene, walks: Sequence[Walk], move: RobotMove | None, *
     world = World(scene, walks, planner=planner or planner_for(scene.bounds))
     start = scene.time
     if current is not None:
-        world.command_robot(current)
+        world.resume_robot(current)
     while world.time < start + delay - 1e-9 and not world.done:
         world.step()
-    reachable = world.command_robot(move)
+    reachable = True if current is not None and move == current else world.command_robot(move)
     while not world.done and world.time < start + horizon - 1e-9 and (reachable or move is None):
         world.step()
     arrival = world.robot_arrival - start if move is not None and world.robot_arrival is not None else None

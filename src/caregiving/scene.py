@@ -65,6 +65,7 @@ class RobotState:
     max_speed: float
     max_accel: float
     speed: float = 0.0  # along ``heading``, which is its direction of travel while it drives
+    route: tuple[tuple[float, float], ...] = ()  # the rest of the route it is driving, as its navigation reports
 
     def body(self) -> Obstacle:
         """The robot's footprint as an obstacle."""

@@ -31,6 +31,8 @@ from .visibility import WALL_KIND, can_see
 
 #: A seen robot or person that moved more than this triggers a re-plan.
 REPLAN_SHIFT = 0.1
+#: A reported route is the one of a move if it ends this close (m) to the move's pose.
+ROUTE_END_TOLERANCE = 0.05
 
 
 @dataclass(frozen=True)
@@ -137,12 +139,22 @@ class World:
     def scene(self) -> Scene:
         """The ground-truth snapshot now."""
         people = tuple(w.state for w in self._walkers) + self._standing
-        return Scene(self._bounds, self._static, people, replace(self.robot, speed=self._speed), self.time)
+        robot = replace(self.robot, speed=self._speed, route=self.robot_route)
+        return Scene(self._bounds, self._static, people, robot, self.time)
 
     @property
     def robot_speed(self) -> float:
         """The robot's current speed, m/s."""
         return self._speed
+
+    @property
+    def robot_route(self) -> tuple[tuple[float, float], ...]:
+        """The waypoints of the robot's drive still ahead of it (empty when it is not driving)."""
+        d = self._drive
+        if d is None:
+            return ()
+        ahead = d.route.points[d.route.cumulative > d.walked]
+        return tuple((float(x), float(y)) for x, y in ahead)
 
     @property
     def done(self) -> bool:
@@ -174,6 +186,18 @@ class World:
         if not plan.reachable:
             return False
         self._drive = _Drive(Polyline.of(plan.path), move.heading)
+        return True
+
+    def resume_robot(self, move: RobotMove) -> bool:
+        """Go on with ``move`` along the route the robot reported, as a robot already driving it does.
+
+        Without a reported route that ends at the move's pose, the move is planned afresh (:meth:`command_robot`).
+        """
+        route = self.robot.route
+        if not route or math.dist(route[-1], (move.x, move.y)) > ROUTE_END_TOLERANCE:
+            return self.command_robot(move)
+        self.robot_arrival = None
+        self._drive = _Drive(Polyline.of([(self.robot.x, self.robot.y), *route]), move.heading)
         return True
 
     def _step_robot(self) -> None:

@@ -1,12 +1,14 @@
 """The joint imagination in time against the world model, on fixed cases: same outcome, paths within 5 cm."""
 
 import math
+from dataclasses import replace
 
 import msgpack
 import numpy as np
 import pytest
 
 from caregiving.errors import RequestError
+from caregiving.geometry import Polyline
 from caregiving.joint import JointImagination, imagine_joint
 from caregiving.robot_moves import RobotMove, standoff_moves
 from caregiving.scenario import Scenario, load_scenario
@@ -97,3 +99,24 @@ def test_wire_round_trip_and_errors(paper: Scenario) -> None:
         imagine_joint(scene.with_robot(None), [Walk("person", "couch", GAZE)], None)
     with pytest.raises(RequestError, match="unknown object 'fridge'"):
         imagine_joint(scene, [Walk("person", "fridge", GAZE)], None)
+
+
+
+def test_a_move_under_way_goes_on_along_the_route_the_robot_reports(paper: Scenario) -> None:
+    """A person who stepped onto the robot's route since its command does not re-route it: it drives on."""
+    world = World.from_scenario(paper)
+    move = in_front_of_the_ball(paper)
+    assert world.command_robot(move)
+    while world.time < 1.0 - 1e-9:
+        world.step()
+    going_on = world.fork()
+    going_on.run(30.0)
+    scene = world.scene()
+    assert scene.robot is not None and len(scene.robot.route) >= 1 and scene.robot.speed > 0.0
+    ahead = np.array([(scene.robot.x, scene.robot.y), *scene.robot.route])
+    onto_route = Polyline.of(ahead).point_at(Polyline.of(ahead).length / 2)
+    bystander = replace(scene.person("person"), name="bystander", x=onto_route[0], y=onto_route[1])
+    scene = replace(scene, people=(*scene.people, bystander))
+    kept = imagine_joint(scene, [Walk("person", paper.people[0].target, GAZE)], move, delay=0.3, current=move)
+    assert going_on.robot_arrival is not None and kept.robot_arrival is not None
+    assert kept.robot_arrival == pytest.approx(going_on.robot_arrival - 1.0, abs=0.051)

@@ -211,6 +211,7 @@ class WorldBridge:
         self._states.put(bus.pack({
             "trial": trial.number, "time": world.time, "running": self._running(),
             "name": r.name, "x": r.x, "y": r.y, "heading": r.heading, "speed": world.robot_speed,
+            "route": [c for point in world.robot_route for c in point],
             "length": r.length, "width": r.width, "height": r.height, "max_speed": r.max_speed,
             "max_accel": r.max_accel, "bounds": list(world.scene().bounds), "walls": walls,
             "wall_height": trial.spec.room.wall_height,
