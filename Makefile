@@ -28,7 +28,7 @@ test: $(STAMP) system-deps
 	$(PY) -m pytest -q
 
 demo: $(STAMP)
-	$(PY) -m caregiving_stack.demo
+	$(PY) -m bridges.experiment.demo
 
 bench: $(STAMP)
 	mkdir -p bench/results

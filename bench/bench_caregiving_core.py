@@ -21,13 +21,13 @@ from collections.abc import Callable
 import numpy as np
 
 import benchlib
-from caregiving.imagine import imagine_person
-from caregiving.joint import imagine_joint
-from caregiving.planner import GridPlanner
-from caregiving.robot_moves import standoff_moves
-from caregiving.rollout import BulletRollout, NumpyRollout
-from caregiving.scenario import load_scenario, sample_trial
-from caregiving.world_model import Walk, run_idle
+from agents.caregiving.model.imagine import imagine_person
+from agents.caregiving.model.joint import imagine_joint
+from agents.caregiving.model.planner import GridPlanner
+from agents.caregiving.model.robot_moves import standoff_moves
+from agents.caregiving.model.rollout import BulletRollout, NumpyRollout
+from agents.caregiving.model.scenario import load_scenario, sample_trial
+from agents.caregiving.model.world_model import Walk, run_idle
 
 
 

@@ -26,10 +26,10 @@ import yaml
 from rich.console import Console
 
 import benchlib
-from caregiving.scenario import load_scenario
-from caregiving_stack.experiment import run_trials
-from caregiving_stack.launch import Stack
-from caregiving_stack.trials import finite
+from agents.caregiving.model.scenario import load_scenario
+from bridges.experiment.experiment import run_trials
+from bridges.experiment.launch import Stack
+from bridges.experiment.trials import finite
 
 SIZES = [(1, 5), (2, 10), (3, 15), (5, 20)]
 #: A 10 x 7 m room: 20 objects fit with the first walker's way, and room for a detour beside the ball, kept clear.

@@ -2,12 +2,12 @@
 
     python docs/img/capture_risky_trial.py [--out docs/img/wm-view.png] [--rate R] [--scale S] [--attempts N]
 
-1. Starts the caregiving stack of ``make demo`` (:func:`caregiving_stack.demo.demo_stack`:
+1. Starts the caregiving stack of ``make demo`` (:func:`bridges.experiment.demo.demo_stack`:
    the world bridge listening on a free loopback port, the five agents connected to it,
    multicast scouting off).
 2. Starts ``wm view`` for the same graph on a free loopback port, as one more child of
    the stack, and opens the page in headless Chromium (:mod:`wm.monitoring.chromium`).
-3. Runs the demo's risky trial (:func:`caregiving_stack.demo.risky_trial`) on a thread and
+3. Runs the demo's risky trial (:func:`bridges.experiment.demo.risky_trial`) on a thread and
    waits until the page shows a risky ``has_intention`` edge and the robot's ``intention``
    with its imagined final pose, and selects the risky edge so the inspector shows it.
    The page stops drawing at that state (its ``render`` becomes a no-op), so later poses
@@ -28,8 +28,8 @@ from pathlib import Path
 
 from rich.console import Console
 
-from caregiving_stack.demo import RATE, demo_stack, narrate, risky_trial
-from caregiving_stack.experiment import Scored
+from bridges.experiment.demo import RATE, demo_stack, narrate, risky_trial
+from bridges.experiment.experiment import Scored
 from wm.monitoring.chromium import Page, chromium
 
 OUT = Path(__file__).resolve().parent / "wm-view.png"

@@ -1,6 +1,6 @@
 """The ``wm`` command line: serve, load, dump, watch, members, set, rm, check, the
 monitoring commands of :mod:`wm.monitoring.cli` (monitor, view, foxglove, record, replay, reactions)
-``launch`` (:mod:`wm.launch.cli`) and ``experiment`` (:mod:`caregiving_stack.cli`).
+``launch`` (:mod:`wm.launch.cli`) and ``experiment`` (:mod:`bridges.experiment.cli`).
 
 Every command takes ``--graph``, ``--connect ENDPOINT`` (repeatable) and
 ``--config FILE``. Errors are one line on stderr and exit status 1.
@@ -18,7 +18,7 @@ from typing import Any
 
 from .check import check
 from .connection import connect
-from caregiving_stack import cli as experiment_cli
+from bridges.experiment import cli as experiment_cli
 
 from .launch import cli as launch_cli
 from .monitoring import cli as monitoring_cli

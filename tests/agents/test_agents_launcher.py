@@ -87,7 +87,7 @@ graph = "g"
 
 [[process]]
 name = "a"
-module = "agents.perception"
+module = "agents.caregiving.perception"
 args = ["--graph", "${graph}", "--connect", "${router}"]
 restart = "sometimes"
 

@@ -7,9 +7,21 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from caregiving.geometry import (Box, Circle, aabb, as_points, bounding_radius, closest_boundary_point, corners,
-                                 point_distance, polyline_length, resample_by_distance, shapes_overlap,
-                                 signed_distance, swept_clearance)
+from agents.caregiving.model.geometry import (
+    Box,
+    Circle,
+    aabb,
+    as_points,
+    bounding_radius,
+    closest_boundary_point,
+    corners,
+    point_distance,
+    polyline_length,
+    resample_by_distance,
+    shapes_overlap,
+    signed_distance,
+    swept_clearance,
+)
 
 
 def test_circle_signed_distance_inside_and_outside() -> None:

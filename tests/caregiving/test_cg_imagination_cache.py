@@ -5,9 +5,9 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from agents.imagination_cache import ImaginationCache, footing
-from caregiving.geometry import Circle
-from caregiving.scene import Obstacle, PersonState, Scene
+from agents.caregiving.imagination_cache import ImaginationCache, footing
+from agents.caregiving.model.geometry import Circle
+from agents.caregiving.model.scene import Obstacle, PersonState, Scene
 
 PERSON = PersonState("p", -2.0, 0.0, 0.0, 0.5, 0.25, 1.6, 2.0, 0.7, 0.1, 0.2)
 COUCH = Obstacle("couch", "couch", Circle(3.0, 0.0, 0.5), 0.8, target=True)

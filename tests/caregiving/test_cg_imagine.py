@@ -6,13 +6,13 @@ from dataclasses import replace
 import msgpack
 import pytest
 
-from caregiving.errors import RequestError
-from caregiving.imagine import Imagination, imagine_person, planner_for
-from caregiving.robot_moves import RobotMove, standoff_moves
-from caregiving.service import serve_item
-from caregiving.rollout import BulletRollout
-from caregiving.scenario import load_scenario
-from caregiving.scene import Scene
+from agents.caregiving.model.errors import RequestError
+from agents.caregiving.model.imagine import Imagination, imagine_person, planner_for
+from agents.caregiving.model.robot_moves import RobotMove, standoff_moves
+from agents.caregiving.model.rollout import BulletRollout
+from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.service import serve_item
 
 GAZE = math.radians(8)
 

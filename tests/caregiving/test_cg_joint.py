@@ -7,12 +7,12 @@ import msgpack
 import numpy as np
 import pytest
 
-from caregiving.errors import RequestError
-from caregiving.geometry import Polyline
-from caregiving.joint import JointImagination, imagine_joint
-from caregiving.robot_moves import RobotMove, standoff_moves
-from caregiving.scenario import Scenario, load_scenario
-from caregiving.world_model import Outcome, Walk, World
+from agents.caregiving.model.errors import RequestError
+from agents.caregiving.model.geometry import Polyline
+from agents.caregiving.model.joint import JointImagination, imagine_joint
+from agents.caregiving.model.robot_moves import RobotMove, standoff_moves
+from agents.caregiving.model.scenario import Scenario, load_scenario
+from agents.caregiving.model.world_model import Outcome, Walk, World
 
 GAZE = math.radians(8)
 

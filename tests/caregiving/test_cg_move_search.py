@@ -4,14 +4,23 @@ import math
 
 import pytest
 
-from caregiving.imagine import imagine_person
-from caregiving.move_search import (Danger, SearchSpec, Verdict, candidates, choose, judge, judge_here,
-                                    ordered_moves, search_move)
-from caregiving.robot_moves import RobotMove, robot_fits
-from caregiving.scenario import load_scenario
-from caregiving.scene import Scene
-from caregiving.service import JointAnswer, serve_one
-from caregiving.world_model import Walk, World
+from agents.caregiving.model.imagine import imagine_person
+from agents.caregiving.model.move_search import (
+    Danger,
+    SearchSpec,
+    Verdict,
+    candidates,
+    choose,
+    judge,
+    judge_here,
+    ordered_moves,
+    search_move,
+)
+from agents.caregiving.model.robot_moves import RobotMove, robot_fits
+from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.service import JointAnswer, serve_one
+from agents.caregiving.model.world_model import Walk, World
 
 GAZE = math.radians(8)
 UNCERTAINTY = {"size_error": 0.2, "sigma": {"person": 0.03}, "samples": 64, "seed": 0}

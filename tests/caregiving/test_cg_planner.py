@@ -5,10 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from caregiving.geometry import Box, Circle, polyline_length, signed_distance
-from caregiving.planner import GridPlanner
-from caregiving.scenario import load_scenario
-from caregiving.scene import Obstacle
+from agents.caregiving.model.geometry import Box, Circle, polyline_length, signed_distance
+from agents.caregiving.model.planner import GridPlanner
+from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.scene import Obstacle
 
 BOUNDS = (-4.0, -3.0, 4.0, 3.0)
 COUCH = Obstacle("couch", "couch", Box(3.5, 0.0, 0.45, 1.0), 0.8, target=True)

@@ -6,10 +6,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from caregiving.errors import RequestError
-from caregiving.geometry import Box, shapes_overlap, signed_distance
-from caregiving.robot_moves import RobotMove, standoff_moves, travel_time
-from caregiving.scenario import load_scenario
+from agents.caregiving.model.errors import RequestError
+from agents.caregiving.model.geometry import Box, shapes_overlap, signed_distance
+from agents.caregiving.model.robot_moves import RobotMove, standoff_moves, travel_time
+from agents.caregiving.model.scenario import load_scenario
 
 
 def test_travel_time_trapezoid_and_triangle() -> None:

@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from caregiving.geometry import Box, Circle
-from caregiving.rollout import DT, BulletRollout, NumpyRollout, trajectory
-from caregiving.scene import Obstacle
+from agents.caregiving.model.geometry import Box, Circle
+from agents.caregiving.model.rollout import DT, BulletRollout, NumpyRollout, trajectory
+from agents.caregiving.model.scene import Obstacle
 
 BALL = Obstacle("ball", "ball", Circle(0.0, 0.0, 0.11), 0.22)
 COUCH = Obstacle("couch", "couch", Box(3.5, 0.0, 0.45, 1.0, 0.2), 0.8)

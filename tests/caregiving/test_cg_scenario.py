@@ -8,22 +8,29 @@ import numpy as np
 import pytest
 import yaml
 
-from caregiving.errors import ScenarioError
-from caregiving.geometry import shapes_overlap
-from caregiving.scenario import PLACEMENT_MARGIN, SCENARIO_DIR, load_scenario, parse_scenario, sample_trial
+from agents.caregiving.model.errors import ScenarioError
+from agents.caregiving.model.geometry import shapes_overlap
+from agents.caregiving.model.scenario import (
+    PLACEMENT_MARGIN,
+    SHIPPED,
+    load_scenario,
+    parse_scenario,
+    sample_trial,
+    shipped_scenarios,
+)
 
-SHIPPED = sorted(p.stem for p in SCENARIO_DIR.glob("*.yaml"))
+SHIPPED_NAMES = shipped_scenarios()
 
 
 def raw(name: str = "paper_experiment1") -> dict:
-    return yaml.safe_load((SCENARIO_DIR / f"{name}.yaml").read_text())
+    return yaml.safe_load(SHIPPED.joinpath(f"{name}.yaml").read_text())
 
 
 def test_all_required_scenarios_are_shipped() -> None:
-    assert {"paper_experiment1", "safe_walk", "person_sees_obstacle", "two_people", "cluttered_room"} <= set(SHIPPED)
+    assert {"paper_experiment1", "safe_walk", "person_sees_obstacle", "two_people", "cluttered_room"} <= set(SHIPPED_NAMES)
 
 
-@pytest.mark.parametrize("name", SHIPPED)
+@pytest.mark.parametrize("name", SHIPPED_NAMES)
 def test_shipped_scenarios_load(name: str) -> None:
     s = load_scenario(name)
     scene = s.scene()
@@ -32,7 +39,7 @@ def test_shipped_scenarios_load(name: str) -> None:
 
 
 def test_paper_experiment1_matches_the_paper_setup() -> None:
-    s = load_scenario(SCENARIO_DIR / "paper_experiment1.yaml")
+    s = load_scenario(str(SHIPPED.joinpath("paper_experiment1.yaml")))
     assert [p.speed for p in s.people] == [0.5]
     assert s.people[0].target == "couch"
     assert {o.name for o in s.objects} >= {"couch", "door", "ball"}

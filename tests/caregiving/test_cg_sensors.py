@@ -5,9 +5,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from caregiving.scenario import load_scenario
-from caregiving.sensors import Sensors
-from caregiving.world_model import World
+from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.world_model import World
+from bridges.world.sensors import Sensors
 
 
 def run(sensors: Sensors, world: World, seconds: float) -> list:

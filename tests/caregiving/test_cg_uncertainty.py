@@ -5,10 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from caregiving.geometry import Box, signed_distance
-from caregiving.imagine import imagine_person
-from caregiving.scenario import load_scenario
-from caregiving.uncertainty import Uncertainty, _clearances, collision_risk
+from agents.caregiving.model.geometry import Box, signed_distance
+from agents.caregiving.model.imagine import imagine_person
+from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.uncertainty import Uncertainty, _clearances, collision_risk
 
 GAZE = math.radians(8)
 

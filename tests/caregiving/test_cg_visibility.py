@@ -5,11 +5,18 @@ from dataclasses import replace
 
 import pytest
 
-from caregiving.geometry import Box, Circle
-from caregiving.scenario import load_scenario
-from caregiving.scene import Obstacle, PersonState
-from caregiving.visibility import (can_see, candidate_targets, elevation_span, gaze_classes, gaze_interval,
-                                   in_horizontal_fov, visible)
+from agents.caregiving.model.geometry import Box, Circle
+from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.scene import Obstacle, PersonState
+from agents.caregiving.model.visibility import (
+    can_see,
+    candidate_targets,
+    elevation_span,
+    gaze_classes,
+    gaze_interval,
+    in_horizontal_fov,
+    visible,
+)
 
 PERSON = PersonState("p", 0.0, 0.0, 0.0, 0.5, 0.25, 1.6, math.radians(120), math.radians(40),
                      math.radians(6), math.radians(10))

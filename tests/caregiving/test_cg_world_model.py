@@ -5,10 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from caregiving.robot_moves import RobotMove, standoff_moves, travel_time
-from caregiving.scenario import load_scenario, sample_trial
-from caregiving.visibility import can_see
-from caregiving.world_model import World, run_idle
+from agents.caregiving.model.robot_moves import RobotMove, standoff_moves, travel_time
+from agents.caregiving.model.scenario import load_scenario, sample_trial
+from agents.caregiving.model.visibility import can_see
+from agents.caregiving.model.world_model import World, run_idle
 
 
 def test_paper_default_person_does_not_see_the_ball_and_collides() -> None:

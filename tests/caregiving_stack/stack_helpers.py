@@ -8,8 +8,8 @@ from collections.abc import Iterator
 import pytest
 
 import wm
-from caregiving_stack.launch import Stack
-from caregiving_stack.trials import Harness, TrialRecord
+from bridges.experiment.launch import Stack
+from bridges.experiment.trials import Harness, TrialRecord
 
 GRAPH = "stacktest"
 

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import pytest
 
+from agents.caregiving.model.planner import GridPlanner
+from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.world_model import run_idle
+from bridges.experiment.oracle import oracle, saving_moves, standoff_moves_all, world_at
 from bridges.world.bridge import trial_for
-from caregiving.planner import GridPlanner
-from caregiving.scenario import load_scenario
-from caregiving.world_model import run_idle
-from caregiving_stack.oracle import oracle, saving_moves, standoff_moves_all, world_at
 
 SEED, AT = 48611, 0.5
 

@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 from procs import PYTHON, REPO, WM, Proc, endpoint, free_port
 
-from bridges import bus, keys
+from agents import bus
+from agents.caregiving import keys
 from wm.connection import close_session, open_session
 
 BROKEN = """name: broken

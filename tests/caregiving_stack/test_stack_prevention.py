@@ -14,13 +14,12 @@ from pathlib import Path
 import pytest
 from stack_helpers import GRAPH, run_trial
 
+from agents.caregiving.model.planner import GridPlanner
+from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.world_model import run_idle
+from bridges.experiment.launch import Stack
+from bridges.experiment.oracle import oracle
 from bridges.world.bridge import trial_for
-from caregiving.planner import GridPlanner
-from caregiving.scenario import load_scenario
-from caregiving.world_model import run_idle
-from caregiving_stack.launch import Stack
-from caregiving_stack.oracle import oracle
-from caregiving_stack.trials import TrialRecord
 
 SCENARIO = str(Path(__file__).parent / "scenarios" / "box_obstacle_exact.yaml")
 SEED, SAVEABLE, UNSAVEABLE = 7, 25, (5, 42)

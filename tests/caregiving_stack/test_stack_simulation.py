@@ -8,13 +8,14 @@ import math
 import pytest
 from procs import PYTHON, Proc, endpoint, free_port
 
-from bridges import bus, keys
-from caregiving.imagine import imagine_person
-from caregiving.joint import JointImagination, imagine_joint
-from caregiving.robot_moves import standoff_moves
-from caregiving.rollout import BulletRollout
-from caregiving.scenario import load_scenario
-from caregiving.world_model import Walk
+from agents import bus
+from agents.caregiving import keys
+from agents.caregiving.model.imagine import imagine_person
+from agents.caregiving.model.joint import JointImagination, imagine_joint
+from agents.caregiving.model.robot_moves import standoff_moves
+from agents.caregiving.model.rollout import BulletRollout
+from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.world_model import Walk
 from wm.connection import close_session, open_session
 
 GRAPH = "simtest"
@@ -24,7 +25,7 @@ GAZES = [math.radians(8), math.radians(-30)]
 @pytest.fixture(scope="module")
 def sim_endpoint():
     port = free_port()
-    proc = Proc([PYTHON, "-m", "agents.simulation", "--graph", GRAPH, "--listen", endpoint(port), "--rollout", "bullet"],
+    proc = Proc([PYTHON, "-m", "agents.caregiving.simulation", "--graph", GRAPH, "--listen", endpoint(port), "--rollout", "bullet"],
                 "simulation")
     try:
         yield endpoint(port), proc

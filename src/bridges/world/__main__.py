@@ -7,8 +7,8 @@ import asyncio
 import logging
 import sys
 
-from caregiving.errors import ScenarioError
-from caregiving.scenario import load_scenario
+from agents.caregiving.model.errors import ScenarioError
+from agents.caregiving.model.scenario import load_scenario
 from wm.connection import ConnectError, close_session, open_session, sigterm_cancels_current_task
 
 from .bridge import WorldBridge

@@ -1,4 +1,4 @@
-"""The world bridge: :class:`caregiving.world_model.World` stepped on a simulation clock.
+"""The world bridge: :class:`agents.caregiving.model.world_model.World` stepped on a simulation clock.
 
 One process holds the ground truth of the room. It is driven through the
 ``world/control`` queryable: ``prepare`` builds trial ``index`` of the scenario
@@ -30,17 +30,18 @@ from typing import Any
 import numpy as np
 import zenoh
 
-from caregiving.errors import CaregivingError, RequestError
-from caregiving.fields import Fields
-from caregiving.planner import GridPlanner
-from caregiving.robot_moves import RobotMove
-from caregiving.rollout import DT
-from caregiving.scenario import Scenario, load_scenario, sample_trial
-from caregiving.scene import shape_to_wire
-from caregiving.sensors import Detection, Sensors
-from caregiving.world_model import World
+from agents import bus
+from agents.caregiving import keys
+from agents.caregiving.model.errors import CaregivingError, RequestError
+from agents.caregiving.model.fields import Fields
+from agents.caregiving.model.planner import GridPlanner
+from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.rollout import DT
+from agents.caregiving.model.scenario import Scenario, load_scenario, sample_trial
+from agents.caregiving.model.scene import shape_to_wire
+from agents.caregiving.model.world_model import World
 
-from .. import bus, keys
+from .sensors import Detection, Sensors
 
 log = logging.getLogger("bridges.world")
 IDLE_STATE_PERIOD = 0.1

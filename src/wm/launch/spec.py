@@ -238,7 +238,7 @@ def _argv(check: _Checker, key: str, entry: Mapping[str, Any]) -> list[str]:
     if has_module:
         module = entry["module"]
         if not isinstance(module, str) or not _MODULE.match(module):
-            check.problem(f"{key}.module", f"must be a dotted module name like agents.perception, got {module!r}")
+            check.problem(f"{key}.module", f"must be a dotted module name like agents.caregiving.perception, got {module!r}")
             return []
         return [sys.executable, "-m", module, *args]
     cmd = entry["cmd"]

@@ -27,13 +27,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from caregiving.geometry import Polyline
-from caregiving.planner import GridPlanner
-from caregiving.robot_moves import RobotMove, robot_fits, standoff_poses
-from caregiving.scenario import Scenario
-from caregiving.scene import Scene
-from caregiving.visibility import WALL_KIND
-from caregiving.world_model import World
+from agents.caregiving.model.geometry import Polyline
+from agents.caregiving.model.planner import GridPlanner
+from agents.caregiving.model.robot_moves import RobotMove, robot_fits, standoff_poses
+from agents.caregiving.model.scenario import Scenario
+from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.visibility import WALL_KIND
+from agents.caregiving.model.world_model import World
 
 LATTICE = 0.2
 HEADINGS = (0.0, math.pi / 4, math.pi / 2, 3 * math.pi / 4)

@@ -1,6 +1,6 @@
 """Perception: noisy detections and robot odometry from the world bridge, as nodes and RT edges in W.
 
-``python -m agents.perception --graph G --connect EP [--scenario S]``
+``python -m agents.caregiving.perception --graph G --connect EP [--scenario S]``
 
 It keeps, all placed by an RT edge from the ``world`` node:
 
@@ -26,11 +26,12 @@ import math
 import time
 from typing import Any
 
-from bridges import bus, keys
-from caregiving.scenario import load_scenario
+from agents import bus
+from agents.caregiving import keys
+from agents.caregiving.model.scenario import load_scenario
 
+from ..runtime import Agent, main
 from .context import WORLD
-from .runtime import Agent, main
 from .tracking import PERSON, Track, Tracker
 
 

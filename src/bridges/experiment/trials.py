@@ -19,10 +19,11 @@ from typing import Any
 
 import zenoh
 
-from agents.action import INTENTION
-from agents.context import WORLD, read_context
-from agents.intention import HAS_INTENTION
-from bridges import bus, keys
+from agents import bus
+from agents.caregiving import keys
+from agents.caregiving.action import INTENTION
+from agents.caregiving.context import WORLD, read_context
+from agents.caregiving.intention import HAS_INTENTION
 from wm import Event, Graph
 
 

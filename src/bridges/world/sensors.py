@@ -17,10 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .geometry import Box, Circle, Shape
-from .scenario import SensorSpec
-from .scene import PERSON_KIND, Scene
-from .visibility import WALL_KIND
+from agents.caregiving.model.geometry import Box, Circle, Shape
+from agents.caregiving.model.scenario import SensorSpec
+from agents.caregiving.model.scene import PERSON_KIND, Scene
+from agents.caregiving.model.visibility import WALL_KIND
 
 
 @dataclass(frozen=True)

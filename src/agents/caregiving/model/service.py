@@ -3,10 +3,10 @@
 A request is a msgpack map ``{"items": [ITEM, ...], "scene": SCENE?}``. An ITEM is
 
 * ``{"kind": "person", "person", "target", "gaze", "known"?, "uncertainty"?}``: the
-  person's walk alone (Algorithm 1, :func:`caregiving.imagine.imagine_person`);
+  person's walk alone (Algorithm 1, :func:`agents.caregiving.model.imagine.imagine_person`);
 * ``{"kind": "joint", "walks": [{"person", "target", "gaze", "known"?}, ...],
   "move": MOVE | null, "current"?: MOVE, "delay"?: s, "uncertainty"?}``: the robot's
-  move imagined in time with those walks (Algorithm 2, :func:`caregiving.joint.imagine_joint`);
+  move imagined in time with those walks (Algorithm 2, :func:`agents.caregiving.model.joint.imagine_joint`);
 
 with ``uncertainty = {"size_error", "sigma": {name: metres}, "samples", "seed"}``.
 Each item's answer is ``{"ok": true, "result": ..., "risk": RISK?}`` or

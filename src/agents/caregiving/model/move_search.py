@@ -20,7 +20,7 @@ cheap tests prune before any imagination: the robot must fit at the pose, and a
 straight drive (the travel-time lower bound, from the robot's current speed)
 must come within :data:`REACH` of it before the person passes it (path poses)
 or before the collision (stand-offs). The joint imagination in time
-(:mod:`caregiving.joint`) judges the rest.
+(:mod:`agents.caregiving.model.joint`) judges the rest.
 """
 
 from __future__ import annotations
@@ -167,7 +167,7 @@ class SearchSpec:
         return sets
 
     def items(self, move: RobotMove | None, uncertainty: dict[str, Any]) -> list[dict[str, Any]]:
-        """The simulator items that judge one move (see :mod:`caregiving.service`)."""
+        """The simulator items that judge one move (see :mod:`agents.caregiving.model.service`)."""
         return [{"kind": "joint", "walks": [walk_to_wire(w) for w in walks], "move": move.to_wire() if move else None,
                  "current": self.current.to_wire() if self.current else None, "delay": self.delay,
                  "uncertainty": uncertainty} for walks in self.walk_sets()]

@@ -4,7 +4,7 @@
 they see at the given gaze (plus what they are known to remember), then walks it
 in the full scene. The result is a plain dataclass with ``to_wire``/``from_wire``
 (msgpack-friendly dicts); malformed input raises :class:`RequestError`. The
-robot's moves are imagined in time by :mod:`caregiving.joint`.
+robot's moves are imagined in time by :mod:`agents.caregiving.model.joint`.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""``wm experiment``: the command-line face of :mod:`caregiving_stack.experiment` (imports it lazily)."""
+"""``wm experiment``: the command-line face of :mod:`bridges.experiment.experiment` (imports it lazily)."""
 
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ def add_command(commands: Any) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run the experiment; errors are one line on stderr and exit status 1."""
-    from caregiving.errors import ScenarioError
+    from agents.caregiving.model.errors import ScenarioError
 
     from .experiment import experiment
     from .launch import LaunchError

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from caregiving.scenario import load_scenario
+from agents.caregiving.model.scenario import load_scenario
 
 DEFAULT_SIZE_ERROR = 0.2
 

@@ -91,7 +91,7 @@ class Stack:
         common = ["--graph", self.graph, "--connect", self.endpoint]
         scenario = ["--scenario", self.scenario]
         agents = {"perception": scenario, "simulation": [], "intention": scenario, "action": scenario, "executor": []}
-        started = [self._spawn(name, [py, "-m", f"agents.{name}", *common, *extra, *self.agent_args.get(name, [])])
+        started = [self._spawn(name, [py, "-m", f"agents.caregiving.{name}", *common, *extra, *self.agent_args.get(name, [])])
                    for name, extra in agents.items()]
         for child in started:
             self._wait_ready(child, READY["agent"], timeout)

@@ -1,13 +1,13 @@
 """Algorithm 2: for the risky intentions in W, find a robot move that removes the danger, and write it to W.
 
-``python -m agents.action --graph G --connect EP [--scenario S]``
+``python -m agents.caregiving.action --graph G --connect EP [--scenario S]``
 
 Triggered by each risky ``has_intention`` edge as it lands in W. The search
-itself is :mod:`caregiving.move_search`; this agent turns W into its input,
+itself is :mod:`agents.caregiving.model.move_search`; this agent turns W into its input,
 asks the simulator to imagine the candidates, and writes the result:
 
 * every endangered person is protected by one search: the candidates of all
-  their dangers, interleaved, each imagined in time (:mod:`caregiving.joint`)
+  their dangers, interleaved, each imagined in time (:mod:`agents.caregiving.model.joint`)
   with every gaze class of each endangered person, the other people walking
   their likeliest intentions beside them, and perception's uncertainty sampled;
 * when no single move keeps everyone safe, each danger is searched alone, most
@@ -32,19 +32,20 @@ from dataclasses import replace
 from itertools import count, islice
 from typing import Any
 
-from bridges import bus, keys
-from caregiving.move_search import Danger, SearchSpec, Verdict, judge, search_move
-from caregiving.robot_moves import RobotMove
-from caregiving.service import JointAnswer
-from caregiving.visibility import GazeClass, gaze_classes
-from caregiving.world_model import Walk
+from agents import bus
+from agents.caregiving import keys
+from agents.caregiving.model.move_search import Danger, SearchSpec, Verdict, judge, search_move
+from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.service import JointAnswer
+from agents.caregiving.model.visibility import GazeClass, gaze_classes
+from agents.caregiving.model.world_model import Walk
 from wm import Edge, Node
 
+from ..loop import Coalescer
+from ..runtime import Agent, main
 from .context import Context, read_context
 from .intention import HAS_INTENTION, KNOWS
-from .loop import Coalescer
 from .risk_options import add_risk_arguments, size_error
-from .runtime import Agent, main
 
 INTENTION = "intention"
 LIVE = ("proposed", "active")

@@ -2,7 +2,7 @@
 
 The same model serves the world bridge (built from a scenario: the truth) and the
 robot's joint imagination (built from a believed scene and guessed intents; see
-:mod:`caregiving.joint`), as the paper's "like me" simulation implies.
+:mod:`agents.caregiving.model.joint`), as the paper's "like me" simulation implies.
 
 Each person walks at constant speed along a plan that avoids only what they have
 seen so far (their true gaze, the robot included); walls are always known. They

@@ -1,4 +1,4 @@
-"""The context ``ctx = getContext(W)`` of the paper: a frozen :class:`~caregiving.scene.Scene` read from W.
+"""The context ``ctx = getContext(W)`` of the paper: a frozen :class:`~agents.caregiving.model.scene.Scene` read from W.
 
 Perception keeps these in W: a ``world`` node (``room_size``, ``episode``), the
 ``robot`` node, ``person`` and ``object`` nodes, each placed by an RT edge from
@@ -13,9 +13,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from caregiving.geometry import Box, Circle, Shape
-from caregiving.scenario import RoomSpec
-from caregiving.scene import Obstacle, PersonState, RobotState, Scene
+from agents.caregiving.model.geometry import Box, Circle, Shape
+from agents.caregiving.model.scenario import RoomSpec
+from agents.caregiving.model.scene import Obstacle, PersonState, RobotState, Scene
 from wm import Graph, Node
 
 WORLD = "world"

@@ -34,15 +34,15 @@ from typing import Any
 
 import numpy as np
 
-from caregiving.geometry import (
+from agents.caregiving.model.geometry import (
     Circle,
     Shape,
     bounding_radius,
     polyline_length,
     resample_by_distance,
 )
-from caregiving.scene import Scene
-from caregiving.visibility import WALL_KIND
+from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.visibility import WALL_KIND
 
 Key = tuple[str, str, frozenset[str]]
 STEP = 0.05  # metres between the path points bodies and the person are measured against

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from importlib import resources
+from importlib.resources.abc import Traversable
 from pathlib import Path
 
 import numpy as np
@@ -22,7 +24,13 @@ from .scene import Obstacle, PersonState, RobotState, Scene
 
 OBJECT_KINDS = frozenset({"ball", "backpack", "box", "bed", "cabinet", "chair", "couch", "door",
                           "plant", "shoe", "table", "toy", "wall"})
-SCENARIO_DIR = Path(__file__).resolve().parents[2] / "scenarios"
+#: The shipped scenarios, package data of :mod:`agents.caregiving`.
+SHIPPED = resources.files("agents.caregiving").joinpath("scenarios")
+
+
+def shipped_scenarios() -> list[str]:
+    """The names of the shipped scenarios, sorted."""
+    return sorted(f.name.removesuffix(".yaml") for f in SHIPPED.iterdir() if f.name.endswith(".yaml"))
 #: Gap kept between sampled entities so nobody starts touching anything.
 PLACEMENT_MARGIN = 0.15
 _PLACE_ATTEMPTS = 200
@@ -183,11 +191,11 @@ def person_state(p: PersonSpec) -> PersonState:
 
 def load_scenario(path: str | Path) -> Scenario:
     """Load and validate a scenario file; a bare name is looked up in the shipped ``scenarios/``."""
-    p = Path(path)
+    p: Path | Traversable = Path(path)
     if not p.suffix and not p.exists():
-        p = SCENARIO_DIR / f"{p.name}.yaml"
+        p = SHIPPED.joinpath(f"{p.name}.yaml")
     try:
-        data = yaml.safe_load(p.read_text())
+        data = yaml.safe_load(p.read_text(encoding="utf-8"))
     except OSError as exc:
         raise ScenarioError(f"<file>: cannot read {p}: {exc.strerror}") from exc
     except yaml.YAMLError as exc:

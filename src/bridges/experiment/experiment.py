@@ -3,7 +3,7 @@
 For each trial the world bridge samples positions from ``--seed``, the stack
 runs closed-loop (the robot acts on what it guesses), and the harness records
 what W showed. Ground truth is the world model's exact-geometry outcome of the
-same trial with the robot idle (:func:`caregiving.world_model.run_idle`).
+same trial with the robot idle (:func:`agents.caregiving.model.world_model.run_idle`).
 
 Per trial: *predicted risky* = some ``has_intention`` was marked risky;
 *discarded* = no intention arose at all (as in the paper). Over the valid
@@ -15,7 +15,7 @@ definition), ``action_in_time_rate`` the share whose move was also imagined to
 be in place before the predicted collision; ``prevention_rate`` the share of
 truly risky trials in which nobody collided in the closed loop. Since some
 trials cannot be saved by any move of a robot with these limits (the person
-starts next to the ball), the physical oracle (:mod:`caregiving_stack.oracle`)
+starts next to the ball), the physical oracle (:mod:`bridges.experiment.oracle`)
 searches each truly risky trial's ground truth for a move that saves it,
 commanded when the danger first became observable: ``oracle_saveable`` counts
 those trials (``oracle_standoff_saveable`` with stand-offs only) and
@@ -51,10 +51,10 @@ from rich.progress import (
 from rich.table import Table
 
 import wm
+from agents.caregiving.model.planner import GridPlanner
+from agents.caregiving.model.scenario import Scenario, load_scenario
+from agents.caregiving.model.world_model import run_idle
 from bridges.world.bridge import trial_for
-from caregiving.planner import GridPlanner
-from caregiving.scenario import Scenario, load_scenario
-from caregiving.world_model import run_idle
 
 from .launch import Stack
 from .oracle import OracleVerdict, oracle

@@ -1,10 +1,10 @@
 """The internal simulator: answers batched "imagine" requests over Zenoh against a frozen context.
 
-``python -m agents.simulation --graph G --connect EP [--rollout numpy|bullet]``
+``python -m agents.caregiving.simulation --graph G --connect EP [--rollout numpy|bullet]``
 
 It mirrors W into a scene (and, with ``--rollout bullet``, into its persistent
 PyBullet DIRECT world, moving bodies rather than re-creating them) and serves
-the queryable ``wm/<g>/sim/imagine`` with :mod:`caregiving.service` (the request
+the queryable ``wm/<g>/sim/imagine`` with :mod:`agents.caregiving.model.service` (the request
 and item forms are documented there). A request's optional ``scene`` pins the
 context; without it the context is W as this replica holds it when the request
 arrives, frozen for the whole batch. The reply is ::
@@ -25,13 +25,15 @@ from dataclasses import dataclass, field
 from itertools import count
 from typing import Any
 
-from bridges import bus, keys
-from caregiving.rollout import BulletRollout, NumpyRollout, Rollout
-from caregiving.scene import Scene
-from caregiving.service import batch_scene, serve_one
+from agents import bus
+from agents.caregiving import keys
+from agents.caregiving.model.rollout import BulletRollout, NumpyRollout, Rollout
+from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.service import batch_scene, serve_one
 
+from ..runtime import Agent, main
 from .context import Context, read_context
-from .runtime import Agent, main
+
 
 @dataclass
 class _Job:

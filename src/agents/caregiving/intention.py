@@ -1,13 +1,13 @@
 """Algorithm 1: guess each person's intentions, imagine them, and mark the risky ones in W.
 
-``python -m agents.intention --graph G --connect EP [--scenario S]``
+``python -m agents.caregiving.intention --graph G --connect EP [--scenario S]``
 
 Whenever a person moves in W: for each person tracked long enough, the targets
 are the target objects inside their horizontal field of view; the vertical gaze
 range is split exactly into the classes that see the same objects
-(:func:`caregiving.visibility.gaze_classes`), which covers every sampled gaze.
+(:func:`agents.caregiving.model.visibility.gaze_classes`), which covers every sampled gaze.
 Algorithm 1 is incremental: a (target, gaze class) walk is imagined again only
-when its inputs moved beyond a tolerance (:mod:`agents.imagination_cache`);
+when its inputs moved beyond a tolerance (:mod:`agents.caregiving.imagination_cache`);
 the others are reused, their times brought forward by their age. Each person's
 walks to imagine go in one request (the simulator samples perception's
 uncertainty around each), all people at once, and each person's intentions are
@@ -37,15 +37,16 @@ from collections.abc import Awaitable
 from dataclasses import dataclass
 from typing import Any
 
-from bridges import bus, keys
-from caregiving.geometry import resample_by_distance
-from caregiving.visibility import GazeClass, candidate_targets, gaze_classes
+from agents import bus
+from agents.caregiving import keys
+from agents.caregiving.model.geometry import resample_by_distance
+from agents.caregiving.model.visibility import GazeClass, candidate_targets, gaze_classes
 
+from ..loop import Coalescer
+from ..runtime import Agent, main
 from .context import Context, read_context
 from .imagination_cache import ImaginationCache, Key, footing
-from .loop import Coalescer
 from .risk_options import add_risk_arguments, size_error
-from .runtime import Agent, main
 
 HAS_INTENTION = "has_intention"
 COLLISION = "collision"

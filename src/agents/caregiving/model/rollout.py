@@ -29,8 +29,16 @@ import numpy as np
 import pybullet as pb
 from numpy.typing import ArrayLike
 
-from .geometry import Circle, FloatArray, aabb, as_points, closest_boundary_point, polyline_length, \
-    resample_by_distance, signed_distance
+from .geometry import (
+    Circle,
+    FloatArray,
+    aabb,
+    as_points,
+    closest_boundary_point,
+    polyline_length,
+    resample_by_distance,
+    signed_distance,
+)
 from .scene import Obstacle
 
 DT = 0.05

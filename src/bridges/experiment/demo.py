@@ -1,6 +1,6 @@
 """``make demo``: one risky trial end to end across processes, narrated, then a short Experiment 1.
 
-``python -m caregiving_stack.demo [--out DIR] [--trials N] [--rate R]``
+``python -m bridges.experiment.demo [--out DIR] [--trials N] [--rate R]``
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from pathlib import Path
 
 from rich.console import Console
 
-from caregiving.scenario import load_scenario
+from agents.caregiving.model.scenario import load_scenario
 
 from .experiment import Scored, metrics, prevention_line, run_trials, table, with_oracle
 from .figures import draw_trial

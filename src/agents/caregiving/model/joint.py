@@ -1,6 +1,6 @@
 """The joint imagination in time (Algorithm 2): the robot drives its move while the people walk.
 
-It steps :class:`caregiving.world_model.World`, the same model the world bridge
+It steps :class:`agents.caregiving.model.world_model.World`, the same model the world bridge
 uses for the truth, from a believed scene and guessed intents:
 
 * the robot goes on with its ``current`` move (if any), along the route it

@@ -15,7 +15,6 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
-
 from .geometry import Circle, bounding_radius, corner_points, point_distance
 from .scene import Obstacle, PersonState
 

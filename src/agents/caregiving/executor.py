@@ -1,6 +1,6 @@
 """The executor: drives the robot to its chosen intention through the world bridge.
 
-``python -m agents.executor --graph G --connect EP``
+``python -m agents.caregiving.executor --graph G --connect EP``
 
 A ``proposed`` robot ``intention`` (``move_to`` with a ``final_pose``) is sent
 as a command on ``robot/cmd``; it becomes ``active`` when the world accepts it
@@ -19,13 +19,14 @@ import math
 import time
 from typing import Any
 
-from bridges import bus, keys
+from agents import bus
+from agents.caregiving import keys
 from wm import Node
 
+from ..loop import Coalescer
+from ..runtime import Agent, every, main
 from .action import INTENTION
 from .context import WORLD
-from .loop import Coalescer
-from .runtime import Agent, every, main
 
 
 class Executor(Agent):

@@ -19,8 +19,8 @@ import matplotlib.pyplot as plt
 from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Polygon, Wedge
 
-from caregiving.geometry import Box, Circle, corners
-from caregiving.scene import Scene
+from agents.caregiving.model.geometry import Box, Circle, corners
+from agents.caregiving.model.scene import Scene
 
 from .trials import TrialRecord, finite
 
