@@ -5,7 +5,7 @@ session, configured by :func:`build_config` from
 
 * a JSON5 file (for example one of the templates in ``deploy/zenoh/``),
 * a mapping shaped like such a file, or an existing ``zenoh.Config``,
-* or nothing,
+* or nothing (a peer),
 
 then ``mode``, ``connect``, ``listen`` and ``overrides``
 (``{"zenoh/config/path": value}``) are applied on top. Multicast scouting is
@@ -78,7 +78,7 @@ def read_config(source: PathLike | Mapping[str, Any], variables: Mapping[str, An
         raise ZenohConfigError(f"Zenoh config source must be a path or a mapping, not {type(source).__name__}")
     missing: list[str] = []
     render = partial(_inline_text, where)
-    filled = _fill(data, lambda text: placeholders.expand_value(text, variables or {}, missing.append, render))
+    filled: dict[str, Any] = _fill(data, lambda text: placeholders.expand_value(text, variables or {}, missing.append, render))
     if missing:
         raise ZenohConfigError(f"{where}: no value for template variable(s) {', '.join(sorted(set(missing)))}")
     return filled
