@@ -176,7 +176,7 @@ def _short(value: Any) -> str:
 
 async def run(args: argparse.Namespace) -> int:
     ontology = Ontology.load(args.ontology)
-    if hasattr(args, "config"):
+    if hasattr(args, "config"):  # the file, built with its variables from WM_ZENOH_<NAME>
         args.config = load_with_environment(args.config)
     if args.command == "serve":
         from .serve import serve
