@@ -54,6 +54,7 @@ import wm
 from wm import Event, EventStream, Graph
 from wm.agent_nodes import install_reaper
 from wm.events import EventFilter
+from wm.zenoh_config import load_with_environment
 
 from . import logs
 from .agent_node import AgentNode
@@ -267,7 +268,7 @@ def build_parser(agent_class: type[Agent]) -> argparse.ArgumentParser:
                         help="Zenoh endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable)")
     parser.add_argument("--listen", action="append", default=[], metavar="ENDPOINT", help="Zenoh endpoint to listen on (repeatable)")
     parser.add_argument("--mode", choices=["peer", "client"], help="Zenoh mode (default: the config's, else peer)")
-    parser.add_argument("--config", help="Zenoh config file (JSON5, see deploy/zenoh/)")
+    parser.add_argument("--config", help="Zenoh config file (JSON5, see deploy/zenoh/; placeholders from WM_ZENOH_<NAME>)")
     parser.add_argument("--name", default=agent_class.name, help="agent name, also its node's name (default: %(default)s)")
     parser.add_argument("--ontology", help="ontology file (default: the packaged one)")
     parser.add_argument("--log-level", default="INFO", choices=["DEBUG", "INFO", "WARNING", "ERROR"])
@@ -295,7 +296,7 @@ async def run_agent(agent: Agent) -> None:
     ontology = wm.Ontology.load(args.ontology) if getattr(args, "ontology", None) else None
     try:
         async with wm.connect(
-            args.graph, args.config, agent.name, connect=args.connect or None, listen=args.listen or None,
+            args.graph, load_with_environment(args.config), agent.name, connect=args.connect or None, listen=args.listen or None,
             mode=args.mode, ontology=ontology,
         ) as g:
             await agent.run(g)

@@ -3,7 +3,9 @@ monitoring commands of :mod:`wm.monitoring.cli` (monitor, view, foxglove, record
 ``launch`` (:mod:`wm.launch.cli`) and ``experiment`` (:mod:`bridges.experiment.cli`).
 
 Every command takes ``--graph``, ``--connect ENDPOINT`` (repeatable) and
-``--config FILE``. Errors are one line on stderr and exit status 1.
+``--config FILE`` (a Zenoh JSON5 file whose placeholders are filled from
+``WM_ZENOH_<NAME>`` environment variables). Errors are one line on stderr and
+exit status 1.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from . import dsr_json
 from .errors import NotFoundError, UnknownAttributeError, WMError
 from .graph import Graph
 from .ontology import Ontology
+from .zenoh_config import load_with_environment
 
 
 class CommandError(WMError):
@@ -35,7 +38,7 @@ class CommandError(WMError):
 def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--graph", default="default", help="graph name (default: %(default)s)")
     parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT", help="Zenoh endpoint, e.g. tcp/127.0.0.1:7447")
-    parser.add_argument("--config", help="Zenoh config file (JSON5)")
+    parser.add_argument("--config", help="Zenoh config file (JSON5; placeholders from WM_ZENOH_<NAME>)")
     parser.add_argument("--ontology", help="ontology file, or a packaged one by name: default, dsr (default: %(default)s)", default="default")
     parser.add_argument("--timeout", type=float, default=3.0, help="seconds to wait for a peer (default: %(default)s)")
     parser.add_argument("-v", "--verbose", action="store_true", help="log replication details")
@@ -173,6 +176,8 @@ def _short(value: Any) -> str:
 
 async def run(args: argparse.Namespace) -> int:
     ontology = Ontology.load(args.ontology)
+    if hasattr(args, "config"):  # the file, built with its variables from WM_ZENOH_<NAME>
+        args.config = load_with_environment(args.config)
     if args.command == "serve":
         from .serve import serve
 

@@ -18,10 +18,9 @@ import re
 import signal
 import sys
 import threading
-from collections.abc import AsyncIterator, Iterator, Mapping
+from collections.abc import AsyncIterator, Iterator
 from contextlib import asynccontextmanager, contextmanager
 from pathlib import Path
-from typing import Any
 
 import zenoh
 
@@ -29,7 +28,7 @@ from .errors import WMError
 from .graph import Graph
 from .ontology import Ontology
 from .replication import Replicator
-from .zenoh_config import Endpoints, Mode, ZenohConfigError, build_config
+from .zenoh_config import ConfigSource, Endpoints, Mode, ZenohConfigError, build_config
 
 
 LOOPBACK_ANY_PORT = "tcp/127.0.0.1:0"
@@ -46,7 +45,7 @@ def default_agent_name() -> str:
 
 
 async def open_session(
-    config: str | Path | Mapping[str, Any] | None = None,
+    config: ConfigSource | None = None,
     *,
     connect: Endpoints | None = None,
     listen: Endpoints | None = None,
@@ -93,7 +92,7 @@ def sigterm_cancels_current_task() -> Iterator[None]:
 @asynccontextmanager
 async def connect(
     graph: str = "default",
-    config: str | Path | Mapping[str, Any] | None = None,
+    config: ConfigSource | None = None,
     name: str | None = None,
     *,
     connect: Endpoints | None = None,
@@ -108,7 +107,8 @@ async def connect(
 ) -> AsyncIterator[Graph]:
     """Yield a :class:`wm.Graph` replica of graph ``graph``, kept in sync with every peer.
 
-    ``config`` is a Zenoh config file or mapping; ``connect``/``listen`` add
+    ``config`` is a Zenoh config file, mapping or ``zenoh.Config`` (see
+    :func:`wm.zenoh_config.build_config`); ``connect``/``listen`` add
     endpoints. ``name`` is the agent name shown in ``g.members()``. The
     replication layer is reachable as ``g.network`` (stats, ``confirm()``).
     ``read_only=True`` joins as a monitor: it receives everything and never

@@ -9,9 +9,8 @@ from __future__ import annotations
 
 import asyncio
 import logging
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from .agent_nodes import install_reaper
 from .connection import close_session, open_session, sigterm_cancels_current_task
@@ -20,7 +19,7 @@ from .keys import check_segment
 from .ontology import Ontology
 from .persistence import DiskLog, Persister
 from .replication import DURABLE_AGENT, Replicator
-from .zenoh_config import Mode
+from .zenoh_config import ConfigSource, Mode
 
 log = logging.getLogger("wm.serve")
 
@@ -29,7 +28,7 @@ async def serve(
     data_dir: str | Path,
     graphs: Sequence[str],
     *,
-    config: str | Path | Mapping[str, Any] | None = None,
+    config: ConfigSource | None = None,
     connect: Sequence[str] = (),
     listen: Sequence[str] = (),
     mode: Mode | None = None,

@@ -16,11 +16,11 @@ from launch_helpers import PROBE, PROBE_PATH
 from procs import PYTHON, REPO, WM, endpoint, free_port
 
 import wm
-from wm.zenoh_config import template_path
+from wm.zenoh_config import load_with_environment
 
 GRAPH = "secure"
-TLS_CLIENT = str(template_path("tls/client.json5"))
-ACL_ROUTER = str(template_path("acl/router.json5"))
+TLS_CLIENT = str(REPO / "deploy" / "zenoh" / "tls" / "client.json5")
+ACL_ROUTER = str(REPO / "deploy" / "zenoh" / "acl" / "router.json5")
 
 
 def make_certs(outdir: Path, *agents: str) -> Path:
@@ -48,9 +48,9 @@ def secure_stack(spawner, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> in
 
 
 def joined(agent: str, monkeypatch: pytest.MonkeyPatch, **kwargs):
-    """``wm.connect`` as the holder of certificate ``agent``."""
+    """``wm.connect`` as the holder of certificate ``agent`` (the TLS client template, variables from WM_ZENOH_*)."""
     monkeypatch.setenv("WM_ZENOH_AGENT", agent)
-    return wm.connect(GRAPH, TLS_CLIENT, agent, **kwargs)
+    return wm.connect(GRAPH, load_with_environment(TLS_CLIENT), agent, **kwargs)
 
 
 async def until(condition, what: str, timeout: float = 30.0) -> None:

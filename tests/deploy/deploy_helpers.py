@@ -26,8 +26,9 @@ ZPROC = Path(__file__).resolve().parent / "zproc.py"
 PYTHON = sys.executable
 # After a later message has arrived, how long an earlier, denied one is still given to show up.
 GRACE_S = 0.5
-if str(TESTS_DIR) not in sys.path:
-    sys.path.insert(0, str(TESTS_DIR))
+for _where in (TESTS_DIR, DEPLOY):  # procs (shared test helpers) and zenohctl (the deploy tool)
+    if str(_where) not in sys.path:
+        sys.path.insert(0, str(_where))
 
 from procs import Proc, free_port, wait_until  # noqa: E402,F401 - shared by the deploy tests
 

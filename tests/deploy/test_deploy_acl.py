@@ -13,11 +13,10 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from deploy_helpers import GRACE_S, Collector, free_port, wait_matching, wait_until
-from wm.zenoh_config import template_path
+from deploy_helpers import GRACE_S, ZENOH_DIR, Collector, free_port, wait_matching, wait_until
 
-ACL_ROUTER = template_path("acl/router.json5")
-TLS_CLIENT = template_path("tls/client.json5")
+ACL_ROUTER = ZENOH_DIR / "acl/router.json5"
+TLS_CLIENT = ZENOH_DIR / "tls/client.json5"
 KEY = "wm/g/delta/x"
 
 

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import zenoh
 
-from deploy_helpers import Collector, free_port, wait_matching, wait_until
-from wm.zenoh_config import template_path
+from deploy_helpers import DEPLOY, PYTHON, ZENOH_DIR, Collector, free_port, wait_matching, wait_until
+from wm.zenoh_config import build_config
+import zenohctl  # deploy/, put on sys.path by deploy_helpers
 
-PEER = template_path("peer-loopback.json5")
-ROUTER = template_path("router.json5")
-CLIENT = template_path("client.json5")
+PEER = ZENOH_DIR / "peer-loopback.json5"
+ROUTER = ZENOH_DIR / "router.json5"
+CLIENT = ZENOH_DIR / "client.json5"
 
 
 def test_two_peers_exchange_a_put(sessions) -> None:
@@ -67,8 +68,6 @@ def test_client_reaches_client_through_router_process(spawn, sessions) -> None:
 
 
 def test_client_open_fails_without_router() -> None:
-    from wm.zenoh_config import build_config
-
     config = build_config(CLIENT, variables={"ROUTER_PORT": free_port()}, overrides={"connect/timeout_ms": 500})
     try:
         session = zenoh.open(config)
@@ -81,8 +80,6 @@ def test_client_open_fails_without_router() -> None:
 
 def test_zenohctl_run_sub_put(spawn) -> None:
     """The command-line steps of docs/deploy.md: a router, a subscriber and a put, three processes."""
-    from deploy_helpers import DEPLOY, PYTHON
-
     tool = str(DEPLOY / "zenohctl.py")
     port = free_port()
     router = spawn(argv=[PYTHON, tool, "run", str(ROUTER), "LISTEN_HOST=127.0.0.1", f"ROUTER_PORT={port}"], name="run")
@@ -101,12 +98,10 @@ def test_zenohctl_run_sub_put(spawn) -> None:
 
 
 def test_zenohctl_render_and_check(tmp_path, capsys) -> None:
-    from wm.zenoh_config import main
-
     out = tmp_path / "client.json5"
-    assert main(["render", str(template_path("tls/client.json5")), "-o", str(out), "CERT_DIR=/certs", "AGENT=perception"]) == 0
+    assert zenohctl.main(["render", str(ZENOH_DIR / "tls/client.json5"), "-o", str(out), "CERT_DIR=/certs", "AGENT=perception"]) == 0
     assert '"/certs/perception.pem"' in out.read_text()
-    assert main(["check", str(out)]) == 0
+    assert zenohctl.main(["check", str(out)]) == 0
     assert 'connect/endpoints: ["tls/localhost:7447"]' in capsys.readouterr().out
-    assert main(["check", str(template_path("tls/client.json5"))]) == 2
+    assert zenohctl.main(["check", str(ZENOH_DIR / "tls/client.json5")]) == 2
     assert "no value for template variable(s) AGENT, CERT_DIR" in capsys.readouterr().err

@@ -9,9 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from deploy_helpers import GRACE_S, PYTHON, ZPROC, Proc, make_certs
+from deploy_helpers import GRACE_S, PYTHON, ZENOH_DIR, ZPROC, Proc, make_certs
 from netns import NetnsLab, netns_unavailable
-from wm.zenoh_config import template_path
 
 _WHY_NOT = netns_unavailable()
 pytestmark = pytest.mark.skipif(_WHY_NOT is not None, reason=f"no network namespaces: {_WHY_NOT}")
@@ -39,7 +38,7 @@ def zproc(spawn, lab: NetnsLab, host: int, *args: str, name: str) -> Proc:
 
 def test_put_crosses_three_hosts_via_their_routers(spawn, lab_factory) -> None:
     lab = lab_factory(3)
-    router, client = str(template_path("router.json5")), str(template_path("client.json5"))
+    router, client = str(ZENOH_DIR / "router.json5"), str(ZENOH_DIR / "client.json5")
     routers = []
     for i in range(3):
         # host i connects to the routers of the hosts before it (one link per pair is enough)
@@ -65,7 +64,7 @@ def test_mtls_and_acl_across_two_hosts(spawn, lab_factory, tmp_path: Path) -> No
     for i in range(2):
         agents = ("perception", "intention") if i == 0 else ("planner", "monitor")
         make_certs(certs, "--router-name", f"router-h{i}", "--san", lab.addr(i), *agents)
-    acl_router, tls_client = str(template_path("acl/router.json5")), str(template_path("tls/client.json5"))
+    acl_router, tls_client = str(ZENOH_DIR / "acl/router.json5"), str(ZENOH_DIR / "tls/client.json5")
     acl_vars = [
         f"CERT_DIR={certs}",
         f"ROUTER_PORT={PORT}",

@@ -8,11 +8,11 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from deploy_helpers import Collector, free_port, wait_matching
-from wm.zenoh_config import build_config, template_path
+from deploy_helpers import ZENOH_DIR, Collector, free_port, wait_matching
+from wm.zenoh_config import build_config
 
-TLS_ROUTER = template_path("tls/router.json5")
-TLS_CLIENT = template_path("tls/client.json5")
+TLS_ROUTER = ZENOH_DIR / "tls/router.json5"
+TLS_CLIENT = ZENOH_DIR / "tls/client.json5"
 OPEN_TIMEOUT_MS = 1500
 
 
@@ -96,7 +96,7 @@ def test_client_that_does_not_trust_the_router_is_refused(tls_router: int, other
 
 def test_plain_tcp_client_is_refused(tls_router: int) -> None:
     config = build_config(
-        template_path("client.json5"),
+        ZENOH_DIR / "client.json5",
         variables={"ROUTER_PORT": tls_router},
         overrides={"connect/timeout_ms": OPEN_TIMEOUT_MS},
     )

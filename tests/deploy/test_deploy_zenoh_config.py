@@ -1,4 +1,5 @@
-"""wm.zenoh_config: building configs from files, dicts and endpoints; templates; errors."""
+"""wm.zenoh_config: building configs from files, mappings and endpoints; placeholders; errors.
+The deploy templates, and the NAME=VALUE variables of deploy/zenohctl.py."""
 
 from __future__ import annotations
 
@@ -8,20 +9,11 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from wm.zenoh_config import (
-    ZenohConfigError,
-    build_config,
-    config_from_dict,
-    config_from_endpoints,
-    config_from_file,
-    parse_variables,
-    render_template,
-    render_template_file,
-    template_path,
-    template_variables,
-)
+from wm.errors import WMError
+from wm.zenoh_config import ZenohConfigError, build_config, environment_variables, load_with_environment, read_config
 
 from deploy_helpers import ZENOH_DIR
+from zenohctl import main as zenohctl, parse_variables
 
 TEMPLATES = sorted(p.relative_to(ZENOH_DIR).as_posix() for p in ZENOH_DIR.rglob("*.json5"))
 ALL_VARS = {
@@ -50,29 +42,27 @@ def test_templates_exist() -> None:
 
 @pytest.mark.parametrize("name", TEMPLATES)
 def test_every_template_renders_to_a_valid_config(name: str, tmp_path: Path) -> None:
-    path = template_path(name)
-    needed = {k for k, default in template_variables(path.read_text()).items() if default is None}
-    variables = {k: v for k, v in ALL_VARS.items() if k in needed}
-    assert needed <= set(variables), f"{name} needs variables the test does not know: {needed - set(variables)}"
     out = tmp_path / "out.json5"
-    render_template_file(path, out, variables)
-    assert "${" not in out.read_text().split("//")[0]
-    config = config_from_file(out)
+    assigned = [f"{k}={json.dumps(v) if isinstance(v, list) else v}" for k, v in ALL_VARS.items()]
+    assert zenohctl(["render", str(ZENOH_DIR / name), "-o", str(out), *assigned]) == 0
+    assert "${" not in out.read_text()
+    config = build_config(out)
     assert get(config, "scouting/multicast/enabled") is False
     assert get(config, "mode") in ("peer", "client", "router")
 
 
 def test_missing_variable_is_named(tmp_path: Path) -> None:
     with pytest.raises(ZenohConfigError, match=r"AGENT.*CERT_DIR|CERT_DIR.*AGENT"):
-        config_from_file(template_path("tls/client.json5"))
+        build_config(ZENOH_DIR / "tls/client.json5")
 
 
-def test_defaults_and_whole_string_values() -> None:
-    text = '{a: "tcp/${H:-127.0.0.1}:${P}", b: "${L}", c: "${N}", d: "${B}"} // ${NOT_A_VAR}'
-    out = render_template(text, {"P": 7447, "L": ["x", "y"], "N": 3, "B": True})
-    assert out == '{a: "tcp/127.0.0.1:7447", b: ["x", "y"], c: 3, d: true} // ${NOT_A_VAR}'
+def test_defaults_and_whole_string_values(tmp_path: Path) -> None:
+    path = tmp_path / "t.json5"
+    path.write_text('{a: "tcp/${H:-127.0.0.1}:${P}", b: "${L}", c: "${N}", d: "${B}", e: "on=${B}"} // ${NOT_A_VAR}')
+    out = read_config(path, {"P": 7447, "L": ["x", "y"], "N": 3, "B": True})
+    assert out == {"a": "tcp/127.0.0.1:7447", "b": ["x", "y"], "c": 3, "d": True, "e": "on=true"}
     with pytest.raises(ZenohConfigError, match="L is a list"):
-        render_template('{a: "x${L}"}', {"L": ["x"]})
+        read_config({"a": "x${L}"}, {"L": ["x"]})
 
 
 def test_missing_file() -> None:
@@ -94,8 +84,16 @@ def test_unknown_key_is_reported(tmp_path: Path) -> None:
         build_config(bad)
 
 
-def test_zenoh_config_error_is_a_value_error() -> None:
+def test_not_a_json5_object(tmp_path: Path) -> None:
+    bad = tmp_path / "list.json5"
+    bad.write_text("[1, 2]")
+    with pytest.raises(ZenohConfigError, match="expected an object, not list"):
+        build_config(bad)
+
+
+def test_zenoh_config_error_is_a_value_error_and_a_wm_error() -> None:
     assert issubclass(ZenohConfigError, ValueError)
+    assert issubclass(ZenohConfigError, WMError)
 
 
 def test_multicast_off_unless_file_says_otherwise(tmp_path: Path) -> None:
@@ -105,13 +103,14 @@ def test_multicast_off_unless_file_says_otherwise(tmp_path: Path) -> None:
     on = tmp_path / "on.json5"
     on.write_text("{ mode: 'peer', scouting: { multicast: { enabled: true } } }")
     assert get(build_config(on), "scouting/multicast/enabled") is True
-    assert get(config_from_dict({"mode": "peer"}), "scouting/multicast/enabled") is False
-    assert get(config_from_endpoints(), "scouting/multicast/enabled") is False
+    assert get(build_config({"mode": "peer"}), "scouting/multicast/enabled") is False
+    assert get(build_config(), "scouting/multicast/enabled") is False
+    assert get(build_config(), "mode") == "peer"
 
 
 def test_endpoints_and_mode_override_file() -> None:
     config = build_config(
-        template_path("router.json5"),
+        ZENOH_DIR / "router.json5",
         variables={"ROUTER_PORT": 7500},
         connect=["tcp/10.213.77.2:7500"],
     )
@@ -148,10 +147,18 @@ def test_bad_arguments(kwargs: dict[str, object], match: str) -> None:
 def test_bad_sources() -> None:
     with pytest.raises(ZenohConfigError, match="path or a mapping"):
         build_config(42)  # type: ignore[arg-type]
-    with pytest.raises(ZenohConfigError, match="only apply to config files"):
-        build_config({"mode": "peer"}, variables={"A": 1})
+    with pytest.raises(ZenohConfigError, match="without a config file or mapping"):
+        build_config(variables={"A": 1})
     with pytest.raises(ZenohConfigError, match="not JSON-serialisable"):
-        config_from_dict({"mode": object()})
+        build_config({"mode": object()})
+
+
+def test_a_zenoh_config_is_copied_not_changed() -> None:
+    base = build_config({"mode": "client"})
+    config = build_config(base, connect=["tcp/127.0.0.1:7447"])
+    assert get(config, "connect/endpoints") == ["tcp/127.0.0.1:7447"]
+    assert get(base, "connect/endpoints") == []
+    assert get(config, "mode") == "client"
 
 
 def test_parse_variables() -> None:
@@ -165,20 +172,24 @@ def test_parse_variables() -> None:
         parse_variables(["nope"])
 
 
-def test_unknown_template() -> None:
-    with pytest.raises(ZenohConfigError, match="no Zenoh config template 'nope.json5'"):
-        template_path("nope.json5")
-
-
-def test_environment_fills_missing_variables(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_environment_is_read_only_when_asked(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("WM_ZENOH_CERT_DIR", "/env/certs")
     monkeypatch.setenv("WM_ZENOH_AGENT", "perception")
     monkeypatch.setenv("WM_ZENOH_ROUTER_PORT", "7500")
-    config = build_config(template_path("tls/client.json5"), variables={"AGENT": "monitor"})
+    with pytest.raises(ZenohConfigError, match="AGENT, CERT_DIR"):
+        build_config(ZENOH_DIR / "tls/client.json5")
+    config = build_config(ZENOH_DIR / "tls/client.json5", variables={**environment_variables(), "AGENT": "monitor"})
     assert get(config, "transport/link/tls/connect_certificate") == "/env/certs/monitor.pem"
     assert get(config, "connect/endpoints") == ["tls/localhost:7500"]
     monkeypatch.setenv("WM_ZENOH_WRITERS", '["perception"]')
     monkeypatch.setenv("WM_ZENOH_MONITORS", '["monitor"]')
     monkeypatch.setenv("WM_ZENOH_ROUTERS", '["router"]')
-    config = build_config(template_path("acl/router.json5"))
+    config = load_with_environment(ZENOH_DIR / "acl/router.json5")
+    assert config is not None
     assert get(config, "access_control/subjects")[0]["cert_common_names"] == ["perception"]
+    assert load_with_environment(None) is None
+
+
+def test_environment_variables() -> None:
+    environ = {"WM_ZENOH_PORT": "7447", "WM_ZENOH_L": '["a"]', "WM_ZENOH_H": "localhost", "WM_ZENOH_": "x", "HOME": "/root"}
+    assert environment_variables(environ) == {"PORT": 7447, "L": ["a"], "H": "localhost"}

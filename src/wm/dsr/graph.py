@@ -8,7 +8,8 @@ delivered on a third thread (see :mod:`wm.dsr.signals`).
 Where to connect is not among pydsr's arguments, so it comes from keywords or
 the environment: ``graph`` / ``WM_GRAPH`` (the graph to join, default
 ``default``), ``connect`` / ``WM_CONNECT`` and ``listen`` / ``WM_LISTEN``
-(comma-separated Zenoh endpoints), ``zenoh_config`` / ``WM_ZENOH_CONFIG`` and
+(comma-separated Zenoh endpoints), ``zenoh_config`` / ``WM_ZENOH_CONFIG`` (a
+Zenoh config file, its placeholders filled from ``WM_ZENOH_<NAME>``) and
 ``ontology`` / ``WM_ONTOLOGY`` (a file or a packaged name, default
 ``default``). As in DSR, ``name`` is the agent's name.
 """
@@ -31,6 +32,7 @@ from ..connection import connect as wm_connect
 from ..errors import NotFoundError, RTError
 from ..graph import Graph
 from ..ontology import Ontology
+from ..zenoh_config import load_with_environment
 from .signals import SignalHub
 from .values import DSRTypeError, Edge, Node, _check_id, use_defaults
 
@@ -142,7 +144,7 @@ class DSRGraph:
     async def _serve(self, connect: list[str], listen: list[str], zenoh_config: str | None) -> None:
         self._stop = asyncio.Event()
         async with wm_connect(
-            self._graph_name, zenoh_config, self.agent_name, connect=connect or None, listen=listen or None, ontology=self.ontology
+            self._graph_name, load_with_environment(zenoh_config), self.agent_name, connect=connect or None, listen=listen or None, ontology=self.ontology
         ) as g:
             g.on(self.signal_hub.publish)
             self._ready.set_result(g)

@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .. import placeholders
 from ..errors import WMError
 
 RESTART_POLICIES = ("never", "on-failure", "always")
@@ -48,7 +49,6 @@ DEFAULTABLE = PROCESS_KEYS - {"name", "cmd", "module", "args"}
 BACKOFF_KEYS = {"initial", "factor", "max", "reset_after"}
 _NAME = re.compile(r"^[A-Za-z0-9_.\-]+$")
 _MODULE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
-_VAR = re.compile(r"\$\{([A-Za-z_][A-Za-z0-9_]*)(?::-([^}]*))?\}")
 
 
 class LaunchFileError(WMError):
@@ -106,16 +106,10 @@ class _Checker:
         self.problems.append(f"{key}: {message}")
 
     def expand(self, key: str, text: str) -> str:
-        def value(match: re.Match[str]) -> str:
-            name, default = match.group(1), match.group(2)
-            if name in self.variables:
-                return self.variables[name]
-            if default is not None:
-                return default
+        def undefined(name: str) -> None:
             self.problem(key, f"undefined variable ${{{name}}} (define it in [vars] or with --set {name}=VALUE)")
-            return match.group(0)
 
-        return _VAR.sub(value, text)
+        return placeholders.expand(text, self.variables, undefined)
 
     def string(self, key: str, value: Any) -> str | None:
         if not isinstance(value, str):

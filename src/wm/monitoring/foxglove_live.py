@@ -30,6 +30,7 @@ from ..connection import connect
 from ..events import Event
 from ..graph import Graph
 from ..ontology import Ontology
+from ..zenoh_config import ConfigSource
 from .foxglove import GraphChannels
 
 DEFAULT_PORT = 8765
@@ -51,7 +52,7 @@ async def serve_foxglove(
     *,
     host: str = "127.0.0.1",
     port: int = DEFAULT_PORT,
-    config: str | Path | None = None,
+    config: ConfigSource | None = None,
     connect_to: Sequence[str] = (),
     ontology: Ontology | None = None,
     log_dir: str | Path | None = None,

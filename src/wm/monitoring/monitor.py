@@ -15,7 +15,6 @@ import time
 from collections import Counter, deque
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 from rich.console import Group, RenderableType
@@ -28,6 +27,7 @@ from ..connection import ConnectError, connect
 from ..events import Event, EventKind
 from ..graph import Graph
 from ..ontology import Ontology
+from ..zenoh_config import ConfigSource
 from .scene2d import root_node, world_poses
 
 RATE_WINDOW_S = 5.0
@@ -163,7 +163,7 @@ def _health(g: Graph, state: MonitorState, heartbeats_seen: int) -> str:
 async def monitor(
     graph_name: str,
     *,
-    config: str | Path | None = None,
+    config: ConfigSource | None = None,
     connect_to: Sequence[str] = (),
     ontology: Ontology | None = None,
     kinds: Iterable[str] | None = None,

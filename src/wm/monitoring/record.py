@@ -21,6 +21,7 @@ from ..connection import connect
 from ..events import Event
 from ..graph import Graph
 from ..ontology import Ontology
+from ..zenoh_config import ConfigSource
 from .recording import RecordingWriter
 
 
@@ -81,7 +82,7 @@ async def record(
     path: str | Path,
     graph_name: str,
     *,
-    config: str | Path | None = None,
+    config: ConfigSource | None = None,
     connect_to: Sequence[str] = (),
     ontology: Ontology | None = None,
     duration: float | None = None,

@@ -18,6 +18,7 @@ from ..errors import NotFoundError
 from ..graph import Graph
 from ..model import parse_edge_key
 from ..ontology import Ontology
+from ..zenoh_config import ConfigSource
 from .recording import iter_updates
 from ..volatile import Record
 
@@ -47,7 +48,7 @@ async def replay(
     graph_name: str,
     *,
     speed: float = 1.0,
-    config: str | Path | None = None,
+    config: ConfigSource | None = None,
     connect_to: Sequence[str] = (),
     ontology: Ontology | None = None,
     confirm_timeout: float = 5.0,

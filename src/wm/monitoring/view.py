@@ -14,7 +14,6 @@ import json
 from collections.abc import Sequence
 from http import HTTPStatus
 from importlib import resources
-from pathlib import Path
 from typing import Any
 
 from websockets.asyncio.server import Server, ServerConnection, serve
@@ -26,6 +25,7 @@ from . import scene2d
 from ..connection import connect
 from ..graph import Graph
 from ..ontology import Ontology
+from ..zenoh_config import ConfigSource
 
 PAGE = resources.files("wm.monitoring").joinpath("view_page.html").read_bytes()
 
@@ -96,7 +96,7 @@ async def view(
     *,
     host: str = "127.0.0.1",
     port: int = 8765,
-    config: str | Path | None = None,
+    config: ConfigSource | None = None,
     connect_to: Sequence[str] = (),
     ontology: Ontology | None = None,
 ) -> None:
