@@ -16,7 +16,7 @@ from agents.caregiving.model.scenario import load_scenario
 
 from .experiment import Scored, metrics, prevention_line, run_trials, table, with_oracle
 from .figures import draw_trial
-from .launch import Stack
+from .launch import LAUNCH_FILE, Stack
 
 SCENARIO = "paper_experiment1"
 #: A trial of seed 7 in which the person cannot see the ball and the robot can get there in time.
@@ -71,7 +71,7 @@ def main() -> None:
     scenario = load_scenario(SCENARIO)
     logs = Path(tempfile.mkdtemp(prefix="wm-demo-"))
     with demo_stack(logs, args.rate) as stack:
-        console.print(f"stack: world bridge + perception, simulation, intention, action, executor on {stack.endpoint}")
+        console.print(f"stack ({LAUNCH_FILE.name}): {', '.join(stack.names)} on {stack.endpoint}")
         one = risky_trial(stack, console)
         narrate(one, console)
         if one.record.snapshot is not None:

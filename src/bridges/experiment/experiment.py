@@ -248,7 +248,7 @@ def experiment(scenario_path: str, trials: int, seed: int, *, rate: float = 4.0,
     indices: list[int | None] = [None] if nominal else list(range(trials))
     started = time.monotonic()
     with Stack(graph, scenario_path, logs, rate=rate) as stack:
-        console.print(f"stack up: 6 processes on {stack.endpoint}, simulated clock x{rate:g}, logs in {logs}")
+        console.print(f"stack up: {len(stack.names)} processes on {stack.endpoint}, simulated clock x{rate:g}, logs in {logs}")
         scored = asyncio.run(run_trials(scenario, stack, seed, indices, console, graph))
     scored = with_oracle(scenario, seed, scored, console)
     result = metrics(scored)

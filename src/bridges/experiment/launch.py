@@ -1,13 +1,15 @@
-"""Start the caregiving stack as separate processes on one Zenoh mesh, and stop them by PID.
+"""Start the caregiving stack with ``wm launch`` and its shipped launch file, and stop it by PID.
 
-The world bridge listens on a loopback endpoint; perception, the simulator,
-the intention, action and executor agents connect to it (peer mode, no
-multicast). Each process writes its log to ``<logdir>/<name>.log``;
-:meth:`Stack.start` returns once every one of them has said it is ready.
+The stack is :data:`LAUNCH_FILE` (``deploy/launch/one-host.toml`` links to it): ``wm serve`` as the
+Zenoh router on a free loopback port, and the world bridge and the five agents as its clients (no
+multicast). The harness only fills in the file's variables; which processes run, and how, is the
+launch file's business. Each process writes ``<logdir>/<name>.log``; :meth:`Stack.start` returns
+once every one of them has said it is ready.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import socket
@@ -15,14 +17,20 @@ import subprocess
 import sys
 import time
 from dataclasses import dataclass, field
+from importlib import resources
 from pathlib import Path
 from typing import Self
 
-READY = {"world": "world: ready", "agent": " running "}
+from wm.launch.spec import LaunchFileError, load
+
+LAUNCH_FILE = Path(str(resources.files("bridges.experiment").joinpath("one-host.toml")))
+#: What an agent's log says once its runtime runs (processes without a ``ready`` in the launch file).
+AGENT_READY = " running "
+STOP_TIMEOUT = 30.0
 
 
 class LaunchError(RuntimeError):
-    """A process of the stack exited or did not become ready in time."""
+    """A process of the stack exited, failed or did not become ready in time."""
 
 
 def free_port() -> int:
@@ -32,95 +40,98 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
-@dataclass
-class Child:
-    name: str
-    popen: subprocess.Popen[bytes]
-    log: Path
+def _read(path: Path) -> str:
+    try:
+        return path.read_text(errors="replace")
+    except OSError:
+        return ""
 
-    def text(self) -> str:
-        try:
-            return self.log.read_text(errors="replace")
-        except OSError:
-            return ""
+
+def _tail(path: Path) -> str:
+    return _read(path)[-2000:]
 
 
 @dataclass
 class Stack:
-    """The processes of one stack; use as a context manager or call :meth:`start`/:meth:`stop`."""
+    """One launch of the stack; use as a context manager or call :meth:`start`/:meth:`stop`."""
 
     graph: str
     scenario: str
     logdir: Path
     rate: float = 1.0
     port: int = 0
-    agent_args: dict[str, list[str]] = field(default_factory=dict)
-    children: list[Child] = field(default_factory=list)
+    launcher: subprocess.Popen[bytes] | None = None
+    names: tuple[str, ...] = field(default=())
 
     @property
     def endpoint(self) -> str:
         return f"tcp/127.0.0.1:{self.port}"
 
-    def _spawn(self, name: str, argv: list[str]) -> Child:
-        self.logdir.mkdir(parents=True, exist_ok=True)
-        log = self.logdir / f"{name}.log"
-        out = log.open("wb")
-        env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-        popen = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT, env=env)
-        out.close()
-        child = Child(name, popen, log)
-        self.children.append(child)
-        return child
-
-    def _wait_ready(self, child: Child, marker: str, timeout: float) -> None:
-        deadline = time.monotonic() + timeout
-        while marker not in child.text():
-            if child.popen.poll() is not None:
-                raise LaunchError(f"{child.name} exited with status {child.popen.returncode}:\n{child.text()[-2000:]}")
-            if time.monotonic() > deadline:
-                raise LaunchError(f"{child.name} not ready within {timeout:g} s:\n{child.text()[-2000:]}")
-            time.sleep(0.05)
+    def variables(self, config: Path) -> dict[str, str]:
+        """The launch file's variables for this stack."""
+        return {"graph": self.graph, "port": str(self.port), "data": str(self.logdir / "data"),
+                "scenario": self.scenario, "rate": f"{self.rate:g}", "zenoh": str(config)}
 
     def start(self, timeout: float = 60.0) -> Self:
-        """Start the world bridge, then the five agents; wait until all are ready."""
+        """Launch the stack; wait until every process is ready."""
         self.port = self.port or free_port()
-        py = sys.executable
-        world = self._spawn("world", [py, "-m", "bridges.world", "--graph", self.graph, "--scenario", self.scenario,
-                                      "--rate", str(self.rate), "--listen", self.endpoint])
-        self._wait_ready(world, READY["world"], timeout)
-        common = ["--graph", self.graph, "--connect", self.endpoint]
-        scenario = ["--scenario", self.scenario]
-        agents = {"perception": scenario, "simulation": [], "intention": scenario, "action": scenario, "executor": []}
-        started = [self._spawn(name, [py, "-m", f"agents.caregiving.{name}", *common, *extra, *self.agent_args.get(name, [])])
-                   for name, extra in agents.items()]
-        for child in started:
-            self._wait_ready(child, READY["agent"], timeout)
+        self.logdir.mkdir(parents=True, exist_ok=True)
+        config = self.logdir / "zenoh-client.json5"
+        config.write_text(json.dumps({"mode": "client", "connect": {"endpoints": [self.endpoint]},
+                                      "scouting": {"multicast": {"enabled": False}}}))
+        variables = self.variables(config)
+        try:
+            spec = load(LAUNCH_FILE, variables)
+        except LaunchFileError as exc:
+            raise LaunchError(str(exc)) from None
+        self.names = tuple(p.name for p in spec.processes)
+        argv = [sys.executable, "-m", "wm.cli", "launch", str(LAUNCH_FILE), "--no-table", "--log-dir", str(self.logdir),
+                *(f"--set={k}={v}" for k, v in variables.items())]
+        with (self.logdir / "launch.log").open("wb") as out:
+            self.launcher = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
+                                             env={**os.environ, "PYTHONUNBUFFERED": "1"})
+        deadline = time.monotonic() + timeout
+        for process in spec.processes:
+            self._wait_ready(process.name, process.ready or AGENT_READY, deadline)
         return self
 
-    def add(self, name: str, argv: list[str], ready: str, timeout: float = 30.0) -> Child:
-        """Start one more process beside the stack (stopped with it, by PID); return once its log shows ``ready``."""
-        child = self._spawn(name, argv)
-        self._wait_ready(child, ready, timeout)
-        return child
+    def _wait_ready(self, name: str, marker: str, deadline: float) -> None:
+        log = self.logdir / f"{name}.log"
+        while marker not in _read(log):
+            self.check()
+            if time.monotonic() > deadline:
+                raise LaunchError(f"{name} not ready in time:\n{_tail(log)}")
+            time.sleep(0.05)
 
     def stop(self) -> None:
-        """SIGTERM every child by PID (newest first), then SIGKILL the ones still there."""
-        for child in reversed(self.children):
-            if child.popen.poll() is None:
-                child.popen.send_signal(signal.SIGTERM)
-        for child in reversed(self.children):
-            try:
-                child.popen.wait(timeout=8)
-            except subprocess.TimeoutExpired:
-                child.popen.kill()
-                child.popen.wait(timeout=8)
-        self.children.clear()
+        """SIGTERM the launcher by PID (it stops the processes in reverse order), SIGKILL it if it hangs."""
+        launcher, self.launcher = self.launcher, None
+        if launcher is None:
+            return
+        if launcher.poll() is None:
+            launcher.send_signal(signal.SIGTERM)
+        try:
+            launcher.wait(timeout=STOP_TIMEOUT)
+        except subprocess.TimeoutExpired:
+            launcher.kill()
+            launcher.wait(timeout=8)
 
     def check(self) -> None:
-        """Raise :class:`LaunchError` if any process has died."""
-        for child in self.children:
-            if child.popen.poll() is not None:
-                raise LaunchError(f"{child.name} exited with status {child.popen.returncode}:\n{child.text()[-2000:]}")
+        """Raise :class:`LaunchError` if the launcher has ended or any process has failed."""
+        if self.launcher is None:
+            raise LaunchError("the stack is not running")
+        if self.launcher.poll() is not None:
+            raise LaunchError(f"wm launch exited with status {self.launcher.returncode}:\n"
+                              f"{_tail(self.logdir / 'launch.log')}")
+        try:
+            states = json.loads((self.logdir / "status.json").read_text())
+        except (OSError, ValueError):
+            return  # not written yet, or being replaced right now
+        for state in states.get("processes", []):
+            if state.get("failures"):
+                name = state["name"]
+                raise LaunchError(f"{name} failed ({'; '.join(state['failures'])}):\n"
+                                  f"{_tail(self.logdir / f'{name}.log')}")
 
     def __enter__(self) -> Self:
         try:
