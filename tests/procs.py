@@ -41,7 +41,8 @@ def endpoint(port: int) -> str:
 class Proc:
     """A child process whose output lines are collected on a thread."""
 
-    def __init__(self, argv: Sequence[str], name: str, env: dict[str, str] | None = None) -> None:
+    def __init__(self, argv: Sequence[str], name: str, env: dict[str, str] | None = None,
+                 cwd: Path = REPO) -> None:
         self.name = name
         self.argv = list(argv)
         self.popen = subprocess.Popen(
@@ -50,7 +51,7 @@ class Proc:
             stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT,
             text=True,
-            cwd=REPO,
+            cwd=cwd,
             env={**os.environ, "PYTHONUNBUFFERED": "1", **(env or {})},
         )
         self.lines: list[str] = []
@@ -109,8 +110,8 @@ def spawner() -> Iterator[Callable[..., Proc]]:
     """``spawner(argv, name=...)`` starts a process; all are stopped by PID at teardown."""
     procs: list[Proc] = []
 
-    def spawn(argv: Sequence[str], name: str = "proc", env: dict[str, str] | None = None) -> Proc:
-        proc = Proc(argv, name, env)
+    def spawn(argv: Sequence[str], name: str = "proc", env: dict[str, str] | None = None, cwd: Path = REPO) -> Proc:
+        proc = Proc(argv, name, env, cwd)
         procs.append(proc)
         return proc
 
