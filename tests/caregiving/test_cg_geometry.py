@@ -1,6 +1,7 @@
 """Planar shapes and distance queries."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -8,6 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from agents.caregiving.model.geometry import (
+    displacement,
     Box,
     Circle,
     aabb,
@@ -95,3 +97,10 @@ def test_swept_clearance_finds_closest_approach() -> None:
     clear, where = swept_clearance(Circle(2, 0.5, 0.2), [[0, 0], [4, 0]], 0.25, 0.01)
     assert clear == pytest.approx(0.05, abs=1e-6)
     assert where == pytest.approx([2, 0], abs=0.01)
+
+
+def test_a_box_turning_in_place_is_displaced_by_its_corners() -> None:
+    box = Box(1.0, 2.0, 0.25, 0.2, 0.0)
+    assert displacement(box, replace(box, theta=math.pi / 2)) == pytest.approx(math.hypot(0.45, 0.05))
+    assert displacement(box, replace(box, x=1.1)) == pytest.approx(0.1)
+    assert displacement(Circle(0.0, 0.0, 0.3), Circle(0.3, 0.4, 0.3)) == pytest.approx(0.5)

@@ -1,6 +1,7 @@
 """Ground truth: idle outcomes of the shipped scenarios, replanning, commanded robot."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -8,7 +9,10 @@ import pytest
 from agents.caregiving.model.robot_moves import RobotMove, standoff_moves, travel_time
 from agents.caregiving.model.scenario import load_scenario, sample_trial
 from agents.caregiving.model.visibility import can_see
-from agents.caregiving.model.world_model import World, run_idle
+from agents.caregiving.model.world_model import Walk, World, run_idle
+from bridges.world.bridge import trial_for
+
+STACK_SCENARIOS = Path(__file__).parents[1] / "caregiving_stack" / "scenarios"
 
 
 def test_paper_default_person_does_not_see_the_ball_and_collides() -> None:
@@ -115,3 +119,23 @@ def test_sampled_trials_mix_risky_and_safe() -> None:
 def test_max_time_bounds_a_run() -> None:
     out = World.from_scenario(load_scenario("safe_walk")).run(max_time=1.0)
     assert out.duration == pytest.approx(1.0) and out.arrival["person"] is None
+
+
+def test_a_person_sees_the_robot_turn_and_walks_around_its_new_footprint() -> None:
+    """The robot drives a few centimetres and turns a quarter at the end: its centre moves less than
+    REPLAN_SHIFT, its corners much more. The person, who sees it, must not walk into the turned robot."""
+    trial = trial_for(load_scenario(str(STACK_SCENARIOS / "box_obstacle_exact.yaml")), 7, 22)
+    world = World.from_scenario(trial)
+    while world.time < 0.65 - 1e-9:
+        world.step()
+    assert world.command_robot(RobotMove("parcel", 1.511, -0.668, -math.pi))
+    while world.time < 4.55 - 1e-9:
+        world.step()
+    assert world.command_robot(RobotMove("parcel", 1.31, -0.25, math.pi / 2))
+    assert not world.run(30.0).collided
+
+
+def test_a_walk_that_knows_the_robot_plans_around_it_from_the_start() -> None:
+    scene = load_scenario("paper_experiment1").scene()
+    world = World(scene, [Walk("person", "couch", 0.1, known=("robot",))])
+    assert scene.robot is not None and world.walker("person").known["robot"] == scene.robot.body()

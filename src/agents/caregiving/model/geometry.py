@@ -116,6 +116,13 @@ def corners(box: Box) -> FloatArray:
     return np.array(corner_points(box))
 
 
+def displacement(before: Shape, after: Shape) -> float:
+    """How far a body moved between two poses: its farthest-moved corner for boxes (so turning counts), else its centre."""
+    if isinstance(before, Box) and isinstance(after, Box):
+        return float(np.hypot(*(corners(after) - corners(before)).T).max())
+    return math.hypot(after.x - before.x, after.y - before.y)
+
+
 def bounding_radius(shape: Shape) -> float:
     """Radius of the smallest circle about the shape's centre that contains it."""
     return shape.r if isinstance(shape, Circle) else math.hypot(shape.hx, shape.hy)

@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 from .errors import CaregivingError
-from .geometry import Polyline, closest_boundary_point, point_distance, signed_distance
+from .geometry import Polyline, closest_boundary_point, displacement, point_distance, signed_distance
 from .planner import GridPlanner
 from .robot_moves import RobotMove, robot_fits
 from .rollout import DT
@@ -103,15 +103,18 @@ class World:
         self.planner = planner or GridPlanner(scene.bounds)
         self._bounds = scene.bounds
         self._static = scene.obstacles
-        intents = {w.person: w for w in walks}
-        self._standing = tuple(p for p in scene.people if p.name not in intents)
-        self._walkers = [_Walker(p, intents[p.name].target, intents[p.name].gaze,
-                                 {o.name: o for o in scene.obstacles
-                                  if o.kind == WALL_KIND or o.name in intents[p.name].known},
-                                 track=[(p.x, p.y)])
-                         for p in scene.people if p.name in intents]
         if scene.robot is None:
             raise CaregivingError("the world needs a robot")
+        intents = {w.person: w for w in walks}
+        self._standing = tuple(p for p in scene.people if p.name not in intents)
+        # What a walker knows of: the walls, and whatever their intent names, the robot and other people
+        # where they are now.
+        bodies = [*scene.obstacles, scene.robot.body(), *(p.body() for p in scene.people)]
+        self._walkers = [_Walker(p, intents[p.name].target, intents[p.name].gaze,
+                                 {o.name: o for o in bodies
+                                  if o.kind == WALL_KIND or o.name in intents[p.name].known and o.name != p.name},
+                                 track=[(p.x, p.y)])
+                         for p in scene.people if p.name in intents]
         self.robot: RobotState = scene.robot
         self._speed = scene.robot.speed
         self._drive: _Drive | None = None
@@ -232,8 +235,8 @@ class World:
     def _look(self, w: _Walker, around: tuple[Obstacle, ...]) -> bool:
         """Update what ``w`` knows; True when that calls for a new plan.
 
-        A newly seen object always does. A seen robot or person that has moved more than
-        :data:`REPLAN_SHIFT` is remembered where it is now, and calls for a new plan only when
+        A newly seen object always does. A seen robot or person that has moved (or turned) more than
+        :data:`REPLAN_SHIFT` at any point is remembered where it is now, and calls for a new plan only when
         it now stands in the way of the rest of the walk: people keep their route otherwise.
         """
         changed = w.route is None
@@ -246,7 +249,7 @@ class World:
                 self.robot_seen.setdefault(w.state.name, self.time)
             if old is None:
                 changed = True
-            elif math.hypot(o.shape.x - old.shape.x, o.shape.y - old.shape.y) > REPLAN_SHIFT:
+            elif displacement(old.shape, o.shape) > REPLAN_SHIFT:
                 changed = changed or self._in_the_way(w, o)
             else:
                 continue
