@@ -13,7 +13,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from .agent_nodes import install_reaper
+from .reaper import install_reaper
 from .connection import close_session, open_session, sigterm_cancels_current_task
 from .graph import Graph
 from .keys import check_segment

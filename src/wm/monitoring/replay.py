@@ -18,7 +18,7 @@ from ..errors import NotFoundError
 from ..graph import Graph
 from ..model import parse_edge_key
 from ..ontology import Ontology
-from .recording import iter_updates
+from .recording_file import iter_updates
 from ..volatile import Record
 
 
