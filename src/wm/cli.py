@@ -235,7 +235,10 @@ def _node_ref(text: str) -> int | str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, unknown = parser.parse_known_args(argv)
+    if unknown and not getattr(args, "plugin_broken", False):  # a broken plugin's command says why, whatever it was given
+        parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     if args.command == "launch":
         return launch_command.main(args)
     if (plugin_main := getattr(args, "plugin_main", None)) is not None:
@@ -243,6 +246,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             return int(plugin_main(args))
         except PluginError as exc:
             print(f"wm {args.command}: error: {exc}", file=sys.stderr)
+            return 1
+        except ModuleNotFoundError as exc:  # the plugin's own dependencies are not installed
+            print(f"wm {args.command}: error: {exc} (a dependency of the plugin that adds this command)", file=sys.stderr)
             return 1
     logging.basicConfig(
         level=logging.INFO if args.verbose or args.command == "serve" else logging.WARNING,

@@ -278,9 +278,9 @@ class Ontology:
 
     @staticmethod
     def packaged_declaring(kind: str, type_name: str) -> list[str]:
-        """The names of the packaged ontologies that declare this node or edge type (plugins' that load included)."""
+        """The names of the packaged ontologies that declare this node or edge type (plugins' that load included), ``default`` first."""
         found = []
-        for name in Ontology.names():
+        for name in sorted(Ontology.names(), key=lambda name: name != DEFAULT):
             try:
                 if Ontology.named(name).declares(kind, type_name):
                     found.append(name)

@@ -90,7 +90,8 @@ def commands() -> list[Command]:
 def add_commands(subparsers: Any, reserved: set[str]) -> None:
     """Add every plugin command to the ``wm`` parser; a broken one becomes a command that reports its error.
 
-    Each parser gets the default ``plugin_main``, the function ``wm`` calls to run it.
+    Each parser gets the default ``plugin_main``, the function ``wm`` calls to run it (and a broken one ``plugin_broken``,
+    so that ``wm`` accepts any arguments for it and reports the plugin's error instead).
     """
     for command in commands():
         if command.name in reserved:
@@ -110,8 +111,7 @@ def add_commands(subparsers: Any, reserved: set[str]) -> None:
         assert error is not None
         parser = subparsers.add_parser(command.name, help=f"(unavailable: plugin {command.name!r} cannot be loaded)",
                                        description=str(error))
-        parser.add_argument("rest", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
-        parser.set_defaults(plugin_main=functools.partial(_broken, error))
+        parser.set_defaults(plugin_main=functools.partial(_broken, error), plugin_broken=True)
 
 
 def _broken(error: PluginError, args: argparse.Namespace) -> int:

@@ -35,11 +35,11 @@ class Reaction:
 
 def reactions(path: str | Path) -> list[Reaction]:
     """Every risky onset in the recording, paired with the first action added after it."""
+    from wm.monitoring.recording_file import CHANGES, iter_messages  # here, so that `wm --help` need not load MCAP
+
     risky: set[tuple[int | None, int | None]] = set()
     pending: list[Reaction] = []
     done: list[Reaction] = []
-    from wm.monitoring.recording_file import CHANGES, iter_messages
-
     for _, t_ns, data in iter_messages(path, [CHANGES]):
         change = json.loads(data)
         if change["type"] == RISKY_EDGE and change["kind"] in ("edge_added", "edge_updated") and "risky" in change["attrs"]:
