@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo -n)
 
-.PHONY: install system-deps test demo bench clean
+.PHONY: install system-deps check test demo bench clean
 
 install: $(STAMP)
 
@@ -24,7 +24,11 @@ system-deps:
 		|| echo "system-deps: could not install chromium and tmux; the browser and terminal tests will skip"; \
 	fi
 
-test: $(STAMP) system-deps
+# The layering contracts of pyproject.toml ([tool.importlinter]): bridges -> agents -> wm.
+check: $(STAMP)
+	$(VENV)/bin/lint-imports
+
+test: check $(STAMP) system-deps
 	$(PY) -m pytest -q
 
 demo: $(STAMP)

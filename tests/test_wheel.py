@@ -32,13 +32,13 @@ def _clean_env() -> dict[str, str]:
 
 @pytest.fixture(scope="module")
 def venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A fresh venv with the project's wheel (and its dependencies) installed; its bin directory."""
+    """A fresh venv with the project's wheel and the caregiving extra installed; its bin directory."""
     work = tmp_path_factory.mktemp("wheel")
     _run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(work / "dist"), str(REPO)], work, 600)
     wheel = next((work / "dist").glob("cortex_wm-*.whl"))
     _run([sys.executable, "-m", "venv", str(work / "venv")], work, 120)
     bin_dir = work / "venv" / "bin"
-    _run([str(bin_dir / "pip"), "install", "-q", str(wheel)], work, 600)
+    _run([str(bin_dir / "pip"), "install", "-q", f"{wheel}[caregiving]"], work, 600)
     return bin_dir
 
 

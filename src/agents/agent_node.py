@@ -7,7 +7,7 @@ links it from the ``world`` node once there is one.
 
 It is deleted when the agent exits cleanly. When the agent dies without
 exiting (``kill -9``), the surviving members delete it on ``member_left``
-(:mod:`wm.agent_nodes`). A node deleted while its agent is alive (say, during
+(:mod:`wm.reaper`). A node deleted while its agent is alive (say, during
 a network partition) is re-created at the next refresh.
 """
 
@@ -20,7 +20,7 @@ import time
 import psutil
 
 from wm import Graph, NodeNotFoundError
-from wm.agent_nodes import AGENT_TYPE, reap, reap_absent
+from wm.reaper import AGENT_TYPE, reap, reap_absent
 
 from .logs import AgentLogger
 

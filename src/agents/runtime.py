@@ -52,7 +52,7 @@ from typing import Any, ClassVar, NoReturn, TypeVar
 
 import wm
 from wm import Event, EventStream, Graph
-from wm.agent_nodes import install_reaper
+from wm.reaper import install_reaper
 from wm.events import EventFilter
 from wm.zenoh_config import load_with_environment
 

@@ -14,6 +14,7 @@ from .errors import (
     NodeNotFoundError,
     NotFoundError,
     OntologyError,
+    PluginError,
     RTError,
     SceneFormatError,
     UnknownAttributeError,
@@ -30,6 +31,6 @@ from .rt import se2
 __all__ = [
     "AttributeSpec", "AttributeTypeError", "ConnectError", "connect", "DecodeError", "Edge", "EdgeNotFoundError", "Event", "EventKind",
     "EventStream", "Graph", "NameExistsError", "Node", "NodeExistsError", "NodeNotFoundError", "NotFoundError",
-    "Ontology", "OntologyError", "RTError", "SceneFormatError", "Subscription", "UnknownAttributeError",
+    "Ontology", "OntologyError", "PluginError", "RTError", "SceneFormatError", "Subscription", "UnknownAttributeError",
     "UnknownTypeError", "ValidationError", "WMError", "se2",
 ]

@@ -1,6 +1,7 @@
 """The ``wm`` command line: serve, load, dump, watch, members, set, rm, check, the
-monitoring commands of :mod:`wm.monitoring.cli` (monitor, view, foxglove, record, replay, reactions)
-``launch`` (:mod:`wm.launch.cli`) and ``experiment`` (:mod:`bridges.experiment.cli`).
+monitoring commands of :mod:`wm.monitoring.commands` (monitor, view, foxglove, record, replay),
+``launch`` (:mod:`wm.launch.command`), and the commands installed applications add as
+plugins (:mod:`wm.plugins`, entry point group ``wm.commands``), such as ``experiment``.
 
 Every command takes ``--graph``, ``--connect ENDPOINT`` (repeatable) and
 ``--config FILE`` (a Zenoh JSON5 file whose placeholders are filled from
@@ -20,12 +21,10 @@ from typing import Any
 
 from .check import check
 from .connection import connect
-from bridges.experiment import cli as experiment_cli
-
-from .launch import cli as launch_cli
-from .monitoring import cli as monitoring_cli
-from . import dsr_json
-from .errors import NotFoundError, UnknownAttributeError, WMError
+from .launch import command as launch_command
+from .monitoring import commands as monitoring_commands
+from . import dsr_json, plugins
+from .errors import NotFoundError, PluginError, UnknownAttributeError, WMError
 from .graph import Graph
 from .ontology import Ontology
 from .zenoh_config import load_with_environment
@@ -39,7 +38,7 @@ def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--graph", default="default", help="graph name (default: %(default)s)")
     parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT", help="Zenoh endpoint, e.g. tcp/127.0.0.1:7447")
     parser.add_argument("--config", help="Zenoh config file (JSON5; placeholders from WM_ZENOH_<NAME>)")
-    parser.add_argument("--ontology", help="ontology file, or a packaged one by name: default, dsr (default: %(default)s)", default="default")
+    parser.add_argument("--ontology", help="ontology file, or a packaged one by name: default, base, dsr, or one a plugin adds (default: %(default)s)", default="default")
     parser.add_argument("--timeout", type=float, default=3.0, help="seconds to wait for a peer (default: %(default)s)")
     parser.add_argument("-v", "--verbose", action="store_true", help="log replication details")
 
@@ -62,11 +61,11 @@ def build_parser() -> argparse.ArgumentParser:
     p = commands.add_parser("dump", help="print the current graph, read from the network")
     _common(p)
     p.add_argument("--format", choices=["text", "json", "dsr"], default="text", help="dsr: a DSR scene file, as DSR writes it")
-    monitoring_cli.add_dump_source(p)
+    monitoring_commands.add_dump_source(p)
 
     p = commands.add_parser("watch", help="print live events, one per line")
     _common(p)
-    monitoring_cli.add_event_filters(p, "print")
+    monitoring_commands.add_event_filters(p, "print")
 
     p = commands.add_parser("members", help="list the live replicas and their agent names")
     _common(p)
@@ -86,9 +85,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = commands.add_parser("rm", help="delete a node and its edges")
     _common(p)
     p.add_argument("node")
-    monitoring_cli.add_commands(commands, _common)
-    launch_cli.add_command(commands)
-    experiment_cli.add_command(commands)
+    monitoring_commands.add_commands(commands, _common)
+    launch_command.add_command(commands)
+    plugins.add_commands(commands, reserved=set(commands.choices))
     return parser
 
 
@@ -185,8 +184,8 @@ async def run(args: argparse.Namespace) -> int:
         return 0
     if args.command == "check":
         return _check(args, ontology)
-    if args.command in monitoring_cli.COMMANDS or getattr(args, "source", None):
-        return await monitoring_cli.run(args, ontology)
+    if args.command in monitoring_commands.COMMANDS or getattr(args, "source", None):
+        return await monitoring_commands.run(args, ontology)
     async with connect(args.graph, args.config, f"wm-{args.command}", connect=args.connect or None, ontology=ontology) as g:
         if args.command == "members":
             members = await _live_members(g, args.graph, args.timeout)
@@ -241,13 +240,21 @@ def _node_ref(text: str) -> int | str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, unknown = parser.parse_known_args(argv)
+    if unknown and not getattr(args, "plugin_broken", False):  # a broken plugin's command says why, whatever it was given
+        parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     if args.command == "launch":
-        return launch_cli.main(args)
-    if args.command == "experiment":
-        return experiment_cli.main(args)
-    if args.command == "reactions":
-        return monitoring_cli.reactions_command(args)
+        return launch_command.main(args)
+    if (plugin_main := getattr(args, "plugin_main", None)) is not None:
+        try:
+            return int(plugin_main(args))
+        except PluginError as exc:
+            print(f"wm {args.command}: error: {exc}", file=sys.stderr)
+            return 1
+        except ModuleNotFoundError as exc:  # the plugin's own dependencies are not installed
+            print(f"wm {args.command}: error: {exc} (a dependency of the plugin that adds this command)", file=sys.stderr)
+            return 1
     logging.basicConfig(
         level=logging.INFO if args.verbose or args.command == "serve" else logging.WARNING,
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
@@ -258,7 +265,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"wm {args.command}: error: {exc}", file=sys.stderr)
         return 1
     except (KeyboardInterrupt, asyncio.CancelledError):
-        return 130 if args.command not in ("serve", "watch", *monitoring_cli.RUN_UNTIL_STOPPED) else 0
+        return 130 if args.command not in ("serve", "watch", *monitoring_commands.RUN_UNTIL_STOPPED) else 0
 
 
 if __name__ == "__main__":

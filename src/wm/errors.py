@@ -65,3 +65,7 @@ class DecodeError(WMError):
 
 class SceneFormatError(WMError):
     """A JSON scene file that is neither our format nor DSR's, or is inconsistent."""
+
+
+class PluginError(WMError):
+    """An installed plugin (a ``wm.commands`` or ``wm.ontologies`` entry point) that cannot be loaded or used."""

@@ -4,7 +4,9 @@
 ``wm/<graph>/sv/<replica>``            HEARTBEAT messages (state vector, last seq)
 ``wm/<graph>/sync/<replica>``          queryable: SYNC_REQUEST -> SYNC_REPLY, ACK_REQUEST -> ACK_REPLY
 ``wm/<graph>/alive/<replica>/<agent>`` liveliness token: membership and the agent's name
-``wm/<graph>/sim/**``                  the simulation agent's request/reply service
+
+Applications may add services of their own under ``wm/<graph>/`` (the caregiving
+one: ``agents.caregiving.keys``).
 """
 
 from __future__ import annotations
@@ -38,10 +40,6 @@ def sync(graph: str, replica: str = "*") -> str:
 
 def alive(graph: str, replica: str = "*", agent: str = "*") -> str:
     return f"{ROOT}/{graph}/alive/{replica}/{agent}"
-
-
-def sim(graph: str, service: str = "**") -> str:
-    return f"{ROOT}/{graph}/sim/{service}"
 
 
 def replica_of(key: str) -> str:

@@ -21,8 +21,9 @@ from typing import Any
 import numpy as np
 import yaml
 
+from . import plugins
 from .dsr_codes import DSR_TYPES
-from .errors import AttributeTypeError, OntologyError, UnknownAttributeError, UnknownTypeError
+from .errors import AttributeTypeError, OntologyError, PluginError, UnknownAttributeError, UnknownTypeError, WMError
 from .limits import Limits, non_finite
 
 VALUE_TYPES = ("bool", "int", "float", "str", "vec", "bytes", "u64", "u64vec")
@@ -30,7 +31,9 @@ _REAL = frozenset({"float", "vec"})  # may hold NaN or infinity
 _SIZED = frozenset({"str", "bytes", "vec", "u64vec"})  # capped by Limits.max_value_bytes
 MAX_EXACT_INT = 2**53  # values travel as float64 inside the CRDT
 U64_RANGE = 2**64  # u64 values travel as decimal strings, so that every uint64 is exact
-PACKAGED = {"default": "default_ontology.yaml", "dsr": "dsr_ontology.yaml"}
+BASE = "base"
+DEFAULT = "default"
+PACKAGED = {BASE: "base_ontology.yaml", "dsr": "dsr_ontology.yaml"}  # wm's own; plugins add more (wm.plugins)
 _IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 Value = bool | int | float | str | bytes | tuple[float, ...]
@@ -174,6 +177,7 @@ class ElementType:
     name: str
     attributes: frozenset[str]
     doc: str = ""
+    show: tuple[str, ...] = ()  # the attributes a summary (wm monitor's tables) shows first, in order
     # attributes whose declaration here differs from the ontology-wide one (an included ontology's, see include)
     overrides: Mapping[str, AttributeSpec] = field(default_factory=lambda: MappingProxyType({}))
 
@@ -205,21 +209,25 @@ class Ontology:
 
     @classmethod
     def default(cls) -> Ontology:
-        """The ontology shipped with the package: the caregiving scenario, including all of DSR's."""
-        return cls.named("default")
+        """The default ontology: the one an installed application names ``default`` (a ``wm.ontologies``
+        entry point, see :mod:`wm.plugins`), else the neutral ``base``."""
+        return cls.named(DEFAULT)
 
     @classmethod
     def named(cls, name: str) -> Ontology:
-        """A packaged ontology by name: ``default`` or ``dsr`` (every type and attribute DSR registers)."""
-        if name not in PACKAGED:
-            raise OntologyError(f"no packaged ontology named {name!r}; known: {', '.join(sorted(PACKAGED))}")
+        """A packaged ontology by name: ``base``, ``dsr``, ``default``, or one an installed plugin adds."""
         built = _packaged(name)
         return cls(built.attributes, built.node_types, built.edge_types, built.source, built.limits)  # own dicts, shared specs
+
+    @staticmethod
+    def names() -> list[str]:
+        """The names :meth:`named` knows: wm's own ontologies, ``default``, and those of installed plugins."""
+        return sorted({*PACKAGED, DEFAULT, *plugins.ontology_files()})
 
     @classmethod
     def load(cls, path: str | Path) -> Ontology:
         """Load and validate an ontology file (YAML or JSON), or a packaged one by name (see :meth:`named`)."""
-        if isinstance(path, str) and path in PACKAGED and not Path(path).exists():
+        if isinstance(path, str) and _IDENTIFIER.match(path) and not Path(path).exists():
             return cls.named(path)
         path = Path(path)
         try:
@@ -260,9 +268,9 @@ class Ontology:
 
     @classmethod
     def _include(cls, ref: str, source: str) -> Ontology:
-        if ref in PACKAGED:
+        if _IDENTIFIER.match(ref) and ref in cls.names():
             return cls.named(ref)
-        path = Path(ref) if Path(ref).is_absolute() or source in PACKAGED else Path(source).parent / ref
+        path = Path(ref) if Path(ref).is_absolute() or _IDENTIFIER.match(source) else Path(source).parent / ref
         return cls.load(path)
 
     def declares(self, kind: str, type_name: str) -> bool:
@@ -270,8 +278,15 @@ class Ontology:
 
     @staticmethod
     def packaged_declaring(kind: str, type_name: str) -> list[str]:
-        """The names of the packaged ontologies that declare this node or edge type."""
-        return [name for name in PACKAGED if Ontology.named(name).declares(kind, type_name)]
+        """The names of the packaged ontologies that declare this node or edge type (plugins' that load included), ``default`` first."""
+        found = []
+        for name in sorted(Ontology.names(), key=lambda name: name != DEFAULT):
+            try:
+                if Ontology.named(name).declares(kind, type_name):
+                    found.append(name)
+            except WMError:
+                continue  # a broken plugin is reported where it is asked for by name
+        return found
 
     # -- checking writes -------------------------------------------------------
 
@@ -334,8 +349,20 @@ def _mapping(value: Any, where: str) -> Mapping[str, Any]:
 
 @functools.cache
 def _packaged(name: str) -> Ontology:
-    """A packaged ontology, read and validated once per process."""
-    return Ontology.from_text(resources.files("wm").joinpath(PACKAGED[name]).read_text(encoding="utf-8"), source=name)
+    """A packaged ontology (wm's own or a plugin's), read and validated once per process."""
+    if name in PACKAGED:
+        return Ontology.from_text(resources.files("wm").joinpath(PACKAGED[name]).read_text(encoding="utf-8"), source=name)
+    found = plugins.ontology_files().get(name)
+    if found is None:
+        if name == DEFAULT:
+            return _packaged(BASE)
+        raise OntologyError(f"no packaged ontology named {name!r}; known: {', '.join(Ontology.names())}")
+    file = found()
+    try:
+        text = file.read_text(encoding="utf-8") if hasattr(file, "read_text") else Path(file).read_text(encoding="utf-8")
+    except (OSError, TypeError) as exc:
+        raise PluginError(f"plugin ontology {name!r} ({plugins.ONTOLOGIES}): cannot read {file!r}: {exc}") from exc
+    return Ontology.from_text(text, source=name)
 
 
 def _include_list(value: Any, source: str) -> list[str]:
@@ -373,7 +400,8 @@ def _merge(base: Ontology, top: Ontology) -> Ontology:
                          **(upper.overrides if upper is not None else {})}
             types[name] = replace(lower, overrides=MappingProxyType(overrides))
             if upper is not None:
-                types[name] = replace(types[name], attributes=own | lower.attributes, doc=upper.doc or lower.doc)
+                types[name] = replace(types[name], attributes=own | lower.attributes, doc=upper.doc or lower.doc,
+                                      show=upper.show or lower.show)
         for name, upper in mine.items():
             types.setdefault(name, upper)
         return types
@@ -433,7 +461,7 @@ def _parse_types(kind: str, section: Any, attributes: Mapping[str, AttributeSpec
         spec = spec or {}
         if not isinstance(spec, Mapping):
             raise OntologyError(f"{where}.{type_name}: expected a mapping, got {type(spec).__name__}")
-        unknown = set(spec) - {"attributes", "doc"}
+        unknown = set(spec) - {"attributes", "doc", "show"}
         if unknown:
             raise OntologyError(f"{where}.{type_name}.{sorted(unknown)[0]}: unknown key")
         listed = spec.get("attributes", []) or []
@@ -442,5 +470,11 @@ def _parse_types(kind: str, section: Any, attributes: Mapping[str, AttributeSpec
         for index, attr in enumerate(listed):
             if attr not in attributes:
                 raise OntologyError(f"{where}.{type_name}.attributes[{index}]: undeclared attribute {attr!r}")
-        types[type_name] = ElementType(kind, type_name, frozenset(listed), str(spec.get("doc", "")))
+        show = spec.get("show", []) or []
+        if not isinstance(show, list):
+            raise OntologyError(f"{where}.{type_name}.show: expected a list of attribute names")
+        for index, attr in enumerate(show):
+            if attr not in attributes:
+                raise OntologyError(f"{where}.{type_name}.show[{index}]: undeclared attribute {attr!r}")
+        types[type_name] = ElementType(kind, type_name, frozenset(listed), str(spec.get("doc", "")), tuple(show))
     return types

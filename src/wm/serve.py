@@ -12,7 +12,7 @@ import logging
 from collections.abc import Sequence
 from pathlib import Path
 
-from .agent_nodes import install_reaper
+from .reaper import install_reaper
 from .connection import close_session, open_session, sigterm_cancels_current_task
 from .graph import Graph
 from .keys import check_segment

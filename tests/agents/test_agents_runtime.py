@@ -12,7 +12,7 @@ import pytest
 import wm
 from agents import logs
 from agents.runtime import Agent, every, on
-from wm.agent_nodes import reap_absent
+from wm.reaper import reap_absent
 
 
 class Recorder(Agent):

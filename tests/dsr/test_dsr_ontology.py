@@ -61,7 +61,7 @@ def test_every_dsr_type_and_attribute_is_declared_with_its_value_type(name: str)
 
 def test_ontologies_are_selected_by_name_and_by_path(tmp_path: Path) -> None:
     assert wm.Ontology.load("dsr").source == "dsr"
-    with pytest.raises(wm.OntologyError, match="known: default, dsr"):
+    with pytest.raises(wm.OntologyError, match="known: base, caregiving, default, dsr"):
         wm.Ontology.named("dragon")
     mine = tmp_path / "mine.yaml"
     mine.write_text("include: [dsr]\nattributes:\n  wheel_radius: float\nnodes:\n  omnirobot: {attributes: [wheel_radius]}\n")

@@ -17,7 +17,7 @@ from websockets.sync.client import connect as ws_connect
 
 from mon_helpers import GRAPH, SCENE_NAMES, dump_json, run_wm, served_scene, start_view
 from procs import WM, wait_until
-from wm.monitoring.recording import graph_at
+from wm.monitoring.recording_file import graph_at
 from wm.zenoh_config import build_config
 
 MONITORS = {"wm-view", "wm-record", "wm-monitor"}

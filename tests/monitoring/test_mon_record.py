@@ -12,7 +12,7 @@ from mcap.reader import make_reader
 from mon_helpers import GRAPH, RISKY_SCENE, SCENE_NAMES, dump_json, node_names, run_wm, served_scene
 from procs import PYTHON, REPO, WM, wait_until
 from foxglove_helpers import message_class
-from wm.monitoring.recording import CHANGES, LOG, SCENE, TF, UPDATES, graph_at, iter_messages
+from wm.monitoring.recording_file import CHANGES, LOG, SCENE, TF, UPDATES, graph_at, iter_messages
 
 REPLICA = str(REPO / "tests" / "replica_proc.py")
 
@@ -90,9 +90,9 @@ def _attr(graph: dict, name: str, attr: str):
 
 def test_reaction_times_pair_each_risky_intention_with_the_next_action(tmp_path: Path) -> None:
     import wm
-    from wm.monitoring.reactions import plot_svg, reactions, summary
-    from wm.monitoring.record import Recorder
-    from wm.monitoring.recording import RecordingWriter
+    from bridges.experiment.reactions import plot_svg, reactions, summary
+    from wm.monitoring.recorder import Recorder
+    from wm.monitoring.recording_file import RecordingWriter
 
     g = wm.Graph()
     writer = RecordingWriter(tmp_path / "trial.mcap", "t")

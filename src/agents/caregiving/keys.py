@@ -37,5 +37,10 @@ def world_outcome(graph: str) -> str:
     return f"{ROOT}/{graph}/world/outcome"
 
 
+def sim(graph: str, service: str = "**") -> str:
+    """The simulation agent's request/reply services, inside the graph's own key space."""
+    return f"{wm_keys.ROOT}/{graph}/sim/{service}"
+
+
 def imagine(graph: str) -> str:
-    return wm_keys.sim(graph, "imagine")
+    return sim(graph, "imagine")

@@ -51,6 +51,7 @@ from rich.progress import (
 from rich.table import Table
 
 import wm
+from agents.caregiving import names
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import Scenario, load_scenario
 from agents.caregiving.model.world_model import run_idle
@@ -190,7 +191,7 @@ async def run_trials(scenario: Scenario, stack: Stack, seed: int, indices: list[
     planner = GridPlanner(scenario.scene().bounds)
     timeout = 30.0 / stack.rate + 20.0
     scored: list[Scored] = []
-    async with wm.connect(graph, name="experiment", connect=[stack.endpoint]) as g:
+    async with wm.connect(graph, name="experiment", connect=[stack.endpoint], ontology=wm.Ontology.named(names.ONTOLOGY)) as g:
         harness = Harness(g, graph)
         columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
         with Progress(*columns, console=console, transient=True) as progress:

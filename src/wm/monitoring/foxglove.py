@@ -20,7 +20,7 @@ both a live view (``wm foxglove``, a WebSocket server) and a recording
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -47,7 +47,6 @@ from foxglove.messages import (
     TriangleListPrimitive,
     Vector3,
 )
-from scipy.spatial.transform import Rotation
 
 from ..events import Event
 from ..graph import Graph
@@ -83,6 +82,12 @@ TYPE_COLORS = {
 OTHER_COLOR = (0.45, 0.7, 0.45, 1.0)
 RISKY = (0.9, 0.1, 0.1, 1.0)
 SAFE = (0.3, 0.6, 0.3, 1.0)
+
+
+def quaternion_xyz(euler: Sequence[float]) -> tuple[float, float, float, float]:
+    """(x, y, z, w) of the rotation by intrinsic x-y-z Euler angles: q = qx(a) qy(b) qz(c)."""
+    (ca, sa), (cb, sb), (cc, sc) = ((math.cos(v / 2), math.sin(v / 2)) for v in euler)
+    return (sa * cb * cc + ca * sb * sc, ca * sb * cc - sa * cb * sc, ca * cb * sc + sa * sb * cc, ca * cb * cc - sa * sb * sc)
 
 
 def _color(rgba: tuple[float, float, float, float], alpha: float | None = None) -> Color:
@@ -147,7 +152,7 @@ def frame_transforms(graph: Graph, t_ns: int) -> FrameTransforms:
     transforms = []
     for edge in graph.edges(type=RT):
         x, y, z = edge.get("rt_translation", (0.0, 0.0, 0.0))
-        qx, qy, qz, qw = Rotation.from_euler("XYZ", edge.get("rt_rotation_euler_xyz", (0.0, 0.0, 0.0))).as_quat()
+        qx, qy, qz, qw = quaternion_xyz(edge.get("rt_rotation_euler_xyz", (0.0, 0.0, 0.0)))
         transforms.append(FrameTransform(timestamp=stamp, parent_frame_id=names[edge.src], child_frame_id=names[edge.dst],
                                          translation=Vector3(x=x, y=y, z=z), rotation=Quaternion(x=qx, y=qy, z=qz, w=qw)))
     return FrameTransforms(transforms=transforms)

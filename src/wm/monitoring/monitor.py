@@ -32,13 +32,6 @@ from .scene2d import root_node, world_poses
 
 RATE_WINDOW_S = 5.0
 STALE_AFTER_S = 3.0
-KEY_ATTRS = {
-    "person": ("fov", "speed", "velocity", "track_id"),
-    "robot": ("speed", "velocity", "max_speed"),
-    "object": ("kind", "shape", "size", "is_obstacle"),
-    "intention": ("action", "status", "target", "final_pose"),
-    "agent": ("pid", "host", "cpu", "memory"),
-}
 
 
 @dataclass
@@ -82,9 +75,10 @@ def _short(value: Any) -> str:
     return str(value)
 
 
-def key_attrs(node_type: str, attrs: dict[str, Any] | Any) -> list[str]:
-    """The attributes shown for a node type: the known ones, else the first three."""
-    names = KEY_ATTRS.get(node_type) or tuple(sorted(a for a in attrs if not a.startswith("rt_"))[:3])
+def key_attrs(ontology: Ontology, node_type: str, attrs: dict[str, Any] | Any) -> list[str]:
+    """The attributes shown for a node type: those its ontology entry lists under ``show``, else the first three."""
+    element = ontology.node_types.get(node_type)
+    names = (element.show if element is not None else ()) or tuple(sorted(a for a in attrs if not a.startswith("rt_"))[:3])
     return list(names)
 
 
@@ -125,7 +119,7 @@ def node_tables(g: Graph, max_rows: int = 8) -> list[Table]:
     for node in g.nodes():
         by_type.setdefault(node.type, []).append(node)
     for node_type, nodes in sorted(by_type.items()):
-        columns = key_attrs(node_type, nodes[0].attrs)
+        columns = key_attrs(g.ontology, node_type, nodes[0].attrs)
         table = Table(title=f"{node_type} ({len(nodes)})", expand=True, title_justify="left")
         for column in ("name", "id", "x, y", *columns):
             table.add_column(column, overflow="fold")

@@ -19,7 +19,7 @@ from ..graph import Graph
 from ..model import parse_edge_key
 from ..ontology import Ontology
 from ..zenoh_config import ConfigSource
-from .recording import iter_updates
+from .recording_file import iter_updates
 from ..volatile import Record
 
 

@@ -11,10 +11,12 @@ browser view (:mod:`wm.monitoring.view`) and the Foxglove channel of a recording
 ``paths``   every edge with a ``path`` attribute (``risky`` ones flagged);
 ``points``  every edge's ``collision_point``;
 ``ghosts``  every node with a ``final_pose`` (an imagined pose), drawn with
-            the footprint of the robot that has it when there is one.
+            the ``footprint`` of the node that has it when that one has one.
 
-The caregiving drawing is the meaning of those attribute names in the default
-ontology; a graph without them still gets its placed nodes.
+Those attribute names are the drawing conventions of wm's views, not types:
+any ontology that declares them gets them drawn (the caregiving one does), and
+a graph without them still gets its placed nodes. The frame is the ``world``
+node, the root frame the base ontology declares.
 """
 
 from __future__ import annotations
@@ -31,11 +33,12 @@ from ..rt import RT, homogeneous, matrix_to_se2
 
 CONE_RANGE_M = 2.0
 DEFAULT_RADIUS_M = 0.15
+ROOT_TYPE = "world"  # the root frame of a scene, in the base ontology
 
 
 def root_node(g: Graph) -> Node | None:
     """The frame the scene is drawn in: the first ``world`` node, else the root of the first RT edge."""
-    worlds = g.nodes("world")
+    worlds = g.nodes(ROOT_TYPE)
     if worlds:
         return worlds[0]
     edges = g.edges(type=RT)
@@ -114,7 +117,7 @@ def build(g: Graph) -> dict[str, Any]:
     for node in g.nodes():
         if (pose := node.get("final_pose")) is not None and len(pose) >= 3:
             owner = owners.get(node.id)
-            shape = footprint(owner) if owner is not None and owner.type == "robot" else footprint(node)
+            shape = footprint(owner) if owner is not None and owner.get("footprint") is not None else footprint(node)
             scene["ghosts"].append({"id": node.id, "name": node.name, "x": pose[0], "y": pose[1], "yaw": pose[2], **shape})
     return scene
 

@@ -1,4 +1,7 @@
-"""``wm experiment``: the command-line face of :mod:`bridges.experiment.experiment` (imports it lazily)."""
+"""``wm experiment``: the command-line face of :mod:`bridges.experiment.experiment` (imports it lazily).
+
+A ``wm.commands`` plugin (entry point in pyproject.toml): :func:`add_command` and :func:`main`.
+"""
 
 from __future__ import annotations
 
@@ -25,11 +28,16 @@ def add_command(commands: Any) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run the experiment; errors are one line on stderr and exit status 1."""
-    from agents.caregiving.model.errors import ScenarioError
+    try:
+        from agents.caregiving.model.errors import ScenarioError
 
-    from .experiment import experiment
-    from .launch import LaunchError
-    from .trials import TrialError
+        from .experiment import experiment
+        from .launch import LaunchError
+        from .trials import TrialError
+    except ModuleNotFoundError as exc:
+        print(f"wm experiment: error: {exc}; the experiment needs the caregiving extra: pip install 'cortex-wm[caregiving]'",
+              file=sys.stderr)
+        return 1
 
     if args.trials < 1:
         print("wm experiment: error: --trials must be at least 1", file=sys.stderr)

@@ -5,19 +5,21 @@ A reaction is the time from a risky intention appearing in W (a
 W (the next ``intention`` node added), both as the recorder saw them on its
 ``/wm/changes`` channel. A risky intention with no action after it counts as
 missed.
+
+``wm reactions FILE`` prints them: a ``wm.commands`` plugin (:func:`add_command`, :func:`main`).
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import statistics
+import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
-from .recording import CHANGES, iter_messages
-
-RISKY_EDGE = "has_intention"
-ACTION_NODE = "intention"
+from agents.caregiving.names import ACTION_NODE, RISKY_EDGE
 
 
 @dataclass(frozen=True)
@@ -33,6 +35,8 @@ class Reaction:
 
 def reactions(path: str | Path) -> list[Reaction]:
     """Every risky onset in the recording, paired with the first action added after it."""
+    from wm.monitoring.recording_file import CHANGES, iter_messages  # here, so that `wm --help` need not load MCAP
+
     risky: set[tuple[int | None, int | None]] = set()
     pending: list[Reaction] = []
     done: list[Reaction] = []
@@ -95,3 +99,32 @@ def plot_svg(found: list[Reaction], title: str = "Reaction times", bins: int = 1
     legend = f"n={stats['risky']}, missed {stats['missed']}, mean {stats['reaction_ms_mean']:.1f} ms, sd {stats['reaction_ms_sd']:.1f} ms"
     parts += [f'<text x="{width - 10}" y="{top - 6}" text-anchor="end" fill="#d50000">{legend}</text>', "</svg>"]
     return "\n".join(parts)
+
+
+def add_command(commands: Any) -> None:
+    """Add ``reactions`` to the ``wm`` subcommands."""
+    p = commands.add_parser("reactions", help="reaction times of a recorded caregiving run, optionally plotted as SVG")
+    p.add_argument("file")
+    p.add_argument("--svg", help="write a histogram here")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+
+
+def main(args: argparse.Namespace) -> int:
+    """``wm reactions FILE``: reaction times of a recording (offline: no graph, no network)."""
+    try:
+        found = reactions(args.file)
+    except (OSError, ValueError) as exc:
+        print(f"wm reactions: error: cannot read {args.file}: {exc}", file=sys.stderr)
+        return 1
+    stats = summary(found)
+    if args.json:
+        print(json.dumps(stats))
+    else:
+        for r in found:
+            answer = f"{r.action} after {r.reaction_ms:.1f} ms" if r.reaction_ms is not None else "no action"
+            print(f"{r.person} -> {r.target}: {answer}")
+        print(f"{stats['risky']} risky, {stats['missed']} missed, mean {stats['reaction_ms_mean']:.1f} ms, "
+              f"sd {stats['reaction_ms_sd']:.1f} ms")
+    if args.svg:
+        Path(args.svg).write_text(plot_svg(found, title=f"Reaction times: {Path(args.file).name}"))
+    return 0

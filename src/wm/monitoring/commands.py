@@ -1,4 +1,4 @@
-"""The monitoring commands of ``wm``: monitor, view, foxglove, record, replay, reactions and ``dump --from``.
+"""The monitoring commands of ``wm``: monitor, view, foxglove, record, replay and ``dump --from``.
 
 :mod:`wm.cli` adds them with :func:`add_commands` and hands them to :func:`run`.
 """
@@ -6,14 +6,11 @@
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 from collections.abc import Callable
-from pathlib import Path
 
 from ..ontology import Ontology
 
-COMMANDS = ("monitor", "view", "foxglove", "record", "replay", "reactions")
+COMMANDS = ("monitor", "view", "foxglove", "record", "replay")
 RUN_UNTIL_STOPPED = ("monitor", "view", "foxglove", "record")
 
 
@@ -53,11 +50,6 @@ def add_commands(commands: argparse._SubParsersAction, common: Callable[[argpars
     p.add_argument("--speed", type=float, default=1.0, help="playback speed factor (default: %(default)s)")
     p.add_argument("--as", dest="as_graph", metavar="GRAPH", help="graph to replay into (default: --graph)")
 
-    p = commands.add_parser("reactions", help="reaction times of a recorded run, optionally plotted as SVG")
-    p.add_argument("file")
-    p.add_argument("--svg", help="write a histogram here")
-    p.add_argument("--json", action="store_true", help="print the summary as JSON")
-
 
 def add_dump_source(dump: argparse.ArgumentParser) -> None:
     """``wm dump --from FILE [--at T]``: the graph of a recording instead of the network."""
@@ -69,7 +61,7 @@ async def run(args: argparse.Namespace, ontology: Ontology | None) -> int:
     """Run one monitoring command (or ``dump --from``)."""
     endpoints = args.connect if hasattr(args, "connect") else []
     if args.command == "dump":
-        from .recording import graph_at
+        from .recording_file import graph_at
 
         from ..cli import print_graph
 
@@ -88,7 +80,7 @@ async def run(args: argparse.Namespace, ontology: Ontology | None) -> int:
         await serve_foxglove(args.graph, host=args.host, port=args.port, config=args.config, connect_to=endpoints, ontology=ontology,
                              log_dir=args.logs)
     elif args.command == "record":
-        from .record import record
+        from .recorder import record
 
         count = await record(args.file, args.graph, config=args.config, connect_to=endpoints, ontology=ontology, duration=args.duration,
                              log_dir=args.logs)
@@ -101,25 +93,3 @@ async def run(args: argparse.Namespace, ontology: Ontology | None) -> int:
         print(f"wm replay: {count} updates republished into {target!r}")
     return 0
 
-
-def reactions_command(args: argparse.Namespace) -> int:
-    """``wm reactions FILE``: reaction times of a recording (offline: no graph, no network)."""
-    from .reactions import plot_svg, reactions, summary
-
-    try:
-        found = reactions(args.file)
-    except (OSError, ValueError) as exc:
-        print(f"wm reactions: error: cannot read {args.file}: {exc}", file=sys.stderr)
-        return 1
-    stats = summary(found)
-    if args.json:
-        print(json.dumps(stats))
-    else:
-        for r in found:
-            answer = f"{r.action} after {r.reaction_ms:.1f} ms" if r.reaction_ms is not None else "no action"
-            print(f"{r.person} -> {r.target}: {answer}")
-        print(f"{stats['risky']} risky, {stats['missed']} missed, mean {stats['reaction_ms_mean']:.1f} ms, "
-              f"sd {stats['reaction_ms_sd']:.1f} ms")
-    if args.svg:
-        Path(args.svg).write_text(plot_svg(found, title=f"Reaction times: {Path(args.file).name}"))
-    return 0

@@ -4,7 +4,7 @@ The recorder observes its own replica: every CRDT update and volatile change
 it applies (the catch-up first, then live deltas and repairs) becomes a
 ``/wm/updates`` message, every event a ``/wm/changes`` message with values,
 and the RT tree and the 2D scene ``/wm/tf`` and ``/wm/scene`` messages at
-most every ``scene_period`` seconds (see :mod:`wm.monitoring.recording`). The file is flushed every ``flush_period`` seconds (at most one), so
+most every ``scene_period`` seconds (see :mod:`wm.monitoring.recording_file`). The file is flushed every ``flush_period`` seconds (at most one), so
 a recording killed with ``kill -9`` loses at most that much.
 """
 
@@ -22,7 +22,7 @@ from ..events import Event
 from ..graph import Graph
 from ..ontology import Ontology
 from ..zenoh_config import ConfigSource
-from .recording import RecordingWriter
+from .recording_file import RecordingWriter
 
 
 class Recorder:
