@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import functools
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
@@ -36,7 +36,7 @@ DEFAULT = "default"
 PACKAGED = {BASE: "base_ontology.yaml", "dsr": "dsr_ontology.yaml"}  # wm's own; plugins add more (wm.plugins)
 _IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
-Value = bool | int | float | str | bytes | tuple[float, ...]
+Value = bool | int | float | str | bytes | tuple[float, ...] | tuple[str, ...]  # u64vec is stored as decimal strings
 
 
 @dataclass(frozen=True)
@@ -64,9 +64,9 @@ class AttributeSpec:
             raise AttributeTypeError(
                 f"{owner}.{self.name}: expected {self.describe()}, got {type(value).__name__} {value!r:.60}"
             ) from exc
-        if self.length is not None and len(result) != self.length:  # type: ignore[arg-type]
+        if self.length is not None and isinstance(result, tuple) and len(result) != self.length:
             raise AttributeTypeError(
-                f"{owner}.{self.name}: expected {self.describe()}, got a vector of length {len(result)}"  # type: ignore[arg-type]
+                f"{owner}.{self.name}: expected {self.describe()}, got a vector of length {len(result)}"
             )
         if self.type in _REAL and not self.nonfinite and non_finite(result):
             raise AttributeTypeError(f"{owner}.{self.name}: NaN and infinity are not allowed (the ontology entry says so)")
@@ -84,7 +84,8 @@ class AttributeSpec:
             return int(stored)
         if self.type == "u64vec":
             return tuple(int(x) for x in stored)
-        return stored
+        value: Value = stored
+        return value
 
     def describe(self) -> str:
         if self.type == "vec" and self.length is not None:
@@ -93,11 +94,10 @@ class AttributeSpec:
 
     def holds(self, stored: Any) -> bool:
         """Whether a stored value has this attribute's storage form (to tell clashing declarations apart)."""
-        storage = {"bool": bool, "int": (int, float), "float": (int, float), "str": str, "u64": str,
-                   "bytes": (bytes, bytearray), "vec": (list, tuple), "u64vec": (list, tuple)}[self.type]
+        storage = _STORAGE[self.type]
         if not isinstance(stored, storage) or (self.type in ("int", "float") and isinstance(stored, bool)):
             return False
-        if self.type in ("vec", "u64vec") and len(stored):
+        if isinstance(stored, (list, tuple)) and self.type in ("vec", "u64vec") and stored:
             return isinstance(stored[0], str) == (self.type == "u64vec")
         return True
 
@@ -157,7 +157,11 @@ def _as_vec(value: Any) -> tuple[float, ...]:
     return tuple(float(x) for x in array)
 
 
-_COERCERS = {
+_STORAGE: dict[str, type | tuple[type, ...]] = {
+    "bool": bool, "int": (int, float), "float": (int, float), "str": str, "u64": str,
+    "bytes": (bytes, bytearray), "vec": (list, tuple), "u64vec": (list, tuple),
+}
+_COERCERS: dict[str, Callable[[Any], Value]] = {
     "bool": _as_bool,
     "int": _as_int,
     "float": _as_float,

@@ -32,7 +32,8 @@ def rotation_matrix(euler_xyz: Sequence[float]) -> np.ndarray:
     rx = np.array([[1, 0, 0], [0, ca, -sa], [0, sa, ca]])
     ry = np.array([[cb, 0, sb], [0, 1, 0], [-sb, 0, cb]])
     rz = np.array([[cc, -sc, 0], [sc, cc, 0], [0, 0, 1]])
-    return rx @ ry @ rz
+    rotation: np.ndarray = rx @ ry @ rz
+    return rotation
 
 
 def euler_xyz(rotation: np.ndarray) -> tuple[float, float, float]:
@@ -143,9 +144,10 @@ class RTApi:
             return matrix[:3, 3].copy()
         values = np.asarray(point_or_pose, dtype=float)
         if values.shape == (3,):
-            return matrix[:3, :3] @ values + matrix[:3, 3]
+            point: np.ndarray = matrix[:3, :3] @ values + matrix[:3, 3]
+            return point
         if values.shape == (6,):
-            pose = matrix @ homogeneous(values[:3], values[3:])
+            pose = matrix @ homogeneous(values[:3].tolist(), values[3:].tolist())
             return np.concatenate([pose[:3, 3], euler_xyz(pose[:3, :3])])
         raise RTError(f"expected a point of 3 or a pose of 6 numbers, got shape {values.shape}")
 

@@ -164,7 +164,7 @@ def _fits(spec: AttributeSpec, max_bytes: int) -> Callable[[Any], bool]:
     return _STORED_CHECKS[spec.type]
 
 
-_STORED_CHECKS = {
+_STORED_CHECKS: dict[str, Callable[[Any], bool]] = {
     "bool": lambda v: type(v) is bool,
     "int": _is_int,
     "float": _is_number,

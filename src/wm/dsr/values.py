@@ -297,9 +297,10 @@ _current: dict[str, Any] = {"ontology": None, "agent_id": 0}
 
 def default_ontology() -> Ontology:
     """The ontology new Node and Edge objects are checked against: the last DSRGraph's, else the default one."""
-    if _current["ontology"] is None:
-        _current["ontology"] = Ontology.default()
-    return _current["ontology"]
+    current: Ontology | None = _current["ontology"]
+    if current is None:
+        current = _current["ontology"] = Ontology.default()
+    return current
 
 
 def use_defaults(ontology: Ontology, agent_id: int) -> None:

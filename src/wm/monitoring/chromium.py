@@ -54,7 +54,8 @@ class Page:
             if message.get("id") == ident:
                 if "error" in message:
                     raise ChromiumError(f"{method}: {message['error']}")
-                return message["result"]
+                result: dict[str, Any] = message["result"]
+                return result
 
     def eval(self, expression: str) -> Any:
         result = self.call("Runtime.evaluate", expression=expression, returnByValue=True)
@@ -141,4 +142,5 @@ def _reply(browser: ClientConnection, ident: int) -> dict[str, Any]:
         if message.get("id") == ident:
             if "error" in message:
                 raise ChromiumError(f"DevTools: {message['error']}")
-            return message["result"]
+            result: dict[str, Any] = message["result"]
+            return result

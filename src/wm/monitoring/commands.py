@@ -21,7 +21,7 @@ def add_event_filters(parser: argparse.ArgumentParser, verb: str) -> None:
     parser.add_argument("--name", action="append", help=f"{verb} only events about this node name (repeatable)")
 
 
-def add_commands(commands: argparse._SubParsersAction, common: Callable[[argparse.ArgumentParser], None]) -> None:
+def add_commands(commands: argparse._SubParsersAction[argparse.ArgumentParser], common: Callable[[argparse.ArgumentParser], None]) -> None:
     """Add the monitoring subcommands to the ``wm`` parser."""
     p = commands.add_parser("monitor", help="live terminal view of a graph (read-only)")
     common(p)

@@ -50,6 +50,7 @@ from foxglove.messages import (
 
 from ..events import Event
 from ..graph import Graph
+from ..model import Edge, Node
 from ..rt import RT
 from ..scene_json import encode_value
 from . import scene2d
@@ -117,7 +118,7 @@ def scene_update(scene: Mapping[str, Any], t_ns: int) -> SceneUpdate:
     frame = scene.get("frame") or "world"
     stamp = _stamp(t_ns)
 
-    def entity(ident: str, **primitives: list[Any]) -> SceneEntity:
+    def entity(ident: str, **primitives: Any) -> SceneEntity:
         return SceneEntity(timestamp=stamp, frame_id=frame, id=ident, **primitives)
 
     entities = []
@@ -160,7 +161,7 @@ def frame_transforms(graph: Graph, t_ns: int) -> FrameTransforms:
 
 def change_of(g: Graph, event: Event) -> dict[str, Any]:
     """An event as JSON-ready data, with the current values of the attributes it names."""
-    element = None
+    element: Node | Edge | None = None
     if event.id is not None:
         element = g.find_node(event.id)
     elif event.src is not None and event.dst is not None:
