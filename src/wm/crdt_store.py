@@ -16,13 +16,15 @@ Four root maps:
 
 This module knows nothing of the ontology, events or transport: it writes,
 and it records which keys a transaction touched so :mod:`wm.index` can turn
-them into events once the transaction is over.
+them into events once the transaction is over. The hot paths (observers,
+attribute writes, reads) call pycrdt's integrated types directly: the Python
+wrappers open a transaction and build event objects per call.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable, Iterable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -66,6 +68,33 @@ class RawChanges:
         )
 
 
+class _Transaction:
+    """:meth:`CrdtStore.transaction` (a class: a generator-based context manager costs more per write)."""
+
+    __slots__ = ("store", "origin", "outer", "txn")
+
+    def __init__(self, store: CrdtStore, origin: Any) -> None:
+        self.store, self.origin = store, origin
+
+    def __enter__(self) -> None:
+        store = self.store
+        self.outer = (store.current_origin, store._txn)
+        store.current_origin = self.origin
+        store._full = None
+        self.txn = store.doc.transaction()  # the origin is ours to keep (current_origin), not pycrdt's
+        try:
+            store._txn = self.txn.__enter__()._txn
+        except BaseException:
+            store.current_origin, store._txn = self.outer
+            raise
+
+    def __exit__(self, *exc: Any) -> None:
+        try:
+            self.txn.__exit__(*exc)
+        finally:
+            self.store.current_origin, self.store._txn = self.outer
+
+
 def _is_panic(exc: BaseException) -> bool:
     return type(exc).__name__ == "PanicException"
 
@@ -81,19 +110,22 @@ class CrdtStore:
         self.deleted: Map = self.doc.get("deleted", type=Map)
         self.pending = RawChanges()
         self.current_origin: Any = None
+        self._txn: Any = None  # pycrdt's raw transaction while :meth:`transaction` is open
+        self._full: bytes | None = None  # the whole state as one update, kept until the next transaction
         self._subscriptions: list[Any] = []
         self._observe()
 
     def _observe(self) -> None:
+        # the raw events: pycrdt's wrappers would convert every field of every event first
         self._subscriptions = [
-            self.nodes.observe_deep(self._on_nodes),
-            self.edges.observe(self._on_edges),
-            self.edge_attrs.observe(self._on_edge_attrs),
+            self.nodes.integrated.observe_deep(self._on_nodes),
+            self.edges.integrated.observe(self._on_edges),
+            self.edge_attrs.integrated.observe(self._on_edge_attrs),
         ]
 
     def _unobserve(self) -> None:
-        for root, subscription in zip((self.nodes, self.edges, self.edge_attrs), self._subscriptions):
-            root.unobserve(subscription)
+        for subscription in self._subscriptions:
+            subscription.drop()
         self._subscriptions = []
 
     def is_empty(self) -> bool:
@@ -106,16 +138,9 @@ class CrdtStore:
         changes, self.pending = self.pending, RawChanges()
         return changes
 
-    @contextmanager
-    def transaction(self, origin: Any) -> Iterator[None]:
+    def transaction(self, origin: Any) -> AbstractContextManager[None]:
         """A document transaction whose changes are attributed to ``origin`` (a replica id)."""
-        outer = self.current_origin
-        self.current_origin = origin
-        try:
-            with self.doc.transaction(origin=origin):
-                yield
-        finally:
-            self.current_origin = outer
+        return _Transaction(self, origin)
 
     def _on_nodes(self, events: list[Any]) -> None:
         for event in events:
@@ -170,19 +195,25 @@ class CrdtStore:
         contents: dict[str, NodeContent | None] = {}
         with self.doc.transaction() as txn:
             raw_txn, root = txn._txn, self.nodes.integrated
-            raw_map = type(root)
+            raw_map, get = type(root), root.get
             for key in keys:
-                if not root.has(raw_txn, key):
+                try:  # a missing key raises ValueError: one call instead of has() and get()
+                    node = get(raw_txn, key)
+                except ValueError:
                     continue
-                node = root.get(raw_txn, key)
-                if not isinstance(node, raw_map):
+                if type(node) is not raw_map:
                     contents[key] = None
                     continue
-                contents[key] = NodeContent(
-                    node.get(raw_txn, TYPE_KEY) if node.has(raw_txn, TYPE_KEY) else None,
-                    node.get(raw_txn, NAME_KEY) if node.has(raw_txn, NAME_KEY) else None,
-                    {k for k in node.keys(raw_txn) if not k.startswith("@")} if attr_names else set(),
-                )
+                try:
+                    node_type = node.get(raw_txn, TYPE_KEY)
+                except ValueError:
+                    node_type = None
+                try:
+                    name = node.get(raw_txn, NAME_KEY)
+                except ValueError:
+                    name = None
+                attrs = {k for k in node.keys(raw_txn) if not k.startswith("@")} if attr_names else set()
+                contents[key] = NodeContent(node_type, name, attrs)
         return contents
 
     def node_values(self, key: str) -> dict[str, Any] | None:
@@ -231,14 +262,28 @@ class CrdtStore:
         self.nodes[key] = Map({TYPE_KEY: node_type, NAME_KEY: name, **attrs})
 
     def set_node_attrs(self, key: str, attrs: dict[str, Any]) -> bool:
-        """Write attributes into a node's map; False if the document holds no such node."""
+        """Write plain values into a node's map (a tuple as a list); False if the document holds no such node map."""
+        txn, root = self._txn, self.nodes.integrated
         try:
-            node = self.nodes[key]  # Map.get would look the key up twice
-        except KeyError:
+            node = root.get(txn, key)
+        except ValueError:  # pycrdt's "Key error"
+            return False
+        if type(node) is not type(root):
             return False
         for attr, value in attrs.items():
-            node[attr] = value
+            node.insert(txn, attr, list(value) if type(value) is tuple else value)
         return True
+
+    def write_node_attrs(self, key: str, attrs: dict[str, Any], origin: Any) -> bool:
+        """:meth:`set_node_attrs` in a transaction of its own, attributed to ``origin`` (the common write, in one call)."""
+        outer = self.current_origin, self._txn
+        self.current_origin, self._full = origin, None
+        try:
+            with self.doc.transaction() as txn:
+                self._txn = txn._txn
+                return self.set_node_attrs(key, attrs)
+        finally:
+            self.current_origin, self._txn = outer
 
     def delete_node_attr(self, key: str, attr: str) -> None:
         node = self.nodes[key]
@@ -250,10 +295,12 @@ class CrdtStore:
         self.deleted[key] = True
 
     def set_edge(self, key: str, attrs: dict[str, Any]) -> None:
-        if self.edges.get(key) is not True:  # absent, or overwritten by a peer with something else
-            self.edges[key] = True
+        txn, edges = self._txn, self.edges.integrated
+        if not edges.has(txn, key) or edges.get(txn, key) is not True:  # absent, or overwritten by a peer
+            edges.insert(txn, key, True)
+        flat = self.edge_attrs.integrated
         for attr, value in attrs.items():
-            self.edge_attrs[f"{key}.{attr}"] = value
+            flat.insert(txn, f"{key}.{attr}", value)
 
     def delete_edge_attrs(self, key: str, attrs: set[str]) -> None:
         for attr in attrs:
@@ -272,9 +319,17 @@ class CrdtStore:
         return self.doc.get_state()
 
     def diff(self, state_vector: bytes | None = None) -> bytes:
-        """The update that brings a replica with ``state_vector`` up to date (everything if None)."""
+        """The update that brings a replica with ``state_vector`` up to date (everything if None).
+
+        The whole state is kept once computed, until the next transaction, so
+        that a member answering several joiners (``wm serve``) encodes it once.
+        """
+        if not state_vector or state_vector == EMPTY_STATE_VECTOR:
+            if self._full is None:
+                self._full = self.doc.get_update()
+            return self._full
         try:
-            return self.doc.get_update(state_vector) if state_vector else self.doc.get_update()
+            return self.doc.get_update(state_vector)
         except BaseException as exc:
             if isinstance(exc, Exception) or _is_panic(exc):
                 raise DecodeError(f"malformed state vector: {exc}") from None

@@ -159,6 +159,7 @@ class GraphIndex:
         writer: str,
         local: bool,
         volatile_attrs: Callable[[str], Iterable[str]],
+        wants: Callable[[EventKind, str], bool],
         check_values: bool = True,
         describe: bool = True,
     ) -> IndexResult:
@@ -170,7 +171,14 @@ class GraphIndex:
         values of added nodes only when ``check_values`` (a catch-up skips it:
         reads check values anyway, see :meth:`wm.Graph.left_out`). Without
         ``describe`` (nobody listens), added events carry no attribute names.
+        Update events are built only if ``wants(kind, type)``: a consumer may
+        match them.
         """
+        if local and not (changes.nodes_added or changes.nodes_removed or changes.edges_added or changes.edges_removed
+                          or changes.edge_attrs or changes.malformed_edge_attrs):
+            updated = self._local_node_updates(changes, writer, wants)
+            if updated is not None:
+                return updated
         result = IndexResult()
         check = check_values and not local
         added_nodes, removed_nodes, retyped = self._apply_nodes(
@@ -212,9 +220,42 @@ class GraphIndex:
                 if is_present:
                     result.dangling_edges.append(key)
 
-        updated = self._attribute_updates(store, changes, writer, local, added_nodes, added_edges, accepted_edge_attrs, result)
+        updated = self._attribute_updates(
+            store, changes, writer, local, added_nodes, added_edges, accepted_edge_attrs, wants, result
+        )
         result.events = retyped + added_nodes + added_edges + updated + removed_edges + removed_nodes
         return result
+
+    def _local_node_updates(
+        self, changes: RawChanges, writer: str, wants: Callable[[EventKind, str], bool]
+    ) -> IndexResult | None:
+        """The common local write, attributes of live nodes and nothing else, without the general diff.
+
+        None when a node's ``@name`` or ``@type`` changed: that is the general diff's job.
+        """
+        for attrs in changes.node_attrs.values():
+            if NAME_KEY in attrs or TYPE_KEY in attrs:
+                return None
+        result = IndexResult()
+        for key, attrs in changes.node_attrs.items():
+            event = self.local_node_update(key, attrs, writer, wants)
+            if event is not None:
+                result.events.append(event)
+        return result
+
+    def local_node_update(
+        self, key: str, attrs: set[str], writer: str, wants: Callable[[EventKind, str], bool]
+    ) -> Event | None:
+        """This replica wrote attributes (not ``@name`` or ``@type``) of a node: the event, if the node is live and wanted."""
+        head = self.node_meta.get(int(key))
+        if head is None:
+            return None
+        if self.left_out.counts["node_attr"]:
+            for attr in attrs:
+                self.left_out.discard("node_attr", f"{key}.{attr}")
+        if not wants(EventKind.NODE_UPDATED, head[0]):
+            return None
+        return Event(EventKind.NODE_UPDATED, head[0], writer, True, frozenset(attrs), int(key), head[1])
 
     def _apply_nodes(
         self,
@@ -443,20 +484,25 @@ class GraphIndex:
         added_nodes: list[Event],
         added_edges: list[Event],
         accepted_edge_attrs: dict[str, set[str]],
+        wants: Callable[[EventKind, str], bool],
         result: IndexResult,
     ) -> list[Event]:
         events = []
         fresh_nodes = {e.id for e in added_nodes}
         shown_attrs = self._shown_node_attrs(store, changes, writer, local, fresh_nodes, result)
+        updated = EventKind.NODE_UPDATED
         for key, attrs in shown_attrs.items():
             node_type, name = self.node_meta[int(key)]
-            events.append(Event(EventKind.NODE_UPDATED, node_type, writer, local, frozenset(attrs - {TYPE_KEY}), int(key), name))
+            if wants(updated, node_type):
+                events.append(Event(updated, node_type, writer, local, frozenset(attrs - {TYPE_KEY}), int(key), name))
 
         fresh_edges = {(e.src, e.dst, e.type) for e in added_edges}
         for key, attrs in changes.edge_attrs.items():
             shown = attrs if local else accepted_edge_attrs.get(key)
             if shown and key in self.visible and self.markers[key] not in fresh_edges:
                 src, dst, edge_type = self.markers[key]
+                if not wants(EventKind.EDGE_UPDATED, edge_type):
+                    continue
                 events.append(
                     Event(EventKind.EDGE_UPDATED, edge_type, writer, local, frozenset(shown), None, None,
                           src, dst, self.node_name(src), self.node_name(dst))
@@ -504,8 +550,10 @@ class GraphIndex:
                 shown[key] = keep
         return shown
 
-    def volatile_events(self, changed: Iterable[tuple[str, str]], writer: str, local: bool) -> list[Event]:
-        """NODE_UPDATED / EDGE_UPDATED events for volatile registers that changed."""
+    def volatile_events(
+        self, changed: Iterable[tuple[str, str]], writer: str, local: bool, wants: Callable[[EventKind, str], bool]
+    ) -> list[Event]:
+        """NODE_UPDATED / EDGE_UPDATED events for volatile registers that changed (those someone ``wants``)."""
         by_owner: dict[str, set[str]] = {}
         for owner, attr in changed:
             by_owner.setdefault(owner, set()).add(attr)
@@ -515,9 +563,9 @@ class GraphIndex:
             if kind == "n":
                 node_id = int(ident)
                 meta = self.node_meta.get(node_id)
-                if meta:
+                if meta and wants(EventKind.NODE_UPDATED, meta[0]):
                     events.append(Event(EventKind.NODE_UPDATED, meta[0], writer, local, frozenset(attrs), node_id, meta[1]))
-            elif ident in self.visible:
+            elif ident in self.visible and wants(EventKind.EDGE_UPDATED, self.markers[ident][2]):
                 src, dst, edge_type = self.markers[ident]
                 events.append(
                     Event(EventKind.EDGE_UPDATED, edge_type, writer, local, frozenset(attrs), None, None,
