@@ -148,6 +148,11 @@ class Graph:
         self._forget_snapshots(changes, local)
         wants = self._hub.wants
         result = self._index.apply(self._store, changes, writer, local, self._volatile_attr_names, wants, check_values, describe)
+        self._take(result, writer)
+        return result
+
+    def _take(self, result: IndexResult, writer: str) -> None:
+        """Log what the index left out, forget the registers of removed elements, queue the events."""
         if result.left_out:
             first = result.left_out[0]
             log.warning("left out %d entr%s of the document sent by %s, e.g. %s",
@@ -157,7 +162,6 @@ class Graph:
         for key in result.removed_edges:
             self._volatile.drop_owner(edge_owner(key))
         self._pending.extend(result.events)
-        return result
 
     def _repair(self, results: list[IndexResult | None], writer: str) -> None:
         """Delete dangling edge markers and rename the losers of name conflicts, once the index is right."""
@@ -615,17 +619,24 @@ class Graph:
 
         Reporting the keys of thousands of new nodes one by one costs more than
         reading the document once; the index is built from it with the view
-        rules (attribute values are checked when read, see :meth:`left_out`).
+        rules (attribute values are checked when read, see :meth:`left_out`),
+        in one pass over the node maps when nobody listens yet (the common
+        case: ``wm.connect`` catches up before it hands the graph over).
         """
         if not self.is_fresh():
             self.apply_update(update, writer)
             return
         self._store.apply_unobserved(update, writer)
-        changes = self._index.missed_changes(self._store)
+        self._node_cache.clear()
+        self._edge_cache.clear()
         collecting = gc.isenabled()
         gc.disable()  # the index adds tens of thousands of objects without cycles: full collections would only rescan them
         try:
-            result = self._apply_to_index(changes, writer, False, check_values=False, describe=self._hub.has_consumers)
+            if self._hub.has_consumers:  # their node_added events name attributes: the general diff reads them
+                result = self._apply_to_index(self._index.missed_changes(self._store), writer, False, check_values=False)
+            else:
+                result = self._index.load(self._store, writer, self._volatile_attr_names, self._hub.wants)
+                self._take(result, writer)
         finally:
             if collecting:
                 gc.enable()
