@@ -68,6 +68,31 @@ class RawChanges:
         )
 
 
+class _Read:
+    """A raw transaction to read in: the one open (a batch's), else a new one of its own.
+
+    pycrdt's wrapper costs several times the read of a few values.
+    """
+
+    __slots__ = ("doc", "own")
+
+    def __init__(self, doc: Doc) -> None:
+        self.doc = doc
+
+    def __enter__(self) -> Any:
+        current = self.doc._txn
+        if current is not None:
+            self.own = None
+            return current._txn
+        self.own = self.doc._doc.create_transaction()
+        return self.own
+
+    def __exit__(self, *exc: Any) -> None:
+        if self.own is not None:
+            self.own.commit()
+            self.own.drop()
+
+
 class _Transaction:
     """:meth:`CrdtStore.transaction` (a class: a generator-based context manager costs more per write)."""
 
@@ -176,6 +201,14 @@ class CrdtStore:
 
     # -- reads ---------------------------------------------------------------
 
+    def _read(self) -> _Read:
+        return _Read(self.doc)
+
+    def sizes(self) -> tuple[int, int]:
+        """How many node keys and edge markers the document holds."""
+        with self._read() as raw_txn:
+            return self.nodes.integrated.len(raw_txn), self.edges.integrated.len(raw_txn)
+
     def has_node(self, key: str) -> bool:
         return key in self.nodes
 
@@ -193,8 +226,8 @@ class CrdtStore:
         attribute names only with ``attr_names``.
         """
         contents: dict[str, NodeContent | None] = {}
-        with self.doc.transaction() as txn:
-            raw_txn, root = txn._txn, self.nodes.integrated
+        with self._read() as raw_txn:
+            root = self.nodes.integrated
             raw_map, get = type(root), root.get
             for key in keys:
                 try:  # a missing key raises ValueError: one call instead of has() and get()
@@ -222,8 +255,8 @@ class CrdtStore:
         One transaction and three calls per node (a catch-up reads thousands).
         """
         heads: dict[str, tuple[Any, Any] | None] = {}
-        with self.doc.transaction() as txn:
-            raw_txn, root = txn._txn, self.nodes.integrated
+        with self._read() as raw_txn:
+            root = self.nodes.integrated
             raw_map, get = type(root), root.get
             for key in root.keys(raw_txn):
                 node = get(raw_txn, key)
@@ -247,8 +280,8 @@ class CrdtStore:
         One transaction on the integrated map: the wrappers' ``items()`` opens
         one per value.
         """
-        with self.doc.transaction() as txn:
-            raw_txn, root = txn._txn, self.nodes.integrated
+        with self._read() as raw_txn:
+            root = self.nodes.integrated
             node = root.get(raw_txn, key) if root.has(raw_txn, key) else None
             if not isinstance(node, type(root)):
                 return None
@@ -257,8 +290,8 @@ class CrdtStore:
     def read_node_attrs(self, wanted: dict[str, set[str]]) -> dict[str, dict[str, Any]]:
         """The stored values of some attributes of some nodes (absent ones left out), in one transaction."""
         values: dict[str, dict[str, Any]] = {}
-        with self.doc.transaction() as txn:
-            raw_txn, root = txn._txn, self.nodes.integrated
+        with self._read() as raw_txn:
+            root = self.nodes.integrated
             raw_map = type(root)
             for key, attrs in wanted.items():
                 node = root.get(raw_txn, key) if root.has(raw_txn, key) else None
@@ -268,8 +301,8 @@ class CrdtStore:
 
     def read_flat(self, root_map: Map, keys: Iterable[str]) -> dict[str, Any]:
         """The stored values of the present ``keys`` of a root map (edges or edge_attrs), in one transaction."""
-        with self.doc.transaction() as txn:
-            raw_txn, root = txn._txn, root_map.integrated
+        with self._read() as raw_txn:
+            root = root_map.integrated
             return {key: root.get(raw_txn, key) for key in keys if root.has(raw_txn, key)}
 
     def is_deleted(self, key: str) -> bool:
@@ -277,8 +310,8 @@ class CrdtStore:
 
     def edge_attr_values(self, key: str, attrs: set[str]) -> dict[str, Any]:
         """The stored values of some attributes of one edge, in one transaction."""
-        with self.doc.transaction() as txn:
-            raw_txn, root = txn._txn, self.edge_attrs.integrated
+        with self._read() as raw_txn:
+            root = self.edge_attrs.integrated
             return {attr: root.get(raw_txn, flat) for attr in attrs if root.has(raw_txn, flat := f"{key}.{attr}")}
 
     # -- writes (call inside a transaction) ----------------------------------
@@ -364,7 +397,7 @@ class CrdtStore:
         """Apply a remote update; malformed bytes raise :class:`DecodeError` and change nothing."""
         try:
             with self.transaction(origin):
-                self.doc.apply_update(update)
+                self.doc._doc.apply_update(self._txn, update)  # in our transaction, without pycrdt's wrapper around it
         except BaseException as exc:
             if isinstance(exc, Exception) or _is_panic(exc):
                 raise DecodeError(f"malformed CRDT update: {exc}") from None

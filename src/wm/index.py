@@ -174,12 +174,13 @@ class GraphIndex:
         Update events are built only if ``wants(kind, type)``: a consumer may
         match them.
         """
-        if local and not (changes.nodes_added or changes.nodes_removed or changes.edges_added or changes.edges_removed
-                          or changes.edge_attrs or changes.malformed_edge_attrs):
-            updated = self._local_node_updates(changes, writer, wants)
-            if updated is not None:
-                return updated
         result = IndexResult()
+        if not (changes.nodes_added or changes.nodes_removed or changes.edges_added or changes.edges_removed
+                or changes.edge_attrs or changes.malformed_edge_attrs
+                or any(NAME_KEY in attrs or TYPE_KEY in attrs for attrs in changes.node_attrs.values())):
+            # the common change, attributes of nodes and nothing else: no node or edge can appear or go
+            result.events = self._attribute_updates(store, changes, writer, local, set(), set(), {}, wants, result)
+            return result
         check = check_values and not local
         new_ids, added_nodes, removed_nodes, retyped = self._apply_nodes(
             store, changes, writer, local, check, volatile_attrs if describe else None, wants, result
@@ -227,23 +228,6 @@ class GraphIndex:
             store, changes, writer, local, set(new_ids), new_edges, accepted_edge_attrs, wants, result
         )
         result.events = retyped + added_nodes + added_edges + updated + removed_edges + removed_nodes
-        return result
-
-    def _local_node_updates(
-        self, changes: RawChanges, writer: str, wants: Callable[[EventKind, str], bool]
-    ) -> IndexResult | None:
-        """The common local write, attributes of live nodes and nothing else, without the general diff.
-
-        None when a node's ``@name`` or ``@type`` changed: that is the general diff's job.
-        """
-        for attrs in changes.node_attrs.values():
-            if NAME_KEY in attrs or TYPE_KEY in attrs:
-                return None
-        result = IndexResult()
-        for key, attrs in changes.node_attrs.items():
-            event = self.local_node_update(key, attrs, writer, wants)
-            if event is not None:
-                result.events.append(event)
         return result
 
     def local_node_update(
@@ -502,10 +486,8 @@ class GraphIndex:
     def out_of_step(self, store: CrdtStore) -> bool:
         """Whether the document holds a different number of nodes or edge markers than the index and its left-outs."""
         counts = self.left_out.counts
-        return (
-            len(store.nodes) != len(self.node_meta) + counts["node"]
-            or len(store.edges) != len(self.markers) + counts["edge"]
-        )
+        nodes, edges = store.sizes()
+        return nodes != len(self.node_meta) + counts["node"] or edges != len(self.markers) + counts["edge"]
 
     def missed_changes(self, store: CrdtStore, nodes: bool = True) -> RawChanges:
         """Every node key (unless not ``nodes``) and edge marker of the document or the index, to evaluate again.
@@ -575,6 +557,7 @@ class GraphIndex:
                 if (node_id := node_id_of(key)) is not None and node_id in self.node_meta and node_id not in fresh}
         stored = store.read_node_attrs({key: {a for a in attrs if type(a) is str} for key, attrs in live.items()})
         shown: dict[str, set[str]] = {}
+        left_out = self.left_out
         for key, attrs in live.items():
             element = self.rules.ontology.node_types[self.node_meta[int(key)][0]]
             values = stored.get(key, {})
@@ -588,13 +571,14 @@ class GraphIndex:
                 if attr in values:
                     problem = self.rules.attr_problem(element, attr, values[attr])
                     if problem is not None:
-                        self.left_out.add(LeftOut("node_attr", f"{key}.{attr}", problem, writer), result)
+                        left_out.add(LeftOut("node_attr", f"{key}.{attr}", problem, writer), result)
                         continue
-                else:
-                    self.left_out.discard("node_attr", f"{key}.{attr}")
-                    if attr not in element.attributes:
-                        continue
-                self.left_out.discard("node_attr", f"{key}.{attr}")
+                elif attr not in element.attributes:
+                    if left_out.counts["node_attr"]:
+                        left_out.discard("node_attr", f"{key}.{attr}")
+                    continue
+                if left_out.counts["node_attr"]:
+                    left_out.discard("node_attr", f"{key}.{attr}")
                 keep.add(attr)
             if keep - {TYPE_KEY}:
                 shown[key] = keep

@@ -103,6 +103,7 @@ _FIELDS: dict[Kind, tuple[type, tuple[tuple[str, tuple[type, ...]], ...]]] = {
     Kind.ACK_REPLY: (AckReply, (("acked", (int,)), ("on_disk", (int,)))),
 }
 _KIND_OF = {cls: kind for kind, (cls, _) in _FIELDS.items()}
+_KIND_OF_CODE = {int(kind): kind for kind in Kind}  # a dict look-up costs less than Kind(code)
 
 
 def encode(message: Message) -> bytes:
@@ -123,8 +124,8 @@ def decode(data: bytes) -> Message:
     if version != VERSION:
         raise DecodeError(f"unsupported protocol version {version!r}")
     try:
-        kind = Kind(kind_code)
-    except (ValueError, TypeError):
+        kind = _KIND_OF_CODE[kind_code]
+    except (KeyError, TypeError):
         raise DecodeError(f"unknown message kind {kind_code!r}") from None
     if not isinstance(sender, str) or not sender:
         raise DecodeError("the sender must be a non-empty string")
