@@ -16,13 +16,15 @@ Four root maps:
 
 This module knows nothing of the ontology, events or transport: it writes,
 and it records which keys a transaction touched so :mod:`wm.index` can turn
-them into events once the transaction is over.
+them into events once the transaction is over. The hot paths (observers,
+attribute writes, reads) call pycrdt's integrated types directly: the Python
+wrappers open a transaction and build event objects per call.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable, Iterable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -66,6 +68,58 @@ class RawChanges:
         )
 
 
+class _Read:
+    """A raw transaction to read in: the one open (a batch's), else a new one of its own.
+
+    pycrdt's wrapper costs several times the read of a few values.
+    """
+
+    __slots__ = ("doc", "own")
+
+    def __init__(self, doc: Doc) -> None:
+        self.doc = doc
+
+    def __enter__(self) -> Any:
+        current = self.doc._txn
+        if current is not None:
+            self.own = None
+            return current._txn
+        self.own = self.doc._doc.create_transaction()
+        return self.own
+
+    def __exit__(self, *exc: Any) -> None:
+        if self.own is not None:
+            self.own.commit()
+            self.own.drop()
+
+
+class _Transaction:
+    """:meth:`CrdtStore.transaction` (a class: a generator-based context manager costs more per write)."""
+
+    __slots__ = ("store", "origin", "outer", "txn")
+
+    def __init__(self, store: CrdtStore, origin: Any) -> None:
+        self.store, self.origin = store, origin
+
+    def __enter__(self) -> None:
+        store = self.store
+        self.outer = (store.current_origin, store._txn)
+        store.current_origin = self.origin
+        store._full = None
+        self.txn = store.doc.transaction()  # the origin is ours to keep (current_origin), not pycrdt's
+        try:
+            store._txn = self.txn.__enter__()._txn
+        except BaseException:
+            store.current_origin, store._txn = self.outer
+            raise
+
+    def __exit__(self, *exc: Any) -> None:
+        try:
+            self.txn.__exit__(*exc)
+        finally:
+            self.store.current_origin, self.store._txn = self.outer
+
+
 def _is_panic(exc: BaseException) -> bool:
     return type(exc).__name__ == "PanicException"
 
@@ -81,19 +135,22 @@ class CrdtStore:
         self.deleted: Map = self.doc.get("deleted", type=Map)
         self.pending = RawChanges()
         self.current_origin: Any = None
+        self._txn: Any = None  # pycrdt's raw transaction while :meth:`transaction` is open
+        self._full: bytes | None = None  # the whole state as one update, kept until the next transaction
         self._subscriptions: list[Any] = []
         self._observe()
 
     def _observe(self) -> None:
+        # the raw events: pycrdt's wrappers would convert every field of every event first
         self._subscriptions = [
-            self.nodes.observe_deep(self._on_nodes),
-            self.edges.observe(self._on_edges),
-            self.edge_attrs.observe(self._on_edge_attrs),
+            self.nodes.integrated.observe_deep(self._on_nodes),
+            self.edges.integrated.observe(self._on_edges),
+            self.edge_attrs.integrated.observe(self._on_edge_attrs),
         ]
 
     def _unobserve(self) -> None:
-        for root, subscription in zip((self.nodes, self.edges, self.edge_attrs), self._subscriptions):
-            root.unobserve(subscription)
+        for subscription in self._subscriptions:
+            subscription.drop()
         self._subscriptions = []
 
     def is_empty(self) -> bool:
@@ -106,16 +163,9 @@ class CrdtStore:
         changes, self.pending = self.pending, RawChanges()
         return changes
 
-    @contextmanager
-    def transaction(self, origin: Any) -> Iterator[None]:
+    def transaction(self, origin: Any) -> AbstractContextManager[None]:
         """A document transaction whose changes are attributed to ``origin`` (a replica id)."""
-        outer = self.current_origin
-        self.current_origin = origin
-        try:
-            with self.doc.transaction(origin=origin):
-                yield
-        finally:
-            self.current_origin = outer
+        return _Transaction(self, origin)
 
     def _on_nodes(self, events: list[Any]) -> None:
         for event in events:
@@ -151,6 +201,14 @@ class CrdtStore:
 
     # -- reads ---------------------------------------------------------------
 
+    def _read(self) -> _Read:
+        return _Read(self.doc)
+
+    def sizes(self) -> tuple[int, int]:
+        """How many node keys and edge markers the document holds."""
+        with self._read() as raw_txn:
+            return self.nodes.integrated.len(raw_txn), self.edges.integrated.len(raw_txn)
+
     def has_node(self, key: str) -> bool:
         return key in self.nodes
 
@@ -168,22 +226,53 @@ class CrdtStore:
         attribute names only with ``attr_names``.
         """
         contents: dict[str, NodeContent | None] = {}
-        with self.doc.transaction() as txn:
-            raw_txn, root = txn._txn, self.nodes.integrated
-            raw_map = type(root)
+        with self._read() as raw_txn:
+            root = self.nodes.integrated
+            raw_map, get = type(root), root.get
             for key in keys:
-                if not root.has(raw_txn, key):
+                try:  # a missing key raises ValueError: one call instead of has() and get()
+                    node = get(raw_txn, key)
+                except ValueError:
                     continue
-                node = root.get(raw_txn, key)
-                if not isinstance(node, raw_map):
+                if type(node) is not raw_map:
                     contents[key] = None
                     continue
-                contents[key] = NodeContent(
-                    node.get(raw_txn, TYPE_KEY) if node.has(raw_txn, TYPE_KEY) else None,
-                    node.get(raw_txn, NAME_KEY) if node.has(raw_txn, NAME_KEY) else None,
-                    {k for k in node.keys(raw_txn) if not k.startswith("@")} if attr_names else set(),
-                )
+                try:
+                    node_type = node.get(raw_txn, TYPE_KEY)
+                except ValueError:
+                    node_type = None
+                try:
+                    name = node.get(raw_txn, NAME_KEY)
+                except ValueError:
+                    name = None
+                attrs = {k for k in node.keys(raw_txn) if not k.startswith("@")} if attr_names else set()
+                contents[key] = NodeContent(node_type, name, attrs)
         return contents
+
+    def read_heads(self) -> dict[str, tuple[Any, Any] | None]:
+        """Every node key with its map's ``@type`` and ``@name`` as stored (None when missing), or None if not a map.
+
+        One transaction and three calls per node (a catch-up reads thousands).
+        """
+        heads: dict[str, tuple[Any, Any] | None] = {}
+        with self._read() as raw_txn:
+            root = self.nodes.integrated
+            raw_map, get = type(root), root.get
+            for key in root.keys(raw_txn):
+                node = get(raw_txn, key)
+                if type(node) is not raw_map:
+                    heads[key] = None
+                    continue
+                try:
+                    node_type = node.get(raw_txn, TYPE_KEY)
+                except ValueError:
+                    node_type = None
+                try:
+                    name = node.get(raw_txn, NAME_KEY)
+                except ValueError:
+                    name = None
+                heads[key] = (node_type, name)
+        return heads
 
     def node_values(self, key: str) -> dict[str, Any] | None:
         """Every entry of one node map as stored (``@type`` and ``@name`` included), or None if it is not a map.
@@ -191,8 +280,8 @@ class CrdtStore:
         One transaction on the integrated map: the wrappers' ``items()`` opens
         one per value.
         """
-        with self.doc.transaction() as txn:
-            raw_txn, root = txn._txn, self.nodes.integrated
+        with self._read() as raw_txn:
+            root = self.nodes.integrated
             node = root.get(raw_txn, key) if root.has(raw_txn, key) else None
             if not isinstance(node, type(root)):
                 return None
@@ -201,8 +290,8 @@ class CrdtStore:
     def read_node_attrs(self, wanted: dict[str, set[str]]) -> dict[str, dict[str, Any]]:
         """The stored values of some attributes of some nodes (absent ones left out), in one transaction."""
         values: dict[str, dict[str, Any]] = {}
-        with self.doc.transaction() as txn:
-            raw_txn, root = txn._txn, self.nodes.integrated
+        with self._read() as raw_txn:
+            root = self.nodes.integrated
             raw_map = type(root)
             for key, attrs in wanted.items():
                 node = root.get(raw_txn, key) if root.has(raw_txn, key) else None
@@ -212,8 +301,8 @@ class CrdtStore:
 
     def read_flat(self, root_map: Map, keys: Iterable[str]) -> dict[str, Any]:
         """The stored values of the present ``keys`` of a root map (edges or edge_attrs), in one transaction."""
-        with self.doc.transaction() as txn:
-            raw_txn, root = txn._txn, root_map.integrated
+        with self._read() as raw_txn:
+            root = root_map.integrated
             return {key: root.get(raw_txn, key) for key in keys if root.has(raw_txn, key)}
 
     def is_deleted(self, key: str) -> bool:
@@ -221,8 +310,8 @@ class CrdtStore:
 
     def edge_attr_values(self, key: str, attrs: set[str]) -> dict[str, Any]:
         """The stored values of some attributes of one edge, in one transaction."""
-        with self.doc.transaction() as txn:
-            raw_txn, root = txn._txn, self.edge_attrs.integrated
+        with self._read() as raw_txn:
+            root = self.edge_attrs.integrated
             return {attr: root.get(raw_txn, flat) for attr in attrs if root.has(raw_txn, flat := f"{key}.{attr}")}
 
     # -- writes (call inside a transaction) ----------------------------------
@@ -231,14 +320,28 @@ class CrdtStore:
         self.nodes[key] = Map({TYPE_KEY: node_type, NAME_KEY: name, **attrs})
 
     def set_node_attrs(self, key: str, attrs: dict[str, Any]) -> bool:
-        """Write attributes into a node's map; False if the document holds no such node."""
+        """Write plain values into a node's map (a tuple as a list); False if the document holds no such node map."""
+        txn, root = self._txn, self.nodes.integrated
         try:
-            node = self.nodes[key]  # Map.get would look the key up twice
-        except KeyError:
+            node = root.get(txn, key)
+        except ValueError:  # pycrdt's "Key error"
+            return False
+        if type(node) is not type(root):
             return False
         for attr, value in attrs.items():
-            node[attr] = value
+            node.insert(txn, attr, list(value) if type(value) is tuple else value)
         return True
+
+    def write_node_attrs(self, key: str, attrs: dict[str, Any], origin: Any) -> bool:
+        """:meth:`set_node_attrs` in a transaction of its own, attributed to ``origin`` (the common write, in one call)."""
+        outer = self.current_origin, self._txn
+        self.current_origin, self._full = origin, None
+        try:
+            with self.doc.transaction() as txn:
+                self._txn = txn._txn
+                return self.set_node_attrs(key, attrs)
+        finally:
+            self.current_origin, self._txn = outer
 
     def delete_node_attr(self, key: str, attr: str) -> None:
         node = self.nodes[key]
@@ -250,10 +353,12 @@ class CrdtStore:
         self.deleted[key] = True
 
     def set_edge(self, key: str, attrs: dict[str, Any]) -> None:
-        if self.edges.get(key) is not True:  # absent, or overwritten by a peer with something else
-            self.edges[key] = True
+        txn, edges = self._txn, self.edges.integrated
+        if not edges.has(txn, key) or edges.get(txn, key) is not True:  # absent, or overwritten by a peer
+            edges.insert(txn, key, True)
+        flat = self.edge_attrs.integrated
         for attr, value in attrs.items():
-            self.edge_attrs[f"{key}.{attr}"] = value
+            flat.insert(txn, f"{key}.{attr}", value)
 
     def delete_edge_attrs(self, key: str, attrs: set[str]) -> None:
         for attr in attrs:
@@ -272,9 +377,17 @@ class CrdtStore:
         return self.doc.get_state()
 
     def diff(self, state_vector: bytes | None = None) -> bytes:
-        """The update that brings a replica with ``state_vector`` up to date (everything if None)."""
+        """The update that brings a replica with ``state_vector`` up to date (everything if None).
+
+        The whole state is kept once computed, until the next transaction, so
+        that a member answering several joiners (``wm serve``) encodes it once.
+        """
+        if not state_vector or state_vector == EMPTY_STATE_VECTOR:
+            if self._full is None:
+                self._full = self.doc.get_update()
+            return self._full
         try:
-            return self.doc.get_update(state_vector) if state_vector else self.doc.get_update()
+            return self.doc.get_update(state_vector)
         except BaseException as exc:
             if isinstance(exc, Exception) or _is_panic(exc):
                 raise DecodeError(f"malformed state vector: {exc}") from None
@@ -284,7 +397,7 @@ class CrdtStore:
         """Apply a remote update; malformed bytes raise :class:`DecodeError` and change nothing."""
         try:
             with self.transaction(origin):
-                self.doc.apply_update(update)
+                self.doc._doc.apply_update(self._txn, update)  # in our transaction, without pycrdt's wrapper around it
         except BaseException as exc:
             if isinstance(exc, Exception) or _is_panic(exc):
                 raise DecodeError(f"malformed CRDT update: {exc}") from None

@@ -36,7 +36,7 @@ class EventKind(str, Enum):
         return self.value
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Event:
     """One change. Node events set ``id``/``name``; edge events set ``src``/``dst`` and their names.
 
@@ -57,6 +57,24 @@ class Event:
     dst: int | None = None
     src_name: str | None = None
     dst_name: str | None = None
+
+    def __init__(  # noqa: PLR0913 - the fields, in order, as the generated __init__ would take them
+        self,
+        kind: EventKind,
+        type: str,  # noqa: A002
+        writer: str,
+        local: bool,
+        attrs: frozenset[str] = frozenset(),
+        id: int | None = None,  # noqa: A002
+        name: str | None = None,
+        src: int | None = None,
+        dst: int | None = None,
+        src_name: str | None = None,
+        dst_name: str | None = None,
+    ) -> None:
+        # one dict update instead of the frozen dataclass's object.__setattr__ per field (a third of the cost)
+        self.__dict__.update(kind=kind, type=type, writer=writer, local=local, attrs=attrs, id=id, name=name,
+                             src=src, dst=dst, src_name=src_name, dst_name=dst_name)
 
     def __str__(self) -> str:
         where = "local" if self.local else f"remote:{self.writer}"
@@ -184,29 +202,44 @@ class EventHub:
     def __init__(self) -> None:
         self._callbacks: list[Subscription] = []
         self._streams: list[EventStream] = []
+        self._wanted: dict[tuple[EventKind, str], bool] = {}  # (kind, type) -> whether a filter may match
         self.callback_errors = 0
 
     @property
     def has_consumers(self) -> bool:
         return bool(self._callbacks or self._streams)
 
+    def wants(self, kind: EventKind, type_name: str) -> bool:
+        """Whether some consumer's kind and type filters let such an event through (names are not looked at)."""
+        wanted = self._wanted.get((kind, type_name))
+        if wanted is None:
+            filters = [c.filter for c in self._callbacks] + [s.filter for s in self._streams]
+            wanted = self._wanted[(kind, type_name)] = any(
+                (f.kinds is None or kind.value in f.kinds) and (f.types is None or type_name in f.types) for f in filters
+            )
+        return wanted
+
     def subscribe(self, callback: Callable[[Event], object], event_filter: EventFilter) -> Subscription:
         sub = Subscription(self, callback, event_filter)
         self._callbacks.append(sub)
+        self._wanted.clear()
         return sub
 
     def stream(self, event_filter: EventFilter, maxsize: int) -> EventStream:
         stream = EventStream(self, event_filter, maxsize)
         self._streams.append(stream)
+        self._wanted.clear()
         return stream
 
     def remove_callback(self, sub: Subscription) -> None:
         if sub in self._callbacks:
             self._callbacks.remove(sub)
+            self._wanted.clear()
 
     def remove_stream(self, stream: EventStream) -> None:
         if stream in self._streams:
             self._streams.remove(stream)
+            self._wanted.clear()
 
     def publish(self, events: Iterable[Event]) -> None:
         for event in events:

@@ -4,7 +4,9 @@ This is the public face of the library. It validates every write against the
 ontology, writes durable attributes one key at a time into the CRDT document
 (:mod:`wm.crdt_store`) and volatile ones into last-writer-wins registers
 (:mod:`wm.volatile`), keeps the local index up to date (:mod:`wm.index`) and
-publishes typed events (:mod:`wm.events`). Reads return immutable snapshots.
+publishes typed events (:mod:`wm.events`). Reads return immutable snapshots,
+kept until a change touches their element (every remote transaction drops
+them all: pycrdt does not report every change a remote update makes).
 
 It knows nothing of the network: :mod:`wm.replication` moves its updates.
 A Graph is not thread-safe; use it from one thread (the asyncio loop).
@@ -12,7 +14,9 @@ A Graph is not thread-safe; use it from one thread (the asyncio loop).
 
 from __future__ import annotations
 
+import gc
 import logging
+import math
 from collections import Counter
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import AbstractContextManager, contextmanager
@@ -23,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 import msgpack
 
 from . import scene_json
-from .crdt_store import NAME_KEY, CrdtStore, RawChanges
+from .crdt_store import NAME_KEY, TYPE_KEY, CrdtStore, RawChanges
 from .errors import (
     DecodeError,
     EdgeNotFoundError,
@@ -36,8 +40,8 @@ from .events import Event, EventFilter, EventHub, EventKind, EventStream, Subscr
 from .ids import IdAllocator
 from .index import GraphIndex, IndexResult
 from .model import Edge, Node, edge_key, freeze
-from .limits import CONFLICT_SUFFIX_ROOM
-from .ontology import ElementType, Ontology, Value
+from .limits import CONFLICT_SUFFIX_ROOM, FLOAT_BYTES
+from .ontology import MAX_EXACT_INT, ElementType, Ontology, Value
 from .rt import RTApi
 from .view_rules import LeftOut, ViewRules
 from .volatile import Record, VolatileStore, check_records, edge_owner, node_owner
@@ -69,6 +73,9 @@ class Graph:
         self._shared: AbstractContextManager[None] | None = None  # a batch's open transaction
         self._write_listeners: list[Callable[[], None]] = []
         self._members: dict[str, str] = {}
+        self._checks = _WriteChecks(self.ontology)
+        self._node_cache: dict[int, Node] = {}
+        self._edge_cache: dict[str, Edge] = {}
         self.network: Replicator | None = None  # set while connected, see wm.connect
         self.rt = RTApi(self)
 
@@ -105,25 +112,14 @@ class Graph:
             shared.__exit__(None, None, None)
             self._settle(self.replica_id, local=True)
 
-    @contextmanager
-    def _transaction(self, crdt: bool = True, structural: bool = False) -> Iterator[None]:
-        """One local write. ``crdt=False`` skips the CRDT transaction for volatile-only writes."""
-        if self._shared is not None and not structural:
-            yield  # joins the batch's shared transaction; settled when the batch ends
-            return
-        reopen = self._shared is not None
-        if reopen:
-            self._commit_shared_transaction()
-        try:
-            if crdt:
-                with self._store.transaction(self.replica_id):
-                    yield
-            else:
-                yield
-            self._settle(self.replica_id, local=True)
-        finally:
-            if reopen:
-                self._open_shared_transaction()
+    def _transaction(self, crdt: bool = True, structural: bool = False) -> AbstractContextManager[None]:
+        """One local write. ``crdt=False`` skips the CRDT transaction for volatile-only writes.
+
+        Inside a batch, an attribute write joins the batch's shared transaction
+        (settled when the batch ends); a structural one commits it first and
+        reopens it after.
+        """
+        return _LocalWrite(self, crdt, structural)
 
     def _settle(self, writer: str, local: bool) -> None:
         """Turn what the last transaction touched into index updates and events, then repair."""
@@ -133,9 +129,8 @@ class Graph:
             repairs.append(self._apply_to_index(self._index.missed_changes(self._store), writer, local))
         self._repair(repairs, writer)
         if local:
-            for listener in self._write_listeners:
-                listener()
-        if self._depth == 0:
+            self._wrote()
+        elif self._depth == 0:
             self._flush_events()
 
     def reconcile(self) -> None:
@@ -150,7 +145,14 @@ class Graph:
         """Update the index and queue the events; the repairs it calls for come after, from :meth:`_repair`."""
         if not changes:
             return None
-        result = self._index.apply(self._store, changes, writer, local, self._volatile_attr_names, check_values, describe)
+        self._forget_snapshots(changes, local)
+        wants = self._hub.wants
+        result = self._index.apply(self._store, changes, writer, local, self._volatile_attr_names, wants, check_values, describe)
+        self._take(result, writer)
+        return result
+
+    def _take(self, result: IndexResult, writer: str) -> None:
+        """Log what the index left out, forget the registers of removed elements, queue the events."""
         if result.left_out:
             first = result.left_out[0]
             log.warning("left out %d entr%s of the document sent by %s, e.g. %s",
@@ -160,7 +162,6 @@ class Graph:
         for key in result.removed_edges:
             self._volatile.drop_owner(edge_owner(key))
         self._pending.extend(result.events)
-        return result
 
     def _repair(self, results: list[IndexResult | None], writer: str) -> None:
         """Delete dangling edge markers and rename the losers of name conflicts, once the index is right."""
@@ -170,6 +171,24 @@ class Graph:
             self._delete_dangling(dangling)
         if conflicts:
             self._rename_losers(conflicts, writer)
+
+    def _forget_snapshots(self, changes: RawChanges, local: bool) -> None:
+        """Drop the cached snapshots of what changed: every one after a remote transaction, else those named."""
+        if not local or changes.unreliable or changes.malformed_edge_attrs:
+            self._node_cache.clear()
+            self._edge_cache.clear()
+            return
+        nodes, edges = self._node_cache, self._edge_cache
+        if nodes:
+            for key in (*changes.nodes_added, *changes.nodes_removed, *changes.node_attrs):
+                if key.isdecimal():
+                    nodes.pop(int(key), None)
+                else:
+                    nodes.clear()
+                    break
+        if edges:
+            for key in (*changes.edges_added, *changes.edges_removed, *changes.edge_attrs):
+                edges.pop(key, None)
 
     def _flush_events(self) -> None:
         events, self._pending = self._pending, []
@@ -275,11 +294,11 @@ class Graph:
     def insert_node(self, type: str, name: str | None = None, attrs: Mapping[str, Any] | None = None) -> int:  # noqa: A002
         """Create a node and return its new id. Its name must be unique (default ``<type>_<id>``)."""
         element = self.ontology.node_type(type)
-        values = self.ontology.check_attrs(element, attrs)
+        values = self._checks.split(element, attrs)
         if name is not None:
             self.check_new_name(name)
         node_id = self._ids.next_id(self.id_taken)
-        self._create_node(node_id, element, name if name is not None else f"{type}_{node_id}", values)
+        self._create_node(node_id, element, name if name is not None else f"{type}_{node_id}", *values)
         return node_id
 
     def id_taken(self, node_id: int) -> bool:
@@ -301,8 +320,9 @@ class Graph:
         if self._index.resolve_name(name) is not None:
             raise NameExistsError(f"a node named {name!r} already exists")
 
-    def _create_node(self, node_id: int, element: ElementType, name: str, values: dict[str, Value]) -> None:
-        durable, volatile = self._split(values)
+    def _create_node(
+        self, node_id: int, element: ElementType, name: str, durable: dict[str, Value], volatile: dict[str, Value]
+    ) -> None:
         key = str(node_id)
         with self._transaction(structural=True):
             self._store.create_node(key, element.name, name, _to_crdt(durable))
@@ -312,16 +332,54 @@ class Graph:
     def update_node(self, ref: NodeRef, attrs: Mapping[str, Any]) -> None:
         """Write the given attributes, one by one; attributes not named are left as they are."""
         node_id = self.resolve(ref)
-        values = self.ontology.check_attrs(self.ontology.node_type(self._index.node_meta[node_id][0]), attrs)
-        durable, volatile = self._split(values)
+        durable, volatile = self._checks.split(self.ontology.node_types[self._index.node_meta[node_id][0]], attrs)
+        if self._shared is None and not self._store.pending:  # the common writes, without the general machinery
+            if durable and not volatile:
+                self._write_node_attrs(node_id, durable)
+                return
+            if volatile and not durable:
+                self._write_volatile(node_owner(node_id), volatile)
+                self._wrote()
+                return
         written = True
         with self._transaction(crdt=bool(durable)):
             if durable:
-                written = self._store.set_node_attrs(str(node_id), _to_crdt(durable))
+                written = self._store.set_node_attrs(str(node_id), durable)
             if volatile and written:
                 self._write_volatile(node_owner(node_id), volatile)
         if not written:
             self._lost_node(node_id)
+
+    def _write_node_attrs(self, node_id: int, values: dict[str, Value]) -> None:
+        """The common write, durable attributes of one node outside a batch, settled without the general diff.
+
+        When the transaction reports anything but attributes of this node (a
+        name, or changes left pending by a failed write), it settles as usual.
+        """
+        key, store = str(node_id), self._store
+        written = store.write_node_attrs(key, values, self.replica_id)
+        pending = store.pending
+        attrs = pending.node_attrs.get(key)
+        if (not written or attrs is None or NAME_KEY in attrs or TYPE_KEY in attrs or len(pending.node_attrs) > 1
+                or pending.nodes_added or pending.nodes_removed or pending.edges_added or pending.edges_removed
+                or pending.edge_attrs or pending.malformed_edge_attrs):
+            self._settle(self.replica_id, local=True)
+            if not written:
+                self._lost_node(node_id)
+            return
+        pending.node_attrs = {}
+        self._node_cache.pop(node_id, None)
+        event = self._index.local_node_update(key, attrs, self.replica_id, self._hub.wants)
+        if event is not None:
+            self._pending.append(event)
+        self._wrote()
+
+    def _wrote(self) -> None:
+        """After a local write settled by its caller: tell the write listeners, publish the events."""
+        for listener in self._write_listeners:
+            listener()
+        if self._depth == 0:
+            self._flush_events()
 
     def delete_attr(self, ref: NodeRef, attr: str) -> None:
         """Remove one attribute of a node (a no-op if it is not set)."""
@@ -395,6 +453,9 @@ class Graph:
         return len(self._index.node_meta)
 
     def _node_snapshot(self, node_id: int) -> Node:
+        cached = self._node_cache.get(node_id)
+        if cached is not None and self._shared is None:
+            return cached
         node_type, name = self._index.node_meta[node_id]
         element = self.ontology.node_types[node_type]
         stored = self._store.node_values(str(node_id)) or {}
@@ -404,19 +465,20 @@ class Graph:
         for attr, value in self._volatile.values(node_owner(node_id)).items():
             if attr in element.attributes:
                 attrs[attr] = decode(attr, value)
-        return Node(node_id, node_type, name, freeze(attrs))
+        node = Node(node_id, node_type, name, freeze(attrs))
+        if self._shared is None:  # inside a batch, what changed is known only when it commits
+            self._node_cache[node_id] = node
+        return node
 
     # -- edges ---------------------------------------------------------------
 
     def insert_or_assign_edge(self, src: NodeRef, dst: NodeRef, type: str, attrs: Mapping[str, Any] | None = None) -> None:  # noqa: A002
         """Create the edge if needed and write the given attributes, one by one."""
         src_id, dst_id = self.resolve(src), self.resolve(dst)
-        element = self.ontology.edge_type(type)
-        values = self.ontology.check_attrs(element, attrs)
+        durable, volatile = self._checks.split(self.ontology.edge_type(type), attrs)
         key = edge_key(src_id, dst_id, type)
         if type == "RT" and key not in self._index.visible:  # re-assigning a pose cannot change the tree
             self.rt.check_new_edge(src_id, dst_id)
-        durable, volatile = self._split(values)
         new_edge = key not in self._index.markers
         with self._transaction(crdt=bool(durable) or new_edge, structural=new_edge):
             if durable or new_edge:
@@ -472,6 +534,9 @@ class Graph:
         return key
 
     def _edge_snapshot(self, key: str) -> Edge:
+        cached = self._edge_cache.get(key)
+        if cached is not None and self._shared is None:
+            return cached
         src, dst, edge_type = self._index.markers[key]
         element = self.ontology.edge_types[edge_type]
         decode, fits = self.ontology.decode, self._rules.attr_fits
@@ -480,22 +545,26 @@ class Graph:
         for attr, value in self._volatile.values(edge_owner(key)).items():
             if attr in element.attributes:
                 attrs[attr] = decode(attr, value)
-        return Edge(src, dst, edge_type, freeze(attrs))
+        edge = Edge(src, dst, edge_type, freeze(attrs))
+        if self._shared is None:
+            self._edge_cache[key] = edge
+        return edge
 
     # -- shared write helpers ------------------------------------------------
-
-    def _split(self, values: dict[str, Value]) -> tuple[dict[str, Value], dict[str, Value]]:
-        durable: dict[str, Value] = {}
-        volatile: dict[str, Value] = {}
-        for attr, value in values.items():
-            (volatile if self.ontology.is_volatile(attr) else durable)[attr] = value
-        return durable, volatile
 
     def _write_volatile(self, owner: str, values: Mapping[str, Any]) -> None:
         for attr, value in values.items():
             self._volatile.write(owner, attr, value)
+        self._forget_owner(owner)
         if self._hub.has_consumers:
-            self._pending.extend(self._index.volatile_events([(owner, a) for a in values], self.replica_id, True))
+            self._pending.extend(self._index.volatile_events([(owner, a) for a in values], self.replica_id, True, self._hub.wants))
+
+    def _forget_owner(self, owner: str) -> None:
+        """Drop the cached snapshot of a volatile register's owner (``n:<id>`` or ``e:<key>``)."""
+        if owner[0] == "n":
+            self._node_cache.pop(int(owner[2:]), None)
+        else:
+            self._edge_cache.pop(owner[2:], None)
 
 
     def _delete_dangling(self, keys: list[str]) -> None:
@@ -550,14 +619,28 @@ class Graph:
 
         Reporting the keys of thousands of new nodes one by one costs more than
         reading the document once; the index is built from it with the view
-        rules (attribute values are checked when read, see :meth:`left_out`).
+        rules (attribute values are checked when read, see :meth:`left_out`),
+        in one pass over the node maps when nobody listens yet (the common
+        case: ``wm.connect`` catches up before it hands the graph over).
         """
         if not self.is_fresh():
             self.apply_update(update, writer)
             return
         self._store.apply_unobserved(update, writer)
-        changes = self._index.missed_changes(self._store)
-        self._repair([self._apply_to_index(changes, writer, False, check_values=False, describe=self._hub.has_consumers)], writer)
+        self._node_cache.clear()
+        self._edge_cache.clear()
+        collecting = gc.isenabled()
+        gc.disable()  # the index adds tens of thousands of objects without cycles: full collections would only rescan them
+        try:
+            if self._hub.has_consumers:  # their node_added events name attributes: the general diff reads them
+                result = self._apply_to_index(self._index.missed_changes(self._store), writer, False, check_values=False)
+            else:
+                result = self._index.load(self._store, writer, self._volatile_attr_names, self._hub.wants)
+                self._take(result, writer)
+        finally:
+            if collecting:
+                gc.enable()
+        self._repair([result], writer)
         if self._depth == 0:
             self._flush_events()
 
@@ -600,8 +683,10 @@ class Graph:
             self.refused_volatile[writer] += len(refused)
             log.warning("refused %d volatile record(s) from %s, e.g. %s", len(refused), writer, refused[0])
         changed = self._volatile.merge(accepted)
+        for owner, _ in changed:
+            self._forget_owner(owner)
         if changed and self._hub.has_consumers:
-            self._pending.extend(self._index.volatile_events(changed, writer, False))
+            self._pending.extend(self._index.volatile_events(changed, writer, False, self._hub.wants))
             if self._depth == 0:
                 self._flush_events()
 
@@ -648,9 +733,114 @@ class Graph:
         """Create a node with a given id (scene import). A live or deleted id is refused."""
         self.check_new_id(node_id)
         element = self.ontology.node_type(type)
-        values = self.ontology.check_attrs(element, attrs)
+        values = self._checks.split(element, attrs)
         self.check_new_name(name)
-        self._create_node(node_id, element, name, values)
+        self._create_node(node_id, element, name, *values)
+
+
+class _LocalWrite:
+    """:meth:`Graph._transaction` (a class: a generator-based context manager costs more per write)."""
+
+    __slots__ = ("graph", "crdt", "structural", "joined", "reopen", "txn")
+
+    def __init__(self, graph: Graph, crdt: bool, structural: bool) -> None:
+        self.graph, self.crdt, self.structural = graph, crdt, structural
+
+    def __enter__(self) -> None:
+        graph = self.graph
+        self.joined = graph._shared is not None and not self.structural
+        if self.joined:
+            return
+        self.reopen = graph._shared is not None
+        if self.reopen:
+            graph._commit_shared_transaction()
+        self.txn = graph._store.transaction(graph.replica_id) if self.crdt else None
+        if self.txn is not None:
+            try:
+                self.txn.__enter__()
+            except BaseException:
+                if self.reopen:
+                    graph._open_shared_transaction()
+                raise
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: Any) -> None:
+        if self.joined:
+            return
+        graph = self.graph
+        try:
+            if self.txn is not None:
+                self.txn.__exit__(exc_type, exc, tb)
+            if exc_type is None:
+                graph._settle(graph.replica_id, local=True)
+        finally:
+            if self.reopen:
+                graph._open_shared_transaction()
+
+
+class _WriteChecks:
+    """How each attribute of each type is checked on write: a table precompiled per type, on first use.
+
+    A value already in the form it is stored in goes through at once (a finite
+    float, an int within 2**53, a bool, a tuple of finite floats of the right
+    length); anything else goes through :meth:`wm.Ontology.check_attrs`, which
+    coerces it or raises, so the outcome is the same.
+    """
+
+    def __init__(self, ontology: Ontology) -> None:
+        self.ontology = ontology
+        self._max_vec = ontology.limits.max_value_bytes // FLOAT_BYTES
+        # (kind, type name) -> attribute -> (type stored as is or None, NaN allowed, volatile, vector length)
+        self._tables: dict[tuple[str, str], dict[str, tuple[type | None, bool, bool, int | None]]] = {}
+
+    def split(self, element: ElementType, attrs: Mapping[str, Any] | None) -> tuple[dict[str, Value], dict[str, Value]]:
+        """The checked values of a write on an element of type ``element``, durable ones and volatile ones."""
+        if type(attrs) is not dict:
+            return self._by_tier(self.ontology.check_attrs(element, attrs))
+        table = self._tables.get((element.kind, element.name))
+        if table is None:
+            table = self._tables[(element.kind, element.name)] = self._table(element)
+        durable: dict[str, Value] = {}
+        volatile: dict[str, Value] = {}
+        for attr, value in attrs.items():
+            entry = table.get(attr)
+            if entry is None:  # not allowed on this type: raises UnknownAttributeError
+                self.ontology.check_attrs(element, {attr: value})
+                continue
+            exact, nonfinite, is_volatile, length = entry
+            kind = type(value)
+            if kind is not exact or not (
+                kind is float and (nonfinite or math.isfinite(value))
+                or kind is int and -MAX_EXACT_INT <= value <= MAX_EXACT_INT
+                or kind is bool
+                or kind is tuple and self._vector_as_is(value, nonfinite, length)
+            ):
+                value = self.ontology.check_attrs(element, {attr: value})[attr]
+            (volatile if is_volatile else durable)[attr] = value
+        return durable, volatile
+
+    def _vector_as_is(self, value: tuple[Any, ...], nonfinite: bool, length: int | None) -> bool:
+        return (
+            (len(value) == length if length is not None else len(value) <= self._max_vec)
+            and all(type(x) is float for x in value)
+            and (nonfinite or all(map(math.isfinite, value)))
+        )
+
+    def _table(self, element: ElementType) -> dict[str, tuple[type | None, bool, bool, int | None]]:
+        table = {}
+        for attr in element.attributes:
+            spec = self.ontology.attribute_for(element, attr)
+            exact = {"float": float, "int": int, "bool": bool, "vec": tuple}.get(spec.type)
+            if spec.length is not None and spec.length > self._max_vec:
+                exact = None  # always too big: the ontology says why
+            table[attr] = (exact, spec.nonfinite, self.ontology.is_volatile(attr), spec.length)
+        return table
+
+    def _by_tier(self, values: dict[str, Value]) -> tuple[dict[str, Value], dict[str, Value]]:
+        durable: dict[str, Value] = {}
+        volatile: dict[str, Value] = {}
+        for attr, value in values.items():
+            (volatile if self.ontology.is_volatile(attr) else durable)[attr] = value
+        return durable, volatile
 
 
 def _to_crdt(values: Mapping[str, Value]) -> dict[str, Any]:

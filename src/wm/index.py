@@ -159,6 +159,7 @@ class GraphIndex:
         writer: str,
         local: bool,
         volatile_attrs: Callable[[str], Iterable[str]],
+        wants: Callable[[EventKind, str], bool],
         check_values: bool = True,
         describe: bool = True,
     ) -> IndexResult:
@@ -170,21 +171,29 @@ class GraphIndex:
         values of added nodes only when ``check_values`` (a catch-up skips it:
         reads check values anyway, see :meth:`wm.Graph.left_out`). Without
         ``describe`` (nobody listens), added events carry no attribute names.
+        Update events are built only if ``wants(kind, type)``: a consumer may
+        match them.
         """
         result = IndexResult()
+        if not (changes.nodes_added or changes.nodes_removed or changes.edges_added or changes.edges_removed
+                or changes.edge_attrs or changes.malformed_edge_attrs
+                or any(NAME_KEY in attrs or TYPE_KEY in attrs for attrs in changes.node_attrs.values())):
+            # the common change, attributes of nodes and nothing else: no node or edge can appear or go
+            result.events = self._attribute_updates(store, changes, writer, local, set(), set(), {}, wants, result)
+            return result
         check = check_values and not local
-        added_nodes, removed_nodes, retyped = self._apply_nodes(
-            store, changes, writer, local, check, volatile_attrs if describe else None, result
+        new_ids, added_nodes, removed_nodes, retyped = self._apply_nodes(
+            store, changes, writer, local, check, volatile_attrs if describe else None, wants, result
         )
         gone_names = {e.id: e.name for e in removed_nodes + retyped}
         accepted_edge_attrs = self._note_edge_attrs(store, changes, writer, local, result)
         touched_edges = dict.fromkeys(changes.edges_added + changes.edges_removed)
         out_edges, in_edges = self.out_edges, self.in_edges
-        for event in added_nodes + removed_nodes:
-            if event.id in out_edges or event.id in in_edges:
-                touched_edges.update(dict.fromkeys(self.edges_of(event.id)))  # type: ignore[arg-type]
+        for node_id in new_ids + [e.id for e in removed_nodes]:
+            if node_id in out_edges or node_id in in_edges:
+                touched_edges.update(dict.fromkeys(self.edges_of(node_id)))  # type: ignore[arg-type]
         present = self._present_markers(store, touched_edges, writer, local, result) if touched_edges else set()
-        added_edges, removed_edges = [], []
+        added_edges, removed_edges, new_edges = [], [], set()
         for key in touched_edges:
             parsed = self.markers.get(key) or self.rules.edge_parts(key)
             if parsed is None:
@@ -204,6 +213,9 @@ class GraphIndex:
             self._set_visible(key, edge_type, after)
             names = (self.node_name(src) or gone_names.get(src), self.node_name(dst) or gone_names.get(dst))
             if after:
+                new_edges.add(key)
+                if not wants(EventKind.EDGE_ADDED, edge_type):
+                    continue
                 attrs = frozenset(self.edge_attr_names.get(key, ())) | frozenset(volatile_attrs(f"e:{key}"))
                 added_edges.append(Event(EventKind.EDGE_ADDED, edge_type, writer, local, attrs, None, None, src, dst, *names))
             else:
@@ -212,9 +224,25 @@ class GraphIndex:
                 if is_present:
                     result.dangling_edges.append(key)
 
-        updated = self._attribute_updates(store, changes, writer, local, added_nodes, added_edges, accepted_edge_attrs, result)
+        updated = self._attribute_updates(
+            store, changes, writer, local, set(new_ids), new_edges, accepted_edge_attrs, wants, result
+        )
         result.events = retyped + added_nodes + added_edges + updated + removed_edges + removed_nodes
         return result
+
+    def local_node_update(
+        self, key: str, attrs: set[str], writer: str, wants: Callable[[EventKind, str], bool]
+    ) -> Event | None:
+        """This replica wrote attributes (not ``@name`` or ``@type``) of a node: the event, if the node is live and wanted."""
+        head = self.node_meta.get(int(key))
+        if head is None:
+            return None
+        if self.left_out.counts["node_attr"]:
+            for attr in attrs:
+                self.left_out.discard("node_attr", f"{key}.{attr}")
+        if not wants(EventKind.NODE_UPDATED, head[0]):
+            return None
+        return Event(EventKind.NODE_UPDATED, head[0], writer, True, frozenset(attrs), int(key), head[1])
 
     def _apply_nodes(
         self,
@@ -224,15 +252,17 @@ class GraphIndex:
         local: bool,
         check_values: bool,
         volatile_attrs: Callable[[str], Iterable[str]] | None,
+        wants: Callable[[EventKind, str], bool],
         result: IndexResult,
-    ) -> tuple[list[Event], list[Event], list[Event]]:
+    ) -> tuple[list[int], list[Event], list[Event], list[Event]]:
         """Add, remove, rename and re-type nodes whose key, ``@type`` or ``@name`` changed.
 
-        Returns the added, removed and re-typed (removed, then added again) events.
+        Returns the ids of the added nodes, their events (those wanted), and
+        the removed and re-typed (removed, then added again) events.
         """
         heads = [key for key, attrs in changes.node_attrs.items() if NAME_KEY in attrs or TYPE_KEY in attrs]
         if not (changes.nodes_added or changes.nodes_removed or heads):
-            return [], [], []
+            return [], [], [], []
         touched = list(dict.fromkeys(changes.nodes_added + changes.nodes_removed + heads))
         contents = store.read_nodes(touched, attr_names=check_values or volatile_attrs is not None)
         new: list[tuple[str, int]] = []
@@ -265,11 +295,13 @@ class GraphIndex:
         added = []
         for key, node_id in new:
             node_type, name = self.node_meta[node_id]
+            if not wants(EventKind.NODE_ADDED, node_type):
+                continue
             attrs: frozenset[str] = frozenset()
             if volatile_attrs is not None:
                 attrs = shown.get(key, frozenset(contents[key].attrs)) | frozenset(volatile_attrs(f"n:{key}"))  # type: ignore[union-attr]
             added.append(Event(EventKind.NODE_ADDED, node_type, writer, local, attrs, node_id, name))
-        return added, removed, retyped
+        return [node_id for _, node_id in new], added, removed, retyped
 
     def _admit_node(
         self, key: str, contents: dict[str, NodeContent | None], writer: str, result: IndexResult
@@ -280,18 +312,63 @@ class GraphIndex:
             self.left_out.discard("node", key)
             return node_id, None
         content = contents[key]
-        if node_id is None:
-            problem: str | None = "the key is not a node id (a decimal int in 1..2**53)"
-        elif content is None:
-            problem = "the value is not a map"
-        else:
-            problem = self.rules.node_problem(content.type, content.name)
+        problem = self._head_problem(node_id, None if content is None else (content.type, content.name))
         if problem is not None:
             self.left_out.add(LeftOut("node", key, problem, writer), result)
             return node_id, None
         self.left_out.discard("node", key)
         assert content is not None
         return node_id, (content.type, content.name)
+
+    def _head_problem(self, node_id: int | None, head: tuple[Any, Any] | None) -> str | None:
+        """Why the view leaves out a node key with this id (None: not an id) and map head (None: not a map), or None."""
+        if node_id is None:
+            return "the key is not a node id (a decimal int in 1..2**53)"
+        if head is None:
+            return "the value is not a map"
+        return self.rules.node_problem(*head)
+
+    def load(
+        self,
+        store: CrdtStore,
+        writer: str,
+        volatile_attrs: Callable[[str], Iterable[str]],
+        wants: Callable[[EventKind, str], bool],
+    ) -> IndexResult:
+        """Index the whole document of a fresh replica that nobody listens to yet (so no node events).
+
+        One pass over the node maps, reading each head once and adding it
+        straight to the index, then the edges as in :meth:`apply`. Attribute
+        values are checked when read (see :meth:`wm.Graph.left_out`).
+        """
+        result = IndexResult()
+        meta, names, by_type, conflicts = self.node_meta, self.names, self.by_type, result.name_conflicts
+        for key, head in store.read_heads().items():
+            node_id = node_id_of(key)
+            problem = self._head_problem(node_id, head)
+            if problem is not None:
+                self.left_out.add(LeftOut("node", key, problem, writer), result)
+                continue
+            node_type, name = meta[node_id] = head  # type: ignore[index,assignment]
+            same_name = names.get(name)
+            if same_name is None:
+                names[name] = {node_id}  # type: ignore[set-item]
+            else:
+                same_name.add(node_id)  # type: ignore[arg-type]
+                conflicts.append(name)
+            of_type = by_type.get(node_type)
+            if of_type is None:
+                by_type[node_type] = {node_id}  # type: ignore[set-item]
+            else:
+                of_type.add(node_id)  # type: ignore[arg-type]
+        edges = self.missed_changes(store, nodes=False)
+        if edges:
+            rest = self.apply(store, edges, writer, False, volatile_attrs, wants, check_values=False, describe=False)
+            result.events += rest.events
+            result.dangling_edges += rest.dangling_edges
+            result.left_out += rest.left_out
+            result.removed_edges += rest.removed_edges
+        return result
 
     def _check_new_nodes(
         self,
@@ -409,23 +486,21 @@ class GraphIndex:
     def out_of_step(self, store: CrdtStore) -> bool:
         """Whether the document holds a different number of nodes or edge markers than the index and its left-outs."""
         counts = self.left_out.counts
-        return (
-            len(store.nodes) != len(self.node_meta) + counts["node"]
-            or len(store.edges) != len(self.markers) + counts["edge"]
-        )
+        nodes, edges = store.sizes()
+        return nodes != len(self.node_meta) + counts["node"] or edges != len(self.markers) + counts["edge"]
 
-    def missed_changes(self, store: CrdtStore) -> RawChanges:
-        """Every node key and edge marker of the document or the index, to evaluate again (a full scan).
+    def missed_changes(self, store: CrdtStore, nodes: bool = True) -> RawChanges:
+        """Every node key (unless not ``nodes``) and edge marker of the document or the index, to evaluate again.
 
         pycrdt does not report every change of a remote transaction: deletions
         it held back until their items arrived, and some merges of concurrent
         writes to one key, change the document without an event. Evaluating a
         key that did not change costs a read and produces nothing.
         """
-        node_keys = set(store.nodes.keys()) | {str(node_id) for node_id in self.node_meta} | set(self.left_out.keys("node"))
+        node_keys = set(store.nodes.keys()) | {str(node_id) for node_id in self.node_meta} | set(self.left_out.keys("node")) if nodes else ()
         edge_keys = set(store.edges.keys()) | set(self.markers) | set(self.left_out.keys("edge"))
         known = {f"{key}.{attr}" for key, attrs in self.edge_attr_names.items() for attr in attrs}
-        changes = RawChanges(nodes_added=sorted(node_keys), edges_added=sorted(edge_keys))
+        changes = RawChanges(nodes_added=sorted(node_keys) if nodes else [], edges_added=sorted(edge_keys))
         for flat_key in sorted(set(store.edge_attrs.keys()) ^ (known | set(self.left_out.keys("edge_attr")))):
             key, dot, attr = flat_key.rpartition(".")
             if dot:
@@ -440,23 +515,26 @@ class GraphIndex:
         changes: RawChanges,
         writer: str,
         local: bool,
-        added_nodes: list[Event],
-        added_edges: list[Event],
+        fresh_nodes: set[int],
+        fresh_edges: set[str],
         accepted_edge_attrs: dict[str, set[str]],
+        wants: Callable[[EventKind, str], bool],
         result: IndexResult,
     ) -> list[Event]:
         events = []
-        fresh_nodes = {e.id for e in added_nodes}
         shown_attrs = self._shown_node_attrs(store, changes, writer, local, fresh_nodes, result)
+        updated = EventKind.NODE_UPDATED
         for key, attrs in shown_attrs.items():
             node_type, name = self.node_meta[int(key)]
-            events.append(Event(EventKind.NODE_UPDATED, node_type, writer, local, frozenset(attrs - {TYPE_KEY}), int(key), name))
+            if wants(updated, node_type):
+                events.append(Event(updated, node_type, writer, local, frozenset(attrs - {TYPE_KEY}), int(key), name))
 
-        fresh_edges = {(e.src, e.dst, e.type) for e in added_edges}
         for key, attrs in changes.edge_attrs.items():
             shown = attrs if local else accepted_edge_attrs.get(key)
-            if shown and key in self.visible and self.markers[key] not in fresh_edges:
+            if shown and key in self.visible and key not in fresh_edges:
                 src, dst, edge_type = self.markers[key]
+                if not wants(EventKind.EDGE_UPDATED, edge_type):
+                    continue
                 events.append(
                     Event(EventKind.EDGE_UPDATED, edge_type, writer, local, frozenset(shown), None, None,
                           src, dst, self.node_name(src), self.node_name(dst))
@@ -479,6 +557,7 @@ class GraphIndex:
                 if (node_id := node_id_of(key)) is not None and node_id in self.node_meta and node_id not in fresh}
         stored = store.read_node_attrs({key: {a for a in attrs if type(a) is str} for key, attrs in live.items()})
         shown: dict[str, set[str]] = {}
+        left_out = self.left_out
         for key, attrs in live.items():
             element = self.rules.ontology.node_types[self.node_meta[int(key)][0]]
             values = stored.get(key, {})
@@ -492,20 +571,23 @@ class GraphIndex:
                 if attr in values:
                     problem = self.rules.attr_problem(element, attr, values[attr])
                     if problem is not None:
-                        self.left_out.add(LeftOut("node_attr", f"{key}.{attr}", problem, writer), result)
+                        left_out.add(LeftOut("node_attr", f"{key}.{attr}", problem, writer), result)
                         continue
-                else:
-                    self.left_out.discard("node_attr", f"{key}.{attr}")
-                    if attr not in element.attributes:
-                        continue
-                self.left_out.discard("node_attr", f"{key}.{attr}")
+                elif attr not in element.attributes:
+                    if left_out.counts["node_attr"]:
+                        left_out.discard("node_attr", f"{key}.{attr}")
+                    continue
+                if left_out.counts["node_attr"]:
+                    left_out.discard("node_attr", f"{key}.{attr}")
                 keep.add(attr)
             if keep - {TYPE_KEY}:
                 shown[key] = keep
         return shown
 
-    def volatile_events(self, changed: Iterable[tuple[str, str]], writer: str, local: bool) -> list[Event]:
-        """NODE_UPDATED / EDGE_UPDATED events for volatile registers that changed."""
+    def volatile_events(
+        self, changed: Iterable[tuple[str, str]], writer: str, local: bool, wants: Callable[[EventKind, str], bool]
+    ) -> list[Event]:
+        """NODE_UPDATED / EDGE_UPDATED events for volatile registers that changed (those someone ``wants``)."""
         by_owner: dict[str, set[str]] = {}
         for owner, attr in changed:
             by_owner.setdefault(owner, set()).add(attr)
@@ -515,9 +597,9 @@ class GraphIndex:
             if kind == "n":
                 node_id = int(ident)
                 meta = self.node_meta.get(node_id)
-                if meta:
+                if meta and wants(EventKind.NODE_UPDATED, meta[0]):
                     events.append(Event(EventKind.NODE_UPDATED, meta[0], writer, local, frozenset(attrs), node_id, meta[1]))
-            elif ident in self.visible:
+            elif ident in self.visible and wants(EventKind.EDGE_UPDATED, self.markers[ident][2]):
                 src, dst, edge_type = self.markers[ident]
                 events.append(
                     Event(EventKind.EDGE_UPDATED, edge_type, writer, local, frozenset(attrs), None, None,

@@ -2,7 +2,9 @@
 
 It moves the messages of :mod:`wm.sync_protocol` over one Zenoh session:
 
-* local writes of one loop tick leave as one DELTA on ``wm/<g>/delta/<me>``;
+* the first local write of a loop tick leaves at once as a DELTA on
+  ``wm/<g>/delta/<me>``; the writes after it in the same tick leave together,
+  as one DELTA, at the end of the tick;
 * remote DELTAs are applied on the loop thread (Zenoh callbacks only hand the
   bytes over with ``call_soon_threadsafe``), never echoed back;
 * a gap in a sender's sequence numbers, or a HEARTBEAT showing state we lack,
@@ -169,13 +171,18 @@ class Replicator:
             self._updates.append(update)
 
     def _schedule_flush(self) -> None:
+        """After a local write: the first of a tick leaves now, the others of the tick together at its end."""
         if not self._flush_scheduled and self._loop is not None:
             self._flush_scheduled = True
+            self._publish()
             self._loop.call_soon(self._flush)
 
     def _flush(self) -> None:
-        """Publish this tick's local writes as one DELTA."""
+        """Publish the local writes made since the last DELTA, as one DELTA, and start a new tick."""
         self._flush_scheduled = False
+        self._publish()
+
+    def _publish(self) -> None:
         updates, self._updates = self._updates, []
         message = proto.make_delta(self.graph.replica_id, self.seq + 1, updates, self.graph.take_volatile_outbox())
         if message is None:

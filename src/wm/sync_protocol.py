@@ -1,6 +1,10 @@
 """The replication protocol as pure functions and messages, with no transport.
 
-Six messages, each a msgpack array ``[version, kind, sender, ...]``:
+Six messages, each a msgpack array ``[version, kind, sender, *fields]`` with
+exactly the fields listed in ``_FIELDS``, in that order (docs/replication.md,
+"Wire format"). This is version 2: version 1 also sent, in SYNC_REPLY, the
+replier's private index, and let ACK_REPLY leave ``on_disk`` out; a replica
+refuses every message of another version.
 
 ``DELTA``         a replica's local writes of one loop tick: a merged CRDT
                   update and the volatile registers written, numbered by a
@@ -34,7 +38,7 @@ from .volatile import Record, check_records
 if TYPE_CHECKING:
     from .graph import Graph
 
-VERSION = 1
+VERSION = 2
 
 
 class Kind(IntEnum):
@@ -73,7 +77,6 @@ class SyncReply:
     seq: int
     update: bytes
     volatile: list[Record] = field(default_factory=list)
-    heads: list[Any] | None = None  # ignored; older versions sent their index to a fresh asker here
 
 
 @dataclass(frozen=True)
@@ -86,7 +89,7 @@ class AckRequest:
 class AckReply:
     sender: str
     acked: int
-    on_disk: int = -1  # -1: the replier keeps nothing on disk
+    on_disk: int  # -1: the replier keeps nothing on disk
 
 
 Message = Delta | Heartbeat | SyncRequest | SyncReply | AckRequest | AckReply
@@ -95,12 +98,12 @@ _FIELDS: dict[Kind, tuple[type, tuple[tuple[str, tuple[type, ...]], ...]]] = {
     Kind.DELTA: (Delta, (("seq", (int,)), ("update", (bytes, type(None))), ("volatile", (list,)))),
     Kind.HEARTBEAT: (Heartbeat, (("seq", (int,)), ("state_vector", (bytes,)))),
     Kind.SYNC_REQUEST: (SyncRequest, (("state_vector", (bytes,)),)),
-    Kind.SYNC_REPLY: (SyncReply, (("seq", (int,)), ("update", (bytes,)), ("volatile", (list,)), ("heads", (list, type(None))))),
+    Kind.SYNC_REPLY: (SyncReply, (("seq", (int,)), ("update", (bytes,)), ("volatile", (list,)))),
     Kind.ACK_REQUEST: (AckRequest, (("seq", (int,)),)),
     Kind.ACK_REPLY: (AckReply, (("acked", (int,)), ("on_disk", (int,)))),
 }
-_OPTIONAL_TAIL = {Kind.ACK_REPLY: 1}  # fields added later: an older sender leaves them out
 _KIND_OF = {cls: kind for kind, (cls, _) in _FIELDS.items()}
+_KIND_OF_CODE = {int(kind): kind for kind in Kind}  # a dict look-up costs less than Kind(code)
 
 
 def encode(message: Message) -> bytes:
@@ -121,13 +124,13 @@ def decode(data: bytes) -> Message:
     if version != VERSION:
         raise DecodeError(f"unsupported protocol version {version!r}")
     try:
-        kind = Kind(kind_code)
-    except (ValueError, TypeError):
+        kind = _KIND_OF_CODE[kind_code]
+    except (KeyError, TypeError):
         raise DecodeError(f"unknown message kind {kind_code!r}") from None
     if not isinstance(sender, str) or not sender:
         raise DecodeError("the sender must be a non-empty string")
     cls, fields = _FIELDS[kind]
-    if not len(fields) - _OPTIONAL_TAIL.get(kind, 0) <= len(rest) <= len(fields):
+    if len(rest) != len(fields):
         raise DecodeError(f"{kind.name} has {len(fields)} fields after the sender, got {len(rest)}")
     values: dict[str, Any] = {}
     for (name, types), value in zip(fields, rest):

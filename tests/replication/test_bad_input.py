@@ -28,9 +28,9 @@ def garbage_messages(victim: str) -> list[tuple[str, bytes]]:
         ("wm/g/delta/evil", b""),
         ("wm/g/sv/evil", os.urandom(7)),
         ("wm/g/delta/evil", msgpack.packb({"not": "a message"})),
-        ("wm/g/delta/evil", msgpack.packb([1, 1, "evil", 1, b"\x00\x01garbage", []])),  # undecodable CRDT update
-        ("wm/g/delta/evil", msgpack.packb([1, 1, "mallory", 1, None, []])),  # sender does not match the key
-        ("wm/g/delta/evil", msgpack.packb([1, 1, "evil", 2, None, [["x:1", "a", 1, 1, "evil"]]])),  # bad owner
+        ("wm/g/delta/evil", msgpack.packb([proto.VERSION, 1, "evil", 1, b"\x00\x01garbage", []])),  # undecodable CRDT update
+        ("wm/g/delta/evil", msgpack.packb([proto.VERSION, 1, "mallory", 1, None, []])),  # sender does not match the key
+        ("wm/g/delta/evil", msgpack.packb([proto.VERSION, 1, "evil", 2, None, [["x:1", "a", 1, 1, "evil"]]])),  # bad owner
         ("wm/g/sv/evil", proto.encode(proto.Heartbeat("evil", 3, b"\xff\xff\xff"))),  # truncated state vector
         ("wm/g/delta/evil", msgpack.packb([99, 1, "evil", 1, None, []])),  # unknown version
         (f"wm/g/delta/{victim}", proto.encode(proto.Delta("evil", 1, None, []))),  # impersonation
