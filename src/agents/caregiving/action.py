@@ -44,10 +44,9 @@ from wm import Edge, Node
 from ..loop import Coalescer
 from ..runtime import Agent, main
 from .context import Context, read_context
-from .intention import HAS_INTENTION, KNOWS
+from .names import HAS, HAS_INTENTION, INTENTION, KNOWS, OBJECT, PERSON, ROBOT
 from .risk_options import add_risk_arguments, size_error
 
-INTENTION = "intention"
 LIVE = ("proposed", "active")
 #: Seconds one candidate move takes to judge in the simulator (the joint imagination of its walk sets).
 JUDGING = 0.05
@@ -223,7 +222,7 @@ class Action(Agent):
         return [[JointAnswer.from_wire(a) for a in islice(answers, len(g))] for g in groups]
 
     def _sigma(self) -> dict[str, float]:
-        return {n.name: n.get("position_sigma", 0.0) for t in ("person", "object") for n in self.g.nodes(t)}
+        return {n.name: n.get("position_sigma", 0.0) for t in (PERSON, OBJECT) for n in self.g.nodes(t)}
 
     async def _find(self, ctx: Context, spec: SearchSpec, idle_risk: float) -> Verdict | None:
         """Search with the simulator; each round imagines the robot starting when its command would arrive."""
@@ -258,7 +257,7 @@ class Action(Agent):
                 "observed_at": edge.get("observed_at", 0.0), "risk_at": edge.get("updated_at", 0.0),
                 "at_time": ctx.scene.time, "time_to_collision": danger.time_to_collision,
                 "in_time": chosen.in_time(danger), "reason": reason})
-            g.insert_or_assign_edge(ctx.ids[robot.name], node, "has", {"status": "proposed", "updated_at": time.time()})
+            g.insert_or_assign_edge(ctx.ids[robot.name], node, HAS, {"status": "proposed", "updated_at": time.time()})
         self.log.info("move chosen", target=move.target, x=round(move.x, 2), y=round(move.y, 2),
                       in_time=chosen.in_time(danger), risk=round(chosen.risk, 2), people=len(dangers),
                       tried=len(self.tried), refused=sorted({v.reason for v in self.tried if not v.clear})[:4],
@@ -273,7 +272,7 @@ class Action(Agent):
         far: the robot's odometry in W says by how much); judging the moves takes about :data:`JUDGING`
         each, and the executor and the world take ``--dispatch`` more.
         """
-        robot = next(iter(self.g.nodes("robot")), None)
+        robot = next(iter(self.g.nodes(ROBOT)), None)
         lag = (robot.get("stamp", ctx.scene.time) if robot is not None else ctx.scene.time) - ctx.scene.time
         return max(lag, 0.0) + JUDGING * moves + self.args.dispatch
 

@@ -25,8 +25,7 @@ from wm import Node
 
 from ..loop import Coalescer
 from ..runtime import Agent, every, main
-from .action import INTENTION
-from .context import WORLD
+from .names import HAS, INTENTION, ROBOT, WORLD
 
 
 class Executor(Agent):
@@ -51,8 +50,8 @@ class Executor(Agent):
         g = self.g
         with g.batch():
             g.update_node(node.id, {"status": status, **({"reason": reason} if reason else {})})
-            for e in g.edges(type="has", dst=node.id):
-                g.insert_or_assign_edge(e.src, node.id, "has", {"status": status, "updated_at": time.time()})
+            for e in g.edges(type=HAS, dst=node.id):
+                g.insert_or_assign_edge(e.src, node.id, HAS, {"status": status, "updated_at": time.time()})
 
     async def dispatch(self) -> None:
         world = self.g.find_node(WORLD)
@@ -78,7 +77,7 @@ class Executor(Agent):
 
     @every(0.1)
     async def watch(self) -> None:
-        robots = self.g.nodes("robot")
+        robots = self.g.nodes(ROBOT)
         if not robots:
             return
         for node in self.g.nodes(INTENTION):

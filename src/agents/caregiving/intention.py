@@ -46,11 +46,9 @@ from ..loop import Coalescer
 from ..runtime import Agent, main
 from .context import Context, read_context
 from .imagination_cache import ImaginationCache, Key, footing
+from .names import COLLISION, HAS_INTENTION, KNOWS, OBJECT
 from .risk_options import add_risk_arguments, size_error
 
-HAS_INTENTION = "has_intention"
-COLLISION = "collision"
-KNOWS = "knows"
 HEADING_PROBE = 0.4  # metres along the imagined path where its direction is measured
 
 
@@ -208,7 +206,7 @@ class Intention(Agent):
         sure = frozenset.intersection(*(c.visible for c in classes)) if classes else frozenset()
         known = {self.g.get_node(e.dst).name for e in self.g.edges(type=KNOWS, src=pid)}
         fresh = [n for n in sure if n in ctx.ids and n not in known and ctx.ids[n] != pid
-                 and self.g.find_node(ctx.ids[n]) is not None and self.g.get_node(ctx.ids[n]).type == "object"]
+                 and self.g.find_node(ctx.ids[n]) is not None and self.g.get_node(ctx.ids[n]).type == OBJECT]
         if fresh:
             with self.g.batch():
                 for name in fresh:

@@ -21,9 +21,8 @@ import zenoh
 
 from agents import bus
 from agents.caregiving import keys
-from agents.caregiving.action import INTENTION
-from agents.caregiving.context import WORLD, read_context
-from agents.caregiving.intention import HAS_INTENTION
+from agents.caregiving.context import read_context
+from agents.caregiving.names import HAS_INTENTION, INTENTION, OBJECT, PERSON, WORLD
 from wm import Event, Graph
 
 
@@ -127,9 +126,9 @@ class Harness:
     async def _cleared(self, trial: int, timeout: float) -> None:
         def clean() -> bool:
             world = self.g.find_node(WORLD)
-            return (world is not None and world.get("episode") == trial and not self.g.nodes("person")
+            return (world is not None and world.get("episode") == trial and not self.g.nodes(PERSON)
                     and not self.g.nodes(INTENTION) and not self.g.edges(type=HAS_INTENTION)
-                    and all(n.get("kind") == "wall" for n in self.g.nodes("object")))
+                    and all(n.get("kind") == "wall" for n in self.g.nodes(OBJECT)))
 
         deadline = time.monotonic() + timeout
         while not clean():
