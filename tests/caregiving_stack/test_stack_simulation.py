@@ -8,7 +8,6 @@ import math
 import pytest
 from procs import PYTHON, Proc, endpoint, free_port
 
-from agents import bus
 from agents.caregiving import keys
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.joint import JointImagination, imagine_joint
@@ -16,6 +15,7 @@ from agents.caregiving.model.robot_moves import standoff_moves
 from agents.caregiving.model.rollout import BulletRollout
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.world_model import Walk
+from agents.messaging import Messaging, NoReply, RemoteError
 from wm.connection import close_session, open_session
 
 GRAPH = "simtest"
@@ -39,8 +39,8 @@ def ask(ep: str, request: object) -> dict:
         try:
             for _ in range(100):  # until the agent's queryable is declared
                 try:
-                    return await bus.ask(session, keys.imagine(GRAPH), request, timeout=2.0)
-                except bus.NoReply:
+                    return await Messaging(session).ask(keys.imagine(GRAPH), request, timeout=2.0)
+                except NoReply:
                     await asyncio.sleep(0.1)
             raise AssertionError("the simulation agent never answered")
         finally:
@@ -83,11 +83,11 @@ def test_uncertainty_gives_a_collision_probability(sim_endpoint) -> None:
 def test_malformed_requests_get_errors_and_the_service_carries_on(sim_endpoint) -> None:
     ep, proc = sim_endpoint
     scene = load_scenario("paper_experiment1").scene().to_wire()
-    with pytest.raises(bus.RemoteError, match="request.items"):
+    with pytest.raises(RemoteError, match="request.items"):
         ask(ep, {"items": "nope", "scene": scene})
-    with pytest.raises(bus.RemoteError, match="RequestError"):
+    with pytest.raises(RemoteError, match="RequestError"):
         ask(ep, [1, 2, 3])
-    with pytest.raises(bus.RemoteError, match="no context"):
+    with pytest.raises(RemoteError, match="no context"):
         ask(ep, {"items": [{"kind": "person"}]})
     walk = {"person": "person", "target": "couch", "gaze": 0.1}
     reply = ask(ep, {"items": [{"kind": "fly", "person": "person"},

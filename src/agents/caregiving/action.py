@@ -32,19 +32,17 @@ from dataclasses import replace
 from itertools import count, islice
 from typing import Any
 
-from agents import bus
 from agents.caregiving import keys
 from agents.caregiving.model.move_search import Danger, SearchSpec, Verdict, judge, search_move
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.service import JointAnswer
 from agents.caregiving.model.visibility import GazeClass, gaze_classes
 from agents.caregiving.model.world_model import Walk
-from wm import Edge, Node
+from wm import Edge, Event, Node
 
-from ..loop import Coalescer
-from ..runtime import Agent, main
+from ..runtime import Agent, main, on
 from .context import Context, read_context
-from .names import HAS, HAS_INTENTION, INTENTION, KNOWS, OBJECT, PERSON, ROBOT
+from .names import HAS, HAS_INTENTION, INTENTION, KNOWS, OBJECT, PERSON, ROBOT, WORLD
 from .risk_options import add_risk_arguments, size_error
 
 LIVE = ("proposed", "active")
@@ -78,7 +76,6 @@ class Action(Agent):
 
     async def setup(self) -> None:
         self.size_error = size_error(self.args)
-        self.session = self.g.network.session  # type: ignore[union-attr]
         self.episode: int | None = None
         self.names = count(1)
         self.rpc_ms = self.sim_ms = 0.0
@@ -86,25 +83,16 @@ class Action(Agent):
         self.tried: list[Verdict] = []  # the moves the last search judged, for its log line
         self.new_episode = True
         self.failed: dict[int, float] = {}
-        self.loop = Coalescer(self.search, self.log, "search")
-        self.g.on(self._intention_changed, type=HAS_INTENTION, kind=["edge_added", "edge_updated"])
-        self.g.on(self._world_changed, type="world")
         self.log.info("acting", size_error=self.size_error)
 
-    async def teardown(self) -> None:
-        self.loop.cancel()
-
-    def _intention_changed(self, event: Any) -> None:
-        self.pending.add((event.src, event.dst))
-        self.loop.poke()
-
-    def _world_changed(self, event: Any) -> None:
-        if "episode" in event.attrs:
-            self.new_episode = True
-            self.loop.poke()
-
-    async def search(self) -> None:
+    @on(kind=["edge_added", "edge_updated", "node_added", "node_updated"], type=[HAS_INTENTION, WORLD], coalesce=True)
+    async def search(self, events: list[Event]) -> None:
         """Protect every person whose risky intention landed since the last search."""
+        for e in events:
+            if e.type == HAS_INTENTION and e.src is not None and e.dst is not None:
+                self.pending.add((e.src, e.dst))
+            elif e.type == WORLD and "episode" in e.attrs:
+                self.new_episode = True
         if not self.pending and not self.new_episode:
             return
         self.new_episode = False
@@ -215,7 +203,7 @@ class Action(Agent):
     async def _imagine(self, groups: list[list[dict[str, Any]]]) -> list[list[JointAnswer]]:
         """One request to the simulator for every group of items; the answers, grouped the same way."""
         sent = time.perf_counter()
-        reply = await bus.ask(self.session, keys.imagine(self.args.graph), {"items": [i for g in groups for i in g]})
+        reply = await self.ask(keys.imagine(self.args.graph), {"items": [i for g in groups for i in g]})
         self.rpc_ms += (time.perf_counter() - sent) * 1e3
         self.sim_ms += reply["compute_ms"]
         answers = iter(reply["results"])

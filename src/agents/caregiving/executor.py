@@ -19,12 +19,11 @@ import math
 import time
 from typing import Any
 
-from agents import bus
 from agents.caregiving import keys
-from wm import Node
+from wm import Event, Node
 
-from ..loop import Coalescer
-from ..runtime import Agent, every, main
+from ..messaging import MessageError
+from ..runtime import Agent, every, main, on
 from .names import HAS, INTENTION, ROBOT, WORLD
 
 
@@ -38,13 +37,7 @@ class Executor(Agent):
         parser.add_argument("--arrived", type=float, default=0.05, help="metres from the final pose counted as there")
 
     async def setup(self) -> None:
-        self.session = self.g.network.session  # type: ignore[union-attr]
-        self.loop = Coalescer(self.dispatch, self.log, "dispatch")
-        self.g.on(self.loop.poke, type=INTENTION, kind="node_added")
         self.commands = 0
-
-    async def teardown(self) -> None:
-        self.loop.cancel()
 
     def _status(self, node: Node, status: str, reason: str | None = None) -> None:
         g = self.g
@@ -53,7 +46,9 @@ class Executor(Agent):
             for e in g.edges(type=HAS, dst=node.id):
                 g.insert_or_assign_edge(e.src, node.id, HAS, {"status": status, "updated_at": time.time()})
 
-    async def dispatch(self) -> None:
+    @on(type=INTENTION, kind="node_added", coalesce=True)
+    async def dispatch(self, _events: list[Event]) -> None:
+        """Send every proposed move that has not been sent yet."""
         world = self.g.find_node(WORLD)
         episode = int(world.get("episode", 0)) if world else 0
         for node in self.g.nodes(INTENTION):
@@ -63,8 +58,8 @@ class Executor(Agent):
             request: dict[str, Any] = {"trial": episode,
                                        "move": {"target": str(node.get("target")), "x": x, "y": y, "heading": heading}}
             try:
-                reply = await bus.ask(self.session, keys.robot_cmd(self.args.graph), request, timeout=2.0)
-            except bus.BusError as exc:
+                reply = await self.ask(keys.robot_cmd(self.args.graph), request, timeout=2.0)
+            except MessageError as exc:
                 self._status(node, "failed", str(exc))
                 self.log.warning("command refused", intention=node.name, error=str(exc))
                 continue

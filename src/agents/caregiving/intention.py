@@ -37,16 +37,15 @@ from collections.abc import Awaitable
 from dataclasses import dataclass
 from typing import Any
 
-from agents import bus
 from agents.caregiving import keys
 from agents.caregiving.model.geometry import resample_by_distance
 from agents.caregiving.model.visibility import GazeClass, candidate_targets, gaze_classes
+from wm import Event
 
-from ..loop import Coalescer
-from ..runtime import Agent, main
+from ..runtime import Agent, main, on
 from .context import Context, read_context
 from .imagination_cache import ImaginationCache, Key, footing
-from .names import COLLISION, HAS_INTENTION, KNOWS, OBJECT
+from .names import COLLISION, HAS_INTENTION, KNOWS, OBJECT, PERSON
 from .risk_options import add_risk_arguments, size_error
 
 HEADING_PROBE = 0.4  # metres along the imagined path where its direction is measured
@@ -130,15 +129,10 @@ class Intention(Agent):
         self.last_time = -1.0
         self.episode: int | None = None
         self.cache = ImaginationCache(move_tol=a.move_tol, max_age=a.max_age)
-        self.session = self.g.network.session  # type: ignore[union-attr]
-        self.loop = Coalescer(self.evaluate, self.log, "evaluation")
-        self.g.on(self.loop.poke, type="person", kind=["node_added", "node_updated"])
         self.log.info("guessing", size_error=self.size_error, samples=a.samples, threshold=a.risk_threshold)
 
-    async def teardown(self) -> None:
-        self.loop.cancel()
-
-    async def evaluate(self) -> None:
+    @on(type=PERSON, kind=["node_added", "node_updated"], coalesce=True)
+    async def evaluate(self, _events: list[Event]) -> None:
         """One pass of Algorithm 1: every person tracked long enough, each in its own request, written as it lands."""
         ctx = read_context(self.g)
         if ctx is None or 0.0 <= ctx.scene.time - self.last_time < self.args.period:
@@ -182,7 +176,7 @@ class Intention(Agent):
 
         async def finish() -> None:
             if pending:
-                reply = await bus.ask(self.session, keys.imagine(a.graph), {"items": [items[i] for i, _ in pending]})
+                reply = await self.ask(keys.imagine(a.graph), {"items": [items[i] for i, _ in pending]})
                 walking = ctx.speed(person) > a.moving_speed
                 for (i, key), res in zip(pending, reply["results"], strict=True):
                     self.cache.store(key, now, res, aside=walking and self._aside(res, p.heading))

@@ -26,7 +26,6 @@ import math
 import time
 from typing import Any
 
-from agents import bus
 from agents.caregiving import keys
 from agents.caregiving.model.scenario import load_scenario
 
@@ -73,14 +72,9 @@ class Perception(Agent):
         self.episode: int | None = None
         self.nodes: dict[int, int] = {}  # track id -> node id
         self.frames = 0
-        session = self.g.network.session  # type: ignore[union-attr]
-        self._subs = [bus.subscribe(session, keys.frame(a.graph), self.on_frame),
-                      bus.subscribe(session, keys.robot_state(a.graph), self.on_robot)]
+        self.subscribe(keys.frame(a.graph), self.on_frame)
+        self.subscribe(keys.robot_state(a.graph), self.on_robot)
         self.log.info("listening", sigma=sigma, forget=a.forget)
-
-    async def teardown(self) -> None:
-        for sub in self._subs:
-            sub.undeclare()
 
     # -- episodes ------------------------------------------------------------------------------
     def _new_episode(self, trial: int) -> None:
@@ -97,7 +91,7 @@ class Perception(Agent):
         self.log.info("new episode", trial=trial)
 
     # -- the robot -----------------------------------------------------------------------------
-    def on_robot(self, m: dict[str, Any]) -> None:
+    async def on_robot(self, m: dict[str, Any]) -> None:
         g = self.g
         if m.get("trial") != self.episode:
             self._new_episode(int(m["trial"]))
@@ -123,7 +117,7 @@ class Perception(Agent):
             g.rt.set_pose2d(WORLD, m["name"], m["x"], m["y"], m["heading"])
 
     # -- detections ----------------------------------------------------------------------------
-    def on_frame(self, m: dict[str, Any]) -> None:
+    async def on_frame(self, m: dict[str, Any]) -> None:
         if m.get("trial") != self.episode:
             return  # a frame of a finished trial, or before the first robot state
         stamp = float(m["stamp"])

@@ -12,6 +12,7 @@ happened arrives on ``world/outcome``.
 from __future__ import annotations
 
 import asyncio
+import logging
 import math
 import time
 from dataclasses import dataclass, field
@@ -19,11 +20,13 @@ from typing import Any
 
 import zenoh
 
-from agents import bus
 from agents.caregiving import keys
 from agents.caregiving.context import read_context
 from agents.caregiving.names import HAS_INTENTION, INTENTION, OBJECT, PERSON, WORLD
+from agents.messaging import Messaging, TaskSet, logging_guard
 from wm import Event, Graph
+
+log = logging.getLogger(__name__)
 
 
 class TrialError(RuntimeError):
@@ -83,22 +86,26 @@ def snapshot(g: Graph, action: dict[str, Any] | None) -> Snapshot | None:
 
 
 class Harness:
-    """Drives trials through the world bridge and watches W."""
+    """Drives trials through the world bridge and watches W (a replica over ``session``)."""
 
-    def __init__(self, g: Graph, graph: str) -> None:
+    def __init__(self, g: Graph, session: zenoh.Session, graph: str) -> None:
         self.g = g
         self.graph = graph
-        self.session: zenoh.Session = g.network.session  # type: ignore[union-attr]
         self._outcomes: dict[int, asyncio.Future[dict[str, Any]]] = {}
-        self._sub = bus.subscribe(self.session, keys.world_outcome(graph), self._on_outcome)
         self._record: TrialRecord | None = None
         self._episode = 0
+        self._tasks = TaskSet()
+        self.messaging = Messaging(session, logging_guard(log))
+        self.messaging.subscribe(keys.world_outcome(graph), self._on_outcome)
+        self.messaging.start(self._tasks)
         g.on(self._on_event, type=[HAS_INTENTION, INTENTION])
 
-    def close(self) -> None:
-        self._sub.undeclare()
+    async def close(self) -> None:
+        """Stop listening to the world bridge."""
+        await self._tasks.aclose()
+        self.messaging.close()
 
-    def _on_outcome(self, message: dict[str, Any]) -> None:
+    async def _on_outcome(self, message: dict[str, Any]) -> None:
         future = self._outcomes.get(message.get("trial", -1))
         if future is not None and not future.done():
             future.set_result(message)
@@ -121,7 +128,7 @@ class Harness:
                 rec.snapshot = snapshot(self.g, rec.action)
 
     async def _ask(self, request: dict[str, Any]) -> dict[str, Any]:
-        return await bus.ask(self.session, keys.world_control(self.graph), request, timeout=10.0)
+        return await self.messaging.ask(keys.world_control(self.graph), request, timeout=10.0)
 
     async def _cleared(self, trial: int, timeout: float) -> None:
         def clean() -> bool:
