@@ -211,9 +211,11 @@ class Messaging:
 
         def get() -> tuple[bool, bytes] | None:
             for reply in session.get(key, payload=payload, timeout=timeout):
-                if reply.ok is not None:
-                    return True, reply.ok.payload.to_bytes()
-                return False, reply.err.payload.to_bytes()
+                ok, err = reply.ok, reply.err
+                if ok is not None:
+                    return True, ok.payload.to_bytes()
+                if err is not None:
+                    return False, err.payload.to_bytes()
             return None
 
         result = await asyncio.to_thread(get)

@@ -35,7 +35,8 @@ from typing import Any
 from agents.caregiving import keys
 from agents.caregiving.model.move_search import Danger, SearchSpec, Verdict, judge, search_move
 from agents.caregiving.model.robot_moves import RobotMove
-from agents.caregiving.model.service import JointAnswer
+from agents.caregiving.model import imagine_reply
+from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.visibility import GazeClass, gaze_classes
 from agents.caregiving.model.world_model import Walk
 from wm import Edge, Event, Node
@@ -200,14 +201,15 @@ class Action(Agent):
                 verdicts[k] = judge(moves[k], first[k] + answers)
         return verdicts
 
-    async def _imagine(self, groups: list[list[dict[str, Any]]]) -> list[list[JointAnswer]]:
+    async def _imagine(self, groups: list[list[dict[str, Any]]]) -> list[list[Answer]]:
         """One request to the simulator for every group of items; the answers, grouped the same way."""
         sent = time.perf_counter()
-        reply = await self.ask(keys.imagine(self.args.graph), {"items": [i for g in groups for i in g]})
+        reply = await self.ask(keys.imagine(self.args.graph), {"items": [i for g in groups for i in g]},
+                               decode=imagine_reply.decode)
         self.rpc_ms += (time.perf_counter() - sent) * 1e3
-        self.sim_ms += reply["compute_ms"]
-        answers = iter(reply["results"])
-        return [[JointAnswer.from_wire(a) for a in islice(answers, len(g))] for g in groups]
+        self.sim_ms += reply.compute_ms
+        answers = iter(reply.results)
+        return [list(islice(answers, len(g))) for g in groups]
 
     def _sigma(self) -> dict[str, float]:
         return {n.name: n.get("position_sigma", 0.0) for t in (PERSON, OBJECT) for n in self.g.nodes(t)}

@@ -58,7 +58,7 @@ class Executor(Agent):
             request: dict[str, Any] = {"trial": episode,
                                        "move": {"target": str(node.get("target")), "x": x, "y": y, "heading": heading}}
             try:
-                reply = await self.ask(keys.robot_cmd(self.args.graph), request, timeout=2.0)
+                reply: dict[str, Any] = await self.ask(keys.robot_cmd(self.args.graph), request, timeout=2.0)
             except MessageError as exc:
                 self._status(node, "failed", str(exc))
                 self.log.warning("command refused", intention=node.name, error=str(exc))

@@ -7,9 +7,8 @@ PyBullet DIRECT world, moving bodies rather than re-creating them) and serves
 the queryable ``wm/<g>/sim/imagine`` with :mod:`agents.caregiving.model.service` (the request
 and item forms are documented there). A request's optional ``scene`` pins the
 context; without it the context is W as this replica holds it when the request
-arrives, frozen for the whole batch. The reply is ::
-
-    {"episode", "stamp", "written_at", "compute_ms", "results": [ANSWER, ...]}
+arrives, frozen for the whole batch. The reply is an
+:class:`~agents.caregiving.model.imagine_reply.ImagineReply`.
 
 A malformed item gets its own error entry; a malformed request an error reply.
 Items are served one at a time, by one request handler at a time: it serves the
@@ -28,6 +27,8 @@ from itertools import count
 from typing import Any
 
 from agents.caregiving import keys
+from agents.caregiving.model import imagine_reply
+from agents.caregiving.model.imagine_reply import Answer, ImagineReply
 from agents.caregiving.model.rollout import BulletRollout, NumpyRollout, Rollout
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import batch_scene, serve_one
@@ -46,7 +47,7 @@ class _Job:
     seq: int
     scene: Scene
     items: list[Any]
-    results: list[dict[str, Any]] = field(default_factory=list)
+    results: list[Answer] = field(default_factory=list)
 
     @property
     def done(self) -> bool:
@@ -99,12 +100,11 @@ class Simulation(Agent):
         self.jobs.append(job)
         async with self._serving:
             await self._serve_until(job)
-        results = job.results
-        self.served += len(results)
-        pinned = ctx is None or scene is not ctx.scene
-        return {"episode": None if pinned else ctx.episode, "stamp": scene.time,
-                "written_at": None if pinned else ctx.written_at, "results": results,
-                "compute_ms": (time.perf_counter() - start) * 1e3}
+        self.served += len(job.results)
+        context = ctx if ctx is not None and scene is ctx.scene else None  # None: the request pinned its scene
+        return imagine_reply.encode(ImagineReply(
+            context.episode if context else None, scene.time, context.written_at if context else None,
+            (time.perf_counter() - start) * 1e3, tuple(job.results)))
 
     async def _serve_until(self, mine: _Job) -> None:
         """Serve queued items one at a time, robot-move batches (Algorithm 2) first, until ``mine`` is done.
