@@ -50,16 +50,14 @@ from rich.progress import (
 )
 from rich.table import Table
 
-import wm
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import Scenario, load_scenario
 from agents.caregiving.model.world_model import run_idle
 from bridges.world.bridge import trial_for
-from wm.connection import close_session, open_session
 
 from .launch import Stack
 from .oracle import OracleVerdict, oracle
-from .trials import Harness, TrialRecord, finite
+from .trials import TrialRecord, finite, open_harness
 
 #: When no risky intention arose, the oracle acts at the time the pipeline typically does (simulated seconds).
 ORACLE_AT = 0.5
@@ -188,34 +186,20 @@ async def run_trials(scenario: Scenario, stack: Stack, seed: int, indices: list[
 
     ``scenario_file`` switches the world bridge to that file (``scenario`` is its loaded form).
     """
-    scored: list[Scored] = []
-    session = await open_session(connect=[stack.endpoint])
-    try:
-        async with wm.connect(graph, name="experiment", connect=[stack.endpoint], session=session) as g:
-            harness = Harness(g, session, graph)
-            try:
-                await _run_each(harness, scenario, stack, seed, indices, console, scenario_file, scored)
-            finally:
-                await harness.close()
-    finally:
-        await close_session(session)
-    return scored
-
-
-async def _run_each(harness: Harness, scenario: Scenario, stack: Stack, seed: int, indices: list[int | None],
-                    console: Console, scenario_file: str | None, scored: list[Scored]) -> None:
-    """Run each trial in turn with a progress bar, appending it to ``scored``."""
     planner = GridPlanner(scenario.scene().bounds)
     timeout = 30.0 / stack.rate + 20.0
-    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
-    with Progress(*columns, console=console, transient=True) as progress:
-        task = progress.add_task("trials", total=len(indices))
-        for index in indices:
-            stack.check()
-            record = await harness.run(seed, index, timeout, scenario_file)
-            truth = run_idle(trial_for(scenario, seed, index), planner=planner)
-            scored.append(Scored(record, truth.collided, min(truth.min_clearance.values(), default=float("inf"))))
-            progress.update(task, advance=1, description=f"trials ({sum(s.record.collided for s in scored)} collided)")
+    scored: list[Scored] = []
+    async with open_harness(stack.endpoint, graph) as harness:
+        columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+        with Progress(*columns, console=console, transient=True) as progress:
+            task = progress.add_task("trials", total=len(indices))
+            for index in indices:
+                stack.check()
+                record = await harness.run(seed, index, timeout, scenario_file)
+                truth = run_idle(trial_for(scenario, seed, index), planner=planner)
+                scored.append(Scored(record, truth.collided, min(truth.min_clearance.values(), default=float("inf"))))
+                progress.update(task, advance=1, description=f"trials ({sum(s.record.collided for s in scored)} collided)")
+    return scored
 
 
 def _judge_trial(job: tuple[Scenario, int, int | None, float]) -> OracleVerdict:

@@ -15,6 +15,8 @@ import asyncio
 import logging
 import math
 import time
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -23,8 +25,10 @@ import zenoh
 from agents.caregiving import keys
 from agents.caregiving.context import read_context
 from agents.caregiving.names import HAS_INTENTION, INTENTION, OBJECT, PERSON, WORLD
+import wm
 from agents.messaging import Messaging, TaskSet, logging_guard
 from wm import Event, Graph
+from wm.connection import close_session, open_session
 
 log = logging.getLogger(__name__)
 
@@ -164,6 +168,21 @@ class Harness:
             self._outcomes.pop(trial, None)
             self._record = None
         return record
+
+
+@asynccontextmanager
+async def open_harness(endpoint: str, graph: str, name: str = "experiment") -> AsyncIterator[Harness]:
+    """A :class:`Harness` joined to the stack at ``endpoint``: a replica of W and the world bridge's messages."""
+    session = await open_session(connect=[endpoint])
+    try:
+        async with wm.connect(graph, name=name, connect=[endpoint], session=session) as g:
+            harness = Harness(g, session, graph)
+            try:
+                yield harness
+            finally:
+                await harness.close()
+    finally:
+        await close_session(session)
 
 
 def finite(values: list[float | None]) -> list[float]:
