@@ -13,9 +13,17 @@
 
         async def setup(self):
             self.log.info("starting", people=len(self.g.nodes("person")))
+            self.subscribe(f"sensors/{self.args.graph}/frame", self.on_frame)
 
         @on(kind="node_updated", type="person")
         async def person_moved(self, event):
+            ...
+
+        @on(type="person", coalesce=True)
+        async def evaluate(self, events):
+            ...
+
+        async def on_frame(self, message):
             ...
 
         @every(1.0)
@@ -28,13 +36,25 @@
 Each ``@on`` handler reads its own bounded event stream of the graph: it gets
 its events in order, one at a time, and a slow handler never blocks a writer
 (when its stream is full the oldest event is dropped, and the drop is logged).
-The stream is opened before :meth:`Agent.setup`, so an agent that reads the
-graph in ``setup`` misses no change made after that read. A handler or periodic
-task that raises is logged with its context and the agent carries on; one that
-fails ``crash_loop_failures`` times within ``crash_loop_window`` seconds is
-logged as a ``crash loop``. Everything runs in one ``asyncio.TaskGroup`` inside
-``wm.connect``; SIGINT and SIGTERM stop the agent cleanly (its ``agent`` node is
-deleted, ``teardown`` runs, the session is closed).
+With ``coalesce=True`` it works on the latest state instead: it gets every
+event pending as one list, so a burst of events runs it once, and the events
+that come while it runs make it run once more. The stream is opened before
+:meth:`Agent.setup`, so an agent that reads the graph in ``setup`` misses no
+change made after that read.
+
+Beside the graph, an agent talks over Zenoh through the runtime's
+:class:`~agents.messaging.Messaging` on the same session (``self.zenoh``):
+in ``setup`` it declares ``self.subscribe(key, handler)`` and
+``self.serve(key, handler)``, and ``self.publisher(key)``; ``await
+self.ask(key, request)`` works anywhere. The runtime runs the subscriptions and
+services in its task group and undeclares them on the way out.
+
+A handler or periodic task that raises is logged with its context and the
+agent carries on; one that fails ``crash_loop_failures`` times within
+``crash_loop_window`` seconds is logged as a ``crash loop``. Everything runs in
+one ``asyncio.TaskGroup`` inside ``wm.connect``; SIGINT and SIGTERM stop the
+agent cleanly (its ``agent`` node is deleted, ``teardown`` runs, the session is
+closed).
 """
 
 from __future__ import annotations
@@ -50,28 +70,34 @@ from collections.abc import Awaitable, Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, NoReturn, TypeVar
 
+import zenoh
+
 import wm
 from wm import Event, EventStream, Graph
-from wm.reaper import install_reaper
+from wm.connection import close_session, open_session
 from wm.events import EventFilter
+from wm.reaper import install_reaper
 from wm.zenoh_config import load_with_environment
 
 from . import logs
 from .agent_node import AgentNode
+from .messaging import Messaging, Publisher, plain
 
 F = TypeVar("F", bound=Callable[..., Any])
+T = TypeVar("T")
 ON_ATTR = "_agent_on"
 EVERY_ATTR = "_agent_every"
 
 
 @dataclass(frozen=True)
-class Subscription:
-    """What one ``@on`` handler wants: an event filter and the size of its stream."""
+class EventSpec:
+    """What one ``@on`` handler wants: an event filter, the size of its stream, and whether it coalesces."""
 
     kind: str | tuple[str, ...] | None
     type: str | tuple[str, ...] | None
     name: str | tuple[str, ...] | None
     maxsize: int
+    coalesce: bool
 
 
 def _tuple(value: str | Iterable[str] | None) -> str | tuple[str, ...] | None:
@@ -84,12 +110,15 @@ def on(
     name: str | Iterable[str] | None = None,
     *,
     maxsize: int = 1024,
+    coalesce: bool = False,
 ) -> Callable[[F], F]:
     """Declare an async method ``handler(self, event)`` for the matching graph events.
 
     The filter is that of ``Graph.events``: event kinds (``node_added``,
     ``edge_updated``, ``member_left``, ...), node/edge types and node names; each
     takes one value or several. ``maxsize`` bounds the handler's backlog.
+    With ``coalesce=True`` the handler is ``handler(self, events)`` and gets
+    every pending event at once: one run for a burst, never two at a time.
     """
     EventFilter.of(kind, type, name)  # an unknown kind fails at class definition
 
@@ -98,7 +127,7 @@ def on(
             raise TypeError(f"@on handler {method.__qualname__} must be an async def")
         if hasattr(method, ON_ATTR):
             raise TypeError(f"{method.__qualname__} has two @on; give one @on several kinds/types/names instead")
-        setattr(method, ON_ATTR, Subscription(_tuple(kind), _tuple(type), _tuple(name), maxsize))
+        setattr(method, ON_ATTR, EventSpec(_tuple(kind), _tuple(type), _tuple(name), maxsize, coalesce))
         return method
 
     return mark
@@ -134,7 +163,8 @@ class Agent:
     Class attributes: ``name`` (the default ``--name``), ``status_period``
     (seconds between refreshes of the ``agent`` node), ``crash_loop_failures``
     and ``crash_loop_window``. While running, ``self.g`` is the replicated
-    graph, ``self.log`` the structured logger, ``self.args`` the parsed command
+    graph, ``self.zenoh`` the Zenoh session it replicates over (None on a local
+    graph), ``self.log`` the structured logger, ``self.args`` the parsed command
     line and ``self.stats`` the counters of every handler and periodic task.
     """
 
@@ -148,6 +178,8 @@ class Agent:
         self.name = name or getattr(self.args, "name", None) or type(self).name
         self.log = logs.AgentLogger(self.name)
         self.g: Graph = None  # type: ignore[assignment]  # set by run()
+        self.zenoh: zenoh.Session | None = None
+        self.messaging = Messaging(None, self._guarded)
         self.stats: dict[str, TaskStats] = {}
 
     @classmethod
@@ -160,10 +192,29 @@ class Agent:
     async def teardown(self) -> None:
         """Called on the way out, while still connected (override)."""
 
+    # -- messages beside the graph --------------------------------------------
+
+    def subscribe(self, key: str, handler: Callable[[T], Awaitable[None]], *, decode: Callable[[Any], T] = plain,
+                  maxsize: int = 1024) -> None:
+        """Run ``await handler(decode(message))`` for every message on ``key`` (see :meth:`Messaging.subscribe`)."""
+        self.messaging.subscribe(key, handler, decode=decode, maxsize=maxsize)
+
+    def serve(self, key: str, handler: Callable[[T], Awaitable[Any]], *, decode: Callable[[Any], T] = plain) -> None:
+        """Answer each query on ``key`` with ``await handler(decode(request))`` (see :meth:`Messaging.serve`)."""
+        self.messaging.serve(key, handler, decode=decode)
+
+    def publisher(self, key: str, *, express: bool = False) -> Publisher:
+        """A publisher on ``key``, undeclared by the runtime on the way out."""
+        return self.messaging.publisher(key, express=express)
+
+    async def ask(self, key: str, request: Any, *, decode: Callable[[Any], T] = plain, timeout: float = 5.0) -> T:
+        """Send one request and return ``decode`` of the reply (see :meth:`Messaging.ask`)."""
+        return await self.messaging.ask(key, request, decode=decode, timeout=timeout)
+
     # -- declared handlers ----------------------------------------------------
 
     @classmethod
-    def handlers(cls) -> dict[str, Subscription]:
+    def handlers(cls) -> dict[str, EventSpec]:
         return {n: getattr(m, ON_ATTR) for n, m in inspect.getmembers(cls, inspect.isfunction) if hasattr(m, ON_ATTR)}
 
     @classmethod
@@ -172,14 +223,14 @@ class Agent:
 
     # -- running --------------------------------------------------------------
 
-    async def run(self, g: Graph) -> None:
-        """Run on a graph that is already connected (``wm.connect``), until cancelled."""
+    async def run(self, g: Graph, session: zenoh.Session | None = None) -> None:
+        """Run on a graph that is already connected (``wm.connect`` over ``session``), until cancelled."""
         self.g = g
+        self.zenoh = self.messaging.session = session
         reaper = install_reaper(g)
-        streams = {
-            handler: g.events(sub.kind, sub.type, sub.name, maxsize=sub.maxsize)
-            for handler, sub in self.handlers().items()
-        }
+        specs = self.handlers()
+        streams = {handler: g.events(spec.kind, spec.type, spec.name, maxsize=spec.maxsize)
+                   for handler, spec in specs.items()}
         node = AgentNode(g, self.name, self.log, self.status_period)
         try:
             await node.start()
@@ -187,8 +238,9 @@ class Agent:
             self.log.info("running", replica=g.replica_id, handlers=",".join(streams) or "-",
                           periodic=",".join(self.periodic_tasks()) or "-")
             async with asyncio.TaskGroup() as tasks:
+                self.messaging.start(tasks)
                 for handler, stream in streams.items():
-                    tasks.create_task(self._consume(handler, stream), name=handler)
+                    tasks.create_task(self._consume(handler, stream, specs[handler].coalesce), name=handler)
                 for task, period in self.periodic_tasks().items():
                     tasks.create_task(self._repeat(task, period), name=task)
                 tasks.create_task(self._repeat_refresh(node), name="agent-node")
@@ -199,9 +251,10 @@ class Agent:
             try:
                 await self._guarded("teardown", self.teardown)
             finally:
+                self.messaging.close()
                 await node.remove()
 
-    async def _consume(self, handler: str, stream: EventStream) -> None:
+    async def _consume(self, handler: str, stream: EventStream, coalesce: bool) -> None:
         method = getattr(self, handler)
         stats = self.stats.setdefault(handler, TaskStats())
         async for event in stream:
@@ -209,7 +262,13 @@ class Agent:
                 self.log.warning("events dropped", handler=handler, dropped=stream.dropped - stats.dropped,
                                  total=stream.dropped, backlog=len(stream))
                 stats.dropped = stream.dropped
-            await self._guarded(handler, method, event)
+            if coalesce:
+                burst = [event]
+                while (more := stream.get_nowait()) is not None:
+                    burst.append(more)
+                await self._guarded(handler, method, burst)
+            else:
+                await self._guarded(handler, method, event)
 
     async def _repeat(self, task: str, period: float) -> None:
         method = getattr(self, task)
@@ -239,11 +298,13 @@ class Agent:
             self._failed(what, stats, exc, args[0] if args else None)
             return False
 
-    def _failed(self, what: str, stats: TaskStats, exc: Exception, event: Event | None) -> None:
+    def _failed(self, what: str, stats: TaskStats, exc: Exception, argument: object) -> None:
         stats.failures += 1
         context: dict[str, Any] = {"handler": what, "failures": stats.failures}
-        if event is not None:
-            context["event"] = str(event)
+        if isinstance(argument, Event):
+            context["event"] = str(argument)
+        elif isinstance(argument, list):  # a coalesced burst
+            context["events"] = len(argument)
         self.log.error("handler failed", exc=exc, **context)
         now = time.monotonic()
         recent = stats.recent_failures
@@ -295,11 +356,15 @@ async def run_agent(agent: Agent) -> None:
         loop.add_signal_handler(sig, task.cancel)
     ontology = wm.Ontology.load(args.ontology) if getattr(args, "ontology", None) else None
     try:
-        async with wm.connect(
-            args.graph, load_with_environment(args.config), agent.name, connect=args.connect or None, listen=args.listen or None,
-            mode=args.mode, ontology=ontology,
-        ) as g:
-            await agent.run(g)
+        config = load_with_environment(args.config)
+        session = await open_session(config, connect=args.connect or None, listen=args.listen or None, mode=args.mode)
+        try:
+            async with wm.connect(
+                args.graph, config, agent.name, connect=args.connect or None, ontology=ontology, session=session,
+            ) as g:
+                await agent.run(g, session)
+        finally:
+            await close_session(session)
     finally:
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.remove_signal_handler(sig)

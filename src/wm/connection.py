@@ -104,6 +104,7 @@ async def connect(
     catch_up: bool = True,
     join_wait: float | None = None,
     read_only: bool = False,
+    session: zenoh.Session | None = None,
 ) -> AsyncIterator[Graph]:
     """Yield a :class:`wm.Graph` replica of graph ``graph``, kept in sync with every peer.
 
@@ -118,11 +119,17 @@ async def connect(
     to connect (``connect`` or a config file), it waits up to ``join_wait``
     seconds (default 3) for the network to show one; a replica that only
     listens is the first of its graph and does not wait.
+
+    ``session``, when given, is an open Zenoh session (:func:`open_session`)
+    to replicate over instead of opening one; the caller keeps it, uses it for
+    its own messages beside the graph, and closes it.
     """
     if join_wait is None:
         join_wait = DEFAULT_JOIN_WAIT if (connect or config is not None) else 0.0
     g = replica if replica is not None else Graph(ontology)
-    session = await open_session(config, connect=connect, listen=listen, mode=mode)
+    own_session = session is None
+    if session is None:
+        session = await open_session(config, connect=connect, listen=listen, mode=mode)
     replicator = Replicator(
         g, session, graph, name or default_agent_name(), heartbeat_period=heartbeat_period, read_only=read_only
     )
@@ -136,4 +143,5 @@ async def connect(
             await replicator.stop()
         finally:
             g.network = None
-            await close_session(session)
+            if own_session:
+                await close_session(session)

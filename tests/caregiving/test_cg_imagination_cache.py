@@ -7,6 +7,8 @@ from dataclasses import replace
 
 from agents.caregiving.imagination_cache import ImaginationCache, footing
 from agents.caregiving.model.geometry import Circle
+from agents.caregiving.model.imagine import Imagination
+from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.scene import Obstacle, PersonState, Scene
 
 PERSON = PersonState("p", -2.0, 0.0, 0.0, 0.5, 0.25, 1.6, 2.0, 0.7, 0.1, 0.2)
@@ -15,10 +17,12 @@ BALL = Obstacle("ball", "ball", Circle(0.0, 0.05, 0.11), 0.22)
 FAR = Obstacle("plant", "plant", Circle(0.0, 2.5, 0.2), 1.0)
 SCENE = Scene((-4.0, -3.0, 4.0, 3.0), (COUCH, BALL, FAR), (PERSON,), None, time=1.0)
 KEY = ("p", "couch", frozenset({"couch"}))
-ANSWER = {"ok": True, "result": {"path": [[-2.0, 0.0], [2.25, 0.0]]}, "risk": {}}
+WALK = Imagination("p", "couch", 0.1, ("couch",), True, ((-2.0, 0.0), (2.25, 0.0)), False, None, None, None, math.inf,
+                   8.5)
+ANSWER = Answer(imagination=WALK)
 
 
-def lookup(scene: Scene, sigma: dict[str, float] | None = None, aside: bool = False) -> dict | None:
+def lookup(scene: Scene, sigma: dict[str, float] | None = None, aside: bool = False) -> tuple[Answer, float] | None:
     cache = ImaginationCache(move_tol=0.1, reach=0.6, max_age=1.0)
     cache.store(KEY, footing(SCENE, "p", {}), ANSWER, aside=aside)
     return cache.lookup(KEY, footing(scene, "p", sigma or {}))
@@ -44,10 +48,11 @@ def at(x: float, y: float, heading: float = 0.0, time: float = 1.3) -> Scene:
 
 def test_a_person_walking_along_the_imagined_path_reuses_it_advanced() -> None:
     got = lookup(at(-1.5, 0.04, heading=0.3))
-    assert got is not None and math.isclose(got["advance"], 1.0, abs_tol=0.11)  # 0.5 m at 0.5 m/s
-    assert got["result"]["path"] == [[-1.5, 0.0], [2.25, 0.0]]  # the rest of the walk, from where they are
+    assert got is not None and math.isclose(got[1], 1.0, abs_tol=0.11)  # 0.5 m at 0.5 m/s
+    walk = got[0].imagination
+    assert walk is not None and walk.path == ((-1.5, 0.0), (2.25, 0.0))  # the rest of the walk, from where they are
     standing = lookup(at(-2.0, 0.0, time=1.9))
-    assert standing is not None and standing["advance"] == 0.0
+    assert standing is not None and standing[1] == 0.0
 
 
 def test_leaving_the_path_or_changing_sigma_or_ageing_redoes_it() -> None:

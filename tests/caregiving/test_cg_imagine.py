@@ -59,12 +59,12 @@ def test_wire_round_trips_through_msgpack(scene: Scene) -> None:
 
 
 def test_the_service_dispatches_wire_requests(scene: Scene) -> None:
-    person = serve_item(scene, {"kind": "person", "person": "person", "target": "couch", "gaze": GAZE})["result"]
-    assert person["collided"] and person["collision_object"] == "ball"
-    move = standoff_moves(scene, "ball")[0].to_wire()
+    person = serve_item(scene, {"kind": "person", "person": "person", "target": "couch", "gaze": GAZE}).imagination
+    assert person is not None and person.collided and person.collision_object == "ball"
+    move = standoff_moves(scene, "ball")[0]
     walk = {"person": "person", "target": "couch", "gaze": GAZE}
-    joint = serve_item(scene, {"kind": "joint", "walks": [walk], "move": move})["result"]
-    assert joint["move"] == move and joint["walks"][0]["person"] == "person"
+    joint = serve_item(scene, {"kind": "joint", "walks": [walk], "move": move.to_wire()}).joint
+    assert joint is not None and joint.move == move and joint.walks[0].walk.person == "person"
 
 
 @pytest.mark.parametrize(("request_", "message"), [

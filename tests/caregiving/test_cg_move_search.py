@@ -19,7 +19,7 @@ from agents.caregiving.model.move_search import (
 from agents.caregiving.model.robot_moves import RobotMove, robot_fits
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene
-from agents.caregiving.model.service import JointAnswer, serve_one
+from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.world_model import Walk, World
 
 GAZE = math.radians(8)
@@ -84,7 +84,7 @@ def test_verdicts_say_why_a_move_is_refused(scene: Scene) -> None:
     spec = SearchSpec((danger_of(scene),), {"person": (GAZE,)}, {})
 
     def verdict(move: RobotMove | None) -> Verdict:
-        return judge(move, [JointAnswer.from_wire(serve_one(scene, i)) for i in spec.items(move, UNCERTAINTY)])
+        return judge(move, [serve_one(scene, i) for i in spec.items(move, UNCERTAINTY)])
 
     assert verdict(None).reason == "person walks into ball at gaze 8 deg" and not verdict(None).clear
     inside_the_couch = verdict(RobotMove("couch", 3.5, 0.0, 0.0))

@@ -7,9 +7,8 @@ from collections.abc import Iterator
 
 import pytest
 
-import wm
 from bridges.experiment.launch import Stack
-from bridges.experiment.trials import Harness, TrialRecord
+from bridges.experiment.trials import TrialRecord, open_harness
 
 GRAPH = "stacktest"
 
@@ -25,12 +24,8 @@ def run_trial(stack: Stack, scenario: str, seed: int = 0, index: int | None = No
     """Run one trial of ``scenario`` on the stack and return what W showed and what happened."""
 
     async def go() -> TrialRecord:
-        async with wm.connect(GRAPH, name="test-harness", connect=[stack.endpoint]) as g:
-            harness = Harness(g, GRAPH)
-            try:
-                return await harness.run(seed, index, timeout=60.0, scenario=scenario)
-            finally:
-                harness.close()
+        async with open_harness(stack.endpoint, GRAPH, name="test-harness") as harness:
+            return await harness.run(seed, index, timeout=60.0, scenario=scenario)
 
     stack.check()
     return asyncio.run(go())

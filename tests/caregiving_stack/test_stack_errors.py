@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 from procs import PYTHON, REPO, WM, Proc, endpoint, free_port
 
-from agents import bus
 from agents.caregiving import keys
+from agents.messaging import Messaging, RemoteError
 from wm.connection import close_session, open_session
 
 BROKEN = """name: broken
@@ -52,15 +52,16 @@ def test_world_bridge_answers_malformed_requests_with_errors_and_keeps_running()
             session = await open_session(connect=[endpoint(port)])
             try:
                 control, cmd = keys.world_control("errs"), keys.robot_cmd("errs")
-                with pytest.raises(bus.RemoteError, match="control.op"):
-                    await bus.ask(session, control, {"op": "explode"})
-                with pytest.raises(bus.RemoteError, match="no trial is prepared"):
-                    await bus.ask(session, control, {"op": "go"})
-                with pytest.raises(bus.RemoteError, match="is not running"):
-                    await bus.ask(session, cmd, {"trial": 1, "move": {"target": "ball", "x": 0, "y": 0}})
-                with pytest.raises(bus.RemoteError, match="people\\[0\\].speed|cannot read"):
-                    await bus.ask(session, control, {"op": "prepare", "seed": 1, "scenario": "no_such_scenario"})
-                ok = await bus.ask(session, control, {"op": "prepare", "seed": 1, "index": 3})
+                ask = Messaging(session).ask
+                with pytest.raises(RemoteError, match="control.op"):
+                    await ask(control, {"op": "explode"})
+                with pytest.raises(RemoteError, match="no trial is prepared"):
+                    await ask(control, {"op": "go"})
+                with pytest.raises(RemoteError, match="is not running"):
+                    await ask(cmd, {"trial": 1, "move": {"target": "ball", "x": 0, "y": 0}})
+                with pytest.raises(RemoteError, match="people\\[0\\].speed|cannot read"):
+                    await ask(control, {"op": "prepare", "seed": 1, "scenario": "no_such_scenario"})
+                ok = await ask(control, {"op": "prepare", "seed": 1, "index": 3})
                 assert ok["trial"] == 1 and ok["running"] is False
             finally:
                 await close_session(session)

@@ -8,14 +8,16 @@ import math
 import pytest
 from procs import PYTHON, Proc, endpoint, free_port
 
-from agents import bus
 from agents.caregiving import keys
+from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.imagine import imagine_person
-from agents.caregiving.model.joint import JointImagination, imagine_joint
+from agents.caregiving.model.imagine_reply import ImagineReply
+from agents.caregiving.model.joint import imagine_joint
 from agents.caregiving.model.robot_moves import standoff_moves
 from agents.caregiving.model.rollout import BulletRollout
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.world_model import Walk
+from agents.messaging import Messaging, NoReply, RemoteError
 from wm.connection import close_session, open_session
 
 GRAPH = "simtest"
@@ -33,14 +35,15 @@ def sim_endpoint():
         proc.stop()
 
 
-def ask(ep: str, request: object) -> dict:
-    async def go() -> dict:
+def ask(ep: str, request: object) -> ImagineReply:
+    async def go() -> ImagineReply:
         session = await open_session(connect=[ep])
         try:
             for _ in range(100):  # until the agent's queryable is declared
                 try:
-                    return await bus.ask(session, keys.imagine(GRAPH), request, timeout=2.0)
-                except bus.NoReply:
+                    return await Messaging(session).ask(keys.imagine(GRAPH), request, decode=imagine_reply.decode,
+                                                        timeout=2.0)
+                except NoReply:
                     await asyncio.sleep(0.1)
             raise AssertionError("the simulation agent never answered")
         finally:
@@ -57,18 +60,20 @@ def test_replies_match_pybullet_on_fixed_cases(sim_endpoint) -> None:
     walk = {"person": "person", "target": "couch", "gaze": GAZES[0]}
     items += [{"kind": "joint", "walks": [walk], "move": m.to_wire()} for m in moves]
     reply = ask(ep, {"items": items, "scene": scene.to_wire()})
-    results = reply["results"]
-    assert all(r["ok"] for r in results), results
+    results = reply.results
+    assert all(r.error is None for r in results), results
+    assert reply.episode is None and reply.written_at is None and reply.stamp == scene.time  # a pinned scene
     bullet = BulletRollout.shared()
     for item, r in zip(items[:4], results[:4], strict=True):
         truth = imagine_person(scene, "person", item["target"], item["gaze"], rollout=bullet)
-        got = r["result"]
-        assert (got["collided"], got["collision_object"]) == (truth.collided, truth.collision_object)
-        assert got["collision_time"] == pytest.approx(truth.collision_time) if truth.collided else got["collision_time"] is None
-    assert results[0]["result"]["collided"] and results[0]["result"]["collision_object"] == "ball"
+        got = r.imagination
+        assert got is not None and (got.collided, got.collision_object) == (truth.collided, truth.collision_object)
+        assert got.collision_time == pytest.approx(truth.collision_time) if truth.collided else got.collision_time is None
+    first = results[0].imagination
+    assert first is not None and first.collided and first.collision_object == "ball"
     for m, r in zip(moves, results[4:], strict=True):
         truth = imagine_joint(scene, [Walk("person", "couch", GAZES[0])], m)
-        assert JointImagination.from_wire(r["result"]) == truth
+        assert r.joint == truth
 
 
 def test_uncertainty_gives_a_collision_probability(sim_endpoint) -> None:
@@ -76,18 +81,18 @@ def test_uncertainty_gives_a_collision_probability(sim_endpoint) -> None:
     scene = load_scenario("paper_experiment1").scene()
     item = {"kind": "person", "person": "person", "target": "couch", "gaze": GAZES[0],
             "uncertainty": {"size_error": 0.2, "sigma": {"ball": 0.02, "person": 0.03}, "samples": 128}}
-    risk = ask(ep, {"items": [item], "scene": scene.to_wire()})["results"][0]["risk"]
-    assert risk["probability"] == pytest.approx(1.0) and risk["object"] == "ball"
+    risk = ask(ep, {"items": [item], "scene": scene.to_wire()}).results[0].risk
+    assert risk is not None and risk.probability == pytest.approx(1.0) and risk.obstacle == "ball"
 
 
 def test_malformed_requests_get_errors_and_the_service_carries_on(sim_endpoint) -> None:
     ep, proc = sim_endpoint
     scene = load_scenario("paper_experiment1").scene().to_wire()
-    with pytest.raises(bus.RemoteError, match="request.items"):
+    with pytest.raises(RemoteError, match="request.items"):
         ask(ep, {"items": "nope", "scene": scene})
-    with pytest.raises(bus.RemoteError, match="RequestError"):
+    with pytest.raises(RemoteError, match="RequestError"):
         ask(ep, [1, 2, 3])
-    with pytest.raises(bus.RemoteError, match="no context"):
+    with pytest.raises(RemoteError, match="no context"):
         ask(ep, {"items": [{"kind": "person"}]})
     walk = {"person": "person", "target": "couch", "gaze": 0.1}
     reply = ask(ep, {"items": [{"kind": "fly", "person": "person"},
@@ -98,12 +103,12 @@ def test_malformed_requests_get_errors_and_the_service_carries_on(sim_endpoint) 
                                {"kind": "person", "person": "person", "target": "couch", "gaze": 0.1},
                                {"kind": "joint", "walks": [walk], "move": None}],
                      "scene": scene})
-    bad_kind, unknown, bad_walks, bad_move, bad_delay, good, braking = reply["results"]
-    assert not bad_kind["ok"] and "kind" in bad_kind["error"]
-    assert not unknown["ok"] and "unknown person 'nobody'" in unknown["error"]
-    assert not bad_walks["ok"] and "request.walks: expected a list" in bad_walks["error"]
-    assert not bad_move["ok"] and "request.move.y: is required" in bad_move["error"]
-    assert not bad_delay["ok"] and "request.delay: expected at most" in bad_delay["error"]
-    assert good["ok"] and good["result"]["reachable"]
-    assert braking["ok"] and braking["result"]["walks"][0]["status"] == "collided"
+    bad_kind, unknown, bad_walks, bad_move, bad_delay, good, braking = reply.results
+    assert "kind" in (bad_kind.error or "")
+    assert "unknown person 'nobody'" in (unknown.error or "")
+    assert "request.walks: expected a list" in (bad_walks.error or "")
+    assert "request.move.y: is required" in (bad_move.error or "")
+    assert "request.delay: expected at most" in (bad_delay.error or "")
+    assert good.imagination is not None and good.imagination.reachable
+    assert braking.joint is not None and braking.joint.walks[0].status == "collided"
     assert proc.popen.poll() is None

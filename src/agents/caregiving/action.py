@@ -32,22 +32,20 @@ from dataclasses import replace
 from itertools import count, islice
 from typing import Any
 
-from agents import bus
 from agents.caregiving import keys
 from agents.caregiving.model.move_search import Danger, SearchSpec, Verdict, judge, search_move
 from agents.caregiving.model.robot_moves import RobotMove
-from agents.caregiving.model.service import JointAnswer
+from agents.caregiving.model import imagine_reply
+from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.visibility import GazeClass, gaze_classes
 from agents.caregiving.model.world_model import Walk
-from wm import Edge, Node
+from wm import Edge, Event, Node
 
-from ..loop import Coalescer
-from ..runtime import Agent, main
+from ..runtime import Agent, main, on
 from .context import Context, read_context
-from .intention import HAS_INTENTION, KNOWS
+from .names import HAS, HAS_INTENTION, INTENTION, KNOWS, OBJECT, PERSON, ROBOT, WORLD
 from .risk_options import add_risk_arguments, size_error
 
-INTENTION = "intention"
 LIVE = ("proposed", "active")
 #: Seconds one candidate move takes to judge in the simulator (the joint imagination of its walk sets).
 JUDGING = 0.05
@@ -79,7 +77,6 @@ class Action(Agent):
 
     async def setup(self) -> None:
         self.size_error = size_error(self.args)
-        self.session = self.g.network.session  # type: ignore[union-attr]
         self.episode: int | None = None
         self.names = count(1)
         self.rpc_ms = self.sim_ms = 0.0
@@ -87,25 +84,16 @@ class Action(Agent):
         self.tried: list[Verdict] = []  # the moves the last search judged, for its log line
         self.new_episode = True
         self.failed: dict[int, float] = {}
-        self.loop = Coalescer(self.search, self.log, "search")
-        self.g.on(self._intention_changed, type=HAS_INTENTION, kind=["edge_added", "edge_updated"])
-        self.g.on(self._world_changed, type="world")
         self.log.info("acting", size_error=self.size_error)
 
-    async def teardown(self) -> None:
-        self.loop.cancel()
-
-    def _intention_changed(self, event: Any) -> None:
-        self.pending.add((event.src, event.dst))
-        self.loop.poke()
-
-    def _world_changed(self, event: Any) -> None:
-        if "episode" in event.attrs:
-            self.new_episode = True
-            self.loop.poke()
-
-    async def search(self) -> None:
+    @on(kind=["edge_added", "edge_updated", "node_added", "node_updated"], type=[HAS_INTENTION, WORLD], coalesce=True)
+    async def search(self, events: list[Event]) -> None:
         """Protect every person whose risky intention landed since the last search."""
+        for e in events:
+            if e.type == HAS_INTENTION and e.src is not None and e.dst is not None:
+                self.pending.add((e.src, e.dst))
+            elif e.type == WORLD and "episode" in e.attrs:
+                self.new_episode = True
         if not self.pending and not self.new_episode:
             return
         self.new_episode = False
@@ -213,17 +201,18 @@ class Action(Agent):
                 verdicts[k] = judge(moves[k], first[k] + answers)
         return verdicts
 
-    async def _imagine(self, groups: list[list[dict[str, Any]]]) -> list[list[JointAnswer]]:
+    async def _imagine(self, groups: list[list[dict[str, Any]]]) -> list[list[Answer]]:
         """One request to the simulator for every group of items; the answers, grouped the same way."""
         sent = time.perf_counter()
-        reply = await bus.ask(self.session, keys.imagine(self.args.graph), {"items": [i for g in groups for i in g]})
+        reply = await self.ask(keys.imagine(self.args.graph), {"items": [i for g in groups for i in g]},
+                               decode=imagine_reply.decode)
         self.rpc_ms += (time.perf_counter() - sent) * 1e3
-        self.sim_ms += reply["compute_ms"]
-        answers = iter(reply["results"])
-        return [[JointAnswer.from_wire(a) for a in islice(answers, len(g))] for g in groups]
+        self.sim_ms += reply.compute_ms
+        answers = iter(reply.results)
+        return [list(islice(answers, len(g))) for g in groups]
 
     def _sigma(self) -> dict[str, float]:
-        return {n.name: n.get("position_sigma", 0.0) for t in ("person", "object") for n in self.g.nodes(t)}
+        return {n.name: n.get("position_sigma", 0.0) for t in (PERSON, OBJECT) for n in self.g.nodes(t)}
 
     async def _find(self, ctx: Context, spec: SearchSpec, idle_risk: float) -> Verdict | None:
         """Search with the simulator; each round imagines the robot starting when its command would arrive."""
@@ -258,7 +247,7 @@ class Action(Agent):
                 "observed_at": edge.get("observed_at", 0.0), "risk_at": edge.get("updated_at", 0.0),
                 "at_time": ctx.scene.time, "time_to_collision": danger.time_to_collision,
                 "in_time": chosen.in_time(danger), "reason": reason})
-            g.insert_or_assign_edge(ctx.ids[robot.name], node, "has", {"status": "proposed", "updated_at": time.time()})
+            g.insert_or_assign_edge(ctx.ids[robot.name], node, HAS, {"status": "proposed", "updated_at": time.time()})
         self.log.info("move chosen", target=move.target, x=round(move.x, 2), y=round(move.y, 2),
                       in_time=chosen.in_time(danger), risk=round(chosen.risk, 2), people=len(dangers),
                       tried=len(self.tried), refused=sorted({v.reason for v in self.tried if not v.clear})[:4],
@@ -273,7 +262,7 @@ class Action(Agent):
         far: the robot's odometry in W says by how much); judging the moves takes about :data:`JUDGING`
         each, and the executor and the world take ``--dispatch`` more.
         """
-        robot = next(iter(self.g.nodes("robot")), None)
+        robot = next(iter(self.g.nodes(ROBOT)), None)
         lag = (robot.get("stamp", ctx.scene.time) if robot is not None else ctx.scene.time) - ctx.scene.time
         return max(lag, 0.0) + JUDGING * moves + self.args.dispatch
 

@@ -18,7 +18,8 @@ from agents.caregiving.model.scenario import RoomSpec
 from agents.caregiving.model.scene import Obstacle, PersonState, RobotState, Scene
 from wm import Graph, Node
 
-WORLD = "world"
+from .names import OBJECT, PERSON, ROBOT, RT, WORLD
+
 WALL_THICKNESS = 0.1
 WALL_HEIGHT = 2.5
 
@@ -50,7 +51,7 @@ def node_shape(node: Node, x: float, y: float, yaw: float) -> Shape:
 def read_context(g: Graph) -> Context | None:
     """The current context, or None until perception has written the world and the robot."""
     world = g.find_node(WORLD)
-    robots = g.nodes("robot")
+    robots = g.nodes(ROBOT)
     if world is None or not robots or world.get("room_size") is None:
         return None
     width, depth = world.get("room_size")
@@ -60,7 +61,7 @@ def read_context(g: Graph) -> Context | None:
     velocity: dict[str, tuple[float, float]] = {}
     written = 0.0
     obstacles = list(room.wall_obstacles())
-    for node in g.nodes("object"):
+    for node in g.nodes(OBJECT):
         pose = _pose(g, node)
         if pose is None:
             continue
@@ -71,7 +72,7 @@ def read_context(g: Graph) -> Context | None:
         sigma[node.name] = node.get("position_sigma", 0.0)
         written = max(written, node.get("written_at", 0.0))
     people = []
-    for node in g.nodes("person"):
+    for node in g.nodes(PERSON):
         pose = _pose(g, node)
         if pose is None:
             continue
@@ -92,13 +93,13 @@ def read_context(g: Graph) -> Context | None:
                        r.get("max_accel", 0.5), max(float(r.get("speed", 0.0)), 0.0),
                        tuple(zip(route[0::2], route[1::2], strict=True)))
     ids[r.name] = r.id
-    stamp = max([world.get("sim_time", 0.0)] + [n.get("stamp", 0.0) for n in g.nodes("person")])
+    stamp = max([world.get("sim_time", 0.0)] + [n.get("stamp", 0.0) for n in g.nodes(PERSON)])
     scene = Scene(room.bounds, tuple(obstacles), tuple(people), robot, stamp)
     return Context(scene, int(world.get("episode", 0)), ids, sigma, velocity, written)
 
 
 def _pose(g: Graph, node: Node) -> tuple[float, float, float] | None:
-    edge = g.find_edge(WORLD, node.id, "RT")
+    edge = g.find_edge(WORLD, node.id, RT)
     if edge is None or edge.get("rt_translation") is None:
         return None
     t = edge.get("rt_translation")

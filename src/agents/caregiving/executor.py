@@ -19,14 +19,12 @@ import math
 import time
 from typing import Any
 
-from agents import bus
 from agents.caregiving import keys
-from wm import Node
+from wm import Event, Node
 
-from ..loop import Coalescer
-from ..runtime import Agent, every, main
-from .action import INTENTION
-from .context import WORLD
+from ..messaging import MessageError
+from ..runtime import Agent, every, main, on
+from .names import HAS, INTENTION, ROBOT, WORLD
 
 
 class Executor(Agent):
@@ -39,22 +37,18 @@ class Executor(Agent):
         parser.add_argument("--arrived", type=float, default=0.05, help="metres from the final pose counted as there")
 
     async def setup(self) -> None:
-        self.session = self.g.network.session  # type: ignore[union-attr]
-        self.loop = Coalescer(self.dispatch, self.log, "dispatch")
-        self.g.on(self.loop.poke, type=INTENTION, kind="node_added")
         self.commands = 0
-
-    async def teardown(self) -> None:
-        self.loop.cancel()
 
     def _status(self, node: Node, status: str, reason: str | None = None) -> None:
         g = self.g
         with g.batch():
             g.update_node(node.id, {"status": status, **({"reason": reason} if reason else {})})
-            for e in g.edges(type="has", dst=node.id):
-                g.insert_or_assign_edge(e.src, node.id, "has", {"status": status, "updated_at": time.time()})
+            for e in g.edges(type=HAS, dst=node.id):
+                g.insert_or_assign_edge(e.src, node.id, HAS, {"status": status, "updated_at": time.time()})
 
-    async def dispatch(self) -> None:
+    @on(type=INTENTION, kind="node_added", coalesce=True)
+    async def dispatch(self, _events: list[Event]) -> None:
+        """Send every proposed move that has not been sent yet."""
         world = self.g.find_node(WORLD)
         episode = int(world.get("episode", 0)) if world else 0
         for node in self.g.nodes(INTENTION):
@@ -64,8 +58,8 @@ class Executor(Agent):
             request: dict[str, Any] = {"trial": episode,
                                        "move": {"target": str(node.get("target")), "x": x, "y": y, "heading": heading}}
             try:
-                reply = await bus.ask(self.session, keys.robot_cmd(self.args.graph), request, timeout=2.0)
-            except bus.BusError as exc:
+                reply: dict[str, Any] = await self.ask(keys.robot_cmd(self.args.graph), request, timeout=2.0)
+            except MessageError as exc:
                 self._status(node, "failed", str(exc))
                 self.log.warning("command refused", intention=node.name, error=str(exc))
                 continue
@@ -78,7 +72,7 @@ class Executor(Agent):
 
     @every(0.1)
     async def watch(self) -> None:
-        robots = self.g.nodes("robot")
+        robots = self.g.nodes(ROBOT)
         if not robots:
             return
         for node in self.g.nodes(INTENTION):

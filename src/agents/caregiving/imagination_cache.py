@@ -29,8 +29,8 @@ changed visible set (a new key) also forgets the old answer.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -41,6 +41,7 @@ from agents.caregiving.model.geometry import (
     polyline_length,
     resample_by_distance,
 )
+from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.visibility import WALL_KIND
 
@@ -73,7 +74,7 @@ class Footing:
 class _Entry:
     footing: Footing
     path: np.ndarray  # dense points, STEP apart
-    answer: dict[str, Any]
+    answer: Answer
     aside: bool
 
 
@@ -92,7 +93,7 @@ def footing(scene: Scene, person: str, sigma: dict[str, float]) -> Footing:
     return Footing(scene.time, p.heading, me, bodies)
 
 
-def remaining(path: list[list[float]], walked: float) -> list[list[float]]:
+def remaining(path: Sequence[Sequence[float]], walked: float) -> list[list[float]]:
     """The polyline ``path`` from arc length ``walked`` on."""
     pts = np.asarray(path, dtype=float)
     cum = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))))
@@ -112,8 +113,8 @@ class ImaginationCache:
         self.hits = 0
         self.misses = 0
 
-    def lookup(self, key: Key, now: Footing) -> dict[str, Any] | None:
-        """The cached answer for ``key`` with its ``advance`` (s), or None when it must be imagined."""
+    def lookup(self, key: Key, now: Footing) -> tuple[Answer, float] | None:
+        """The cached answer for ``key`` and its ``advance`` (s), or None when it must be imagined."""
         self._used.add(key)
         e = self._entries.get(key)
         advance = None if e is None else self._advance(e, now)
@@ -122,15 +123,15 @@ class ImaginationCache:
             self.misses += 1
             return None
         self.hits += 1
-        if not advance:
-            return {**e.answer, "advance": advance}
-        result = e.answer["result"]
-        return {**e.answer, "advance": advance,
-                "result": {**result, "path": remaining(result["path"], advance * now.person.params[0])}}
+        im = e.answer.imagination
+        if not advance or im is None:
+            return e.answer, advance
+        rest = remaining(im.path, advance * now.person.params[0])
+        return replace(e.answer, imagination=replace(im, path=tuple((x, y) for x, y in rest))), advance
 
-    def store(self, key: Key, at: Footing, answer: dict[str, Any], aside: bool = False) -> None:
+    def store(self, key: Key, at: Footing, answer: Answer, aside: bool = False) -> None:
         """Remember the simulator's ``answer`` for ``key`` imagined on ``at``; see the module docs for ``aside``."""
-        path = answer.get("result", {}).get("path") if answer.get("ok") else None
+        path = answer.imagination.path if answer.imagination is not None else ()
         pts = np.asarray(path if path else [(at.person.x, at.person.y)], dtype=float).reshape(-1, 2)
         dense = resample_by_distance(pts, np.append(np.arange(0.0, polyline_length(pts), STEP), np.inf))
         self._entries[key] = _Entry(at, dense, answer, aside)

@@ -37,20 +37,21 @@ from collections.abc import Awaitable
 from dataclasses import dataclass
 from typing import Any
 
-from agents import bus
 from agents.caregiving import keys
+from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.geometry import resample_by_distance
+from agents.caregiving.model.imagine import Imagination
+from agents.caregiving.model.imagine_reply import Answer
+from agents.caregiving.model.uncertainty import NO_RISK
 from agents.caregiving.model.visibility import GazeClass, candidate_targets, gaze_classes
+from wm import Event
 
-from ..loop import Coalescer
-from ..runtime import Agent, main
+from ..runtime import Agent, main, on
 from .context import Context, read_context
 from .imagination_cache import ImaginationCache, Key, footing
+from .names import COLLISION, HAS_INTENTION, KNOWS, OBJECT, PERSON
 from .risk_options import add_risk_arguments, size_error
 
-HAS_INTENTION = "has_intention"
-COLLISION = "collision"
-KNOWS = "knows"
 HEADING_PROBE = 0.4  # metres along the imagined path where its direction is measured
 
 
@@ -69,24 +70,30 @@ class Guess:
     obstacle: str | None
 
 
-def summarise(person: str, target: str, answers: list[dict[str, Any]], threshold: float) -> Guess:
-    """Fold the gaze classes of one intention: risky if any class is; report the earliest danger.
+def walk_of(answer: Answer) -> Imagination:
+    """The imagined walk of a person item's answer."""
+    if answer.imagination is None:
+        raise ValueError(f"not a person's imagined walk: {answer.error or answer}")
+    return answer.imagination
 
-    An answer reused from the cache carries its ``advance`` (seconds of the walk behind the person), which its
-    times are brought forward by.
+
+def summarise(person: str, target: str, answers: list[tuple[Answer, float]], threshold: float) -> Guess:
+    """Fold the gaze classes of one intention (reachable walks): risky if any class is; report the earliest danger.
+
+    Each answer comes with its ``advance`` (seconds of the walk behind the person, for one reused from the
+    cache), which its times are brought forward by.
     """
     worst: Guess | None = None
     first: Guess | None = None
-    for a in answers:
-        r, risk = a["result"], a["risk"]
-        nominal = r["collided"]
-        risky = nominal or risk["probability"] >= threshold
-        times = [max(t - a.get("advance", 0.0), 0.0) for t in (r["collision_time"], risk["time"]) if t is not None]
+    for a, advance in answers:
+        r, risk = walk_of(a), a.risk or NO_RISK
+        nominal = r.collided
+        risky = nominal or risk.probability >= threshold
+        times = [max(t - advance, 0.0) for t in (r.collision_time, risk.time) if t is not None]
         ttc = min(times) if risky and times else None
-        point = (r["collision_point"] if nominal else risk["point"]) if risky else None
-        obstacle = (r["collision_object"] if nominal else risk["object"]) if risky else None
-        g = Guess(person, target, risky, max(risk["probability"], float(nominal)), tuple(map(tuple, r["path"])),
-                  r["gaze"], ttc, tuple(point) if point else None, obstacle)
+        point = (r.collision_point if nominal else risk.point) if risky else None
+        obstacle = (r.collision_object if nominal else risk.obstacle) if risky else None
+        g = Guess(person, target, risky, max(risk.probability, float(nominal)), r.path, r.gaze, ttc, point, obstacle)
         first = first or g
         if risky and (worst is None or (ttc or math.inf) < (worst.ttc or math.inf)):
             worst = g
@@ -132,15 +139,10 @@ class Intention(Agent):
         self.last_time = -1.0
         self.episode: int | None = None
         self.cache = ImaginationCache(move_tol=a.move_tol, max_age=a.max_age)
-        self.session = self.g.network.session  # type: ignore[union-attr]
-        self.loop = Coalescer(self.evaluate, self.log, "evaluation")
-        self.g.on(self.loop.poke, type="person", kind=["node_added", "node_updated"])
         self.log.info("guessing", size_error=self.size_error, samples=a.samples, threshold=a.risk_threshold)
 
-    async def teardown(self) -> None:
-        self.loop.cancel()
-
-    async def evaluate(self) -> None:
+    @on(type=PERSON, kind=["node_added", "node_updated"], coalesce=True)
+    async def evaluate(self, _events: list[Event]) -> None:
         """One pass of Algorithm 1: every person tracked long enough, each in its own request, written as it lands."""
         ctx = read_context(self.g)
         if ctx is None or 0.0 <= ctx.scene.time - self.last_time < self.args.period:
@@ -170,7 +172,7 @@ class Intention(Agent):
         known = self._remember(ctx, person, classes)
         now = footing(ctx.scene, person, ctx.sigma)
         items: list[dict[str, Any]] = []
-        answers: list[dict[str, Any] | None] = []
+        answers: list[tuple[Answer, float] | None] = []
         pending: list[tuple[int, Key]] = []  # (index in items, cache key) of what must be imagined
         for t in candidate_targets(p, ctx.scene.obstacles):
             for c in classes:
@@ -184,19 +186,20 @@ class Intention(Agent):
 
         async def finish() -> None:
             if pending:
-                reply = await bus.ask(self.session, keys.imagine(a.graph), {"items": [items[i] for i, _ in pending]})
+                reply = await self.ask(keys.imagine(a.graph), {"items": [items[i] for i, _ in pending]},
+                                       decode=imagine_reply.decode)
                 walking = ctx.speed(person) > a.moving_speed
-                for (i, key), res in zip(pending, reply["results"], strict=True):
+                for (i, key), res in zip(pending, reply.results, strict=True):
                     self.cache.store(key, now, res, aside=walking and self._aside(res, p.heading))
-                    answers[i] = res
+                    answers[i] = res, 0.0
             self._write(ctx, [person], self._guesses(ctx, items, [x for x in answers if x is not None]))
 
         return finish()
 
-    def _aside(self, answer: dict[str, Any], heading: float) -> bool:
+    def _aside(self, answer: Answer, heading: float) -> bool:
         """Whether an imagined walk sets off so far from the heading (twice the gate) that it is plainly not taken."""
-        r = answer["result"] if answer["ok"] else None
-        path = tuple(map(tuple, r["path"])) if r is not None and r["reachable"] else ()
+        r = answer.imagination
+        path = r.path if r is not None and r.reachable else ()
         return bool(path) and heading_error(path, heading) > 2 * math.radians(self.args.heading_gate_deg)
 
     def _remember(self, ctx: Context, person: str, classes: tuple[GazeClass, ...]) -> list[str]:
@@ -208,30 +211,30 @@ class Intention(Agent):
         sure = frozenset.intersection(*(c.visible for c in classes)) if classes else frozenset()
         known = {self.g.get_node(e.dst).name for e in self.g.edges(type=KNOWS, src=pid)}
         fresh = [n for n in sure if n in ctx.ids and n not in known and ctx.ids[n] != pid
-                 and self.g.find_node(ctx.ids[n]) is not None and self.g.get_node(ctx.ids[n]).type == "object"]
+                 and self.g.find_node(ctx.ids[n]) is not None and self.g.get_node(ctx.ids[n]).type == OBJECT]
         if fresh:
             with self.g.batch():
                 for name in fresh:
                     self.g.insert_or_assign_edge(pid, ctx.ids[name], KNOWS, {"updated_at": time.time()})
         return sorted(known | set(fresh))
 
-    def _guesses(self, ctx: Context, items: list[dict[str, Any]], results: list[dict[str, Any]]) -> list[Guess]:
-        grouped: dict[tuple[str, str], list[dict[str, Any]]] = {}
-        for item, res in zip(items, results, strict=True):
-            if res["ok"] and res["result"]["reachable"]:
-                grouped.setdefault((item["person"], item["target"]), []).append(res)
+    def _guesses(self, ctx: Context, items: list[dict[str, Any]], results: list[tuple[Answer, float]]) -> list[Guess]:
+        grouped: dict[tuple[str, str], list[tuple[Answer, float]]] = {}
+        for item, (res, advance) in zip(items, results, strict=True):
+            if res.imagination is not None and res.imagination.reachable:
+                grouped.setdefault((item["person"], item["target"]), []).append((res, advance))
         guesses = []
         gate = math.radians(self.args.heading_gate_deg)
         for (person, target), answers in grouped.items():
             p = ctx.scene.person(person)
             if ctx.speed(person) > self.args.moving_speed:
-                answers = [x for x in answers if heading_error(tuple(map(tuple, x["result"]["path"])), p.heading) <= gate]
+                answers = [x for x in answers if heading_error(walk_of(x[0]).path, p.heading) <= gate]
             if answers:
                 guess = summarise(person, target, answers, self.args.risk_threshold)
                 guesses.append(guess)
                 self.log.debug("guess", episode=ctx.episode, at=round(ctx.scene.time, 2), person=person, target=target,
                                risky=guess.risky, probability=round(guess.probability, 3),
-                               nominal=any(x["result"]["collided"] for x in answers))
+                               nominal=any(walk_of(x).collided for x, _ in answers))
         return guesses
 
     def _write(self, ctx: Context, people: list[str], guesses: list[Guess]) -> None:

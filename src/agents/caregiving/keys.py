@@ -7,7 +7,7 @@
 ``cg/<graph>/world/outcome``   what really happened in a finished trial (world -> experiment)
 ``wm/<graph>/sim/imagine``     queryable: batched imagine requests (intention, action -> simulation)
 
-All payloads are msgpack maps (see :mod:`agents.bus`).
+All payloads are msgpack maps (see :mod:`agents.messaging`).
 """
 
 from __future__ import annotations

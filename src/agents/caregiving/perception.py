@@ -26,13 +26,13 @@ import math
 import time
 from typing import Any
 
-from agents import bus
 from agents.caregiving import keys
 from agents.caregiving.model.scenario import load_scenario
 
 from ..runtime import Agent, main
-from .context import WORLD
-from .tracking import PERSON, Track, Tracker
+from .names import OBJECT, PERSON, ROBOT, WORLD
+from .tracking import PERSON as PERSON_TRACK
+from .tracking import Track, Tracker
 
 
 class Perception(Agent):
@@ -72,23 +72,18 @@ class Perception(Agent):
         self.episode: int | None = None
         self.nodes: dict[int, int] = {}  # track id -> node id
         self.frames = 0
-        session = self.g.network.session  # type: ignore[union-attr]
-        self._subs = [bus.subscribe(session, keys.frame(a.graph), self.on_frame),
-                      bus.subscribe(session, keys.robot_state(a.graph), self.on_robot)]
+        self.subscribe(keys.frame(a.graph), self.on_frame)
+        self.subscribe(keys.robot_state(a.graph), self.on_robot)
         self.log.info("listening", sigma=sigma, forget=a.forget)
-
-    async def teardown(self) -> None:
-        for sub in self._subs:
-            sub.undeclare()
 
     # -- episodes ------------------------------------------------------------------------------
     def _new_episode(self, trial: int) -> None:
         g = self.g
         with g.batch():
-            for node in g.nodes("person") + g.nodes("object"):
+            for node in g.nodes(PERSON) + g.nodes(OBJECT):
                 g.delete_node(node.id)
             if g.find_node(WORLD) is None:
-                g.insert_node("world", WORLD)
+                g.insert_node(WORLD, WORLD)
             g.update_node(WORLD, {"episode": trial, "sim_time": 0.0})
         self.tracker.reset()
         self.nodes.clear()
@@ -96,23 +91,23 @@ class Perception(Agent):
         self.log.info("new episode", trial=trial)
 
     # -- the robot -----------------------------------------------------------------------------
-    def on_robot(self, m: dict[str, Any]) -> None:
+    async def on_robot(self, m: dict[str, Any]) -> None:
         g = self.g
         if m.get("trial") != self.episode:
             self._new_episode(int(m["trial"]))
         now = time.time()
         with g.batch():
             if g.find_node(m["name"]) is None:
-                g.insert_node("robot", m["name"], {"size": [m["length"], m["width"], m["height"]],
+                g.insert_node(ROBOT, m["name"], {"size": [m["length"], m["width"], m["height"]],
                                                    "footprint": [m["width"], m["length"]],
                                                    "max_speed": m["max_speed"], "max_accel": m["max_accel"]})
             world = g.get_node(WORLD)
             if world.get("room_size") is None:
                 x0, y0, x1, y1 = m["bounds"]
                 g.update_node(WORLD, {"room_size": [x1 - x0, y1 - y0]})
-            if not any(n.get("kind") == "wall" for n in g.nodes("object")):
+            if not any(n.get("kind") == "wall" for n in g.nodes(OBJECT)):
                 for i, w in enumerate(m.get("walls", [])):
-                    node = g.insert_node("object", f"wall_{self.episode}_{i}", {
+                    node = g.insert_node(OBJECT, f"wall_{self.episode}_{i}", {
                         "kind": "wall", "shape": "box", "size": [2 * w["hx"], 2 * w["hy"], m["wall_height"]],
                         "is_obstacle": True, "is_target": False})
                     g.rt.set_pose2d(WORLD, node, w["x"], w["y"], w["theta"])
@@ -122,7 +117,7 @@ class Perception(Agent):
             g.rt.set_pose2d(WORLD, m["name"], m["x"], m["y"], m["heading"])
 
     # -- detections ----------------------------------------------------------------------------
-    def on_frame(self, m: dict[str, Any]) -> None:
+    async def on_frame(self, m: dict[str, Any]) -> None:
         if m.get("trial") != self.episode:
             return  # a frame of a finished trial, or before the first robot state
         stamp = float(m["stamp"])
@@ -145,16 +140,16 @@ class Perception(Agent):
         sx, sy, height = t.size()
         volatile = {"stamp": stamp, "last_seen": stamp, "written_at": now, "position_sigma": t.sigma}
         node = self.nodes.get(t.id)
-        if t.kind == PERSON:
+        if t.kind == PERSON_TRACK:
             volatile.update(velocity=[t.vx, t.vy])
             if node is None:
-                node = self.nodes[t.id] = g.insert_node("person", f"person_{t.id}", {
+                node = self.nodes[t.id] = g.insert_node(PERSON, f"person_{t.id}", {
                     "radius": sx / 2, "eye_height": height, "track_id": t.id, "speed": self.walk_speed,
                     **self.person_model, **volatile})
             else:
                 g.update_node(node, volatile)
         elif node is None:
-            node = self.nodes[t.id] = g.insert_node("object", f"{t.kind}_{t.id}", {
+            node = self.nodes[t.id] = g.insert_node(OBJECT, f"{t.kind}_{t.id}", {
                 "kind": t.kind, "shape": t.shape, "size": [sx, sy, height], "is_obstacle": True,
                 "is_target": t.target, "track_id": t.id, **volatile})
         else:

@@ -7,13 +7,14 @@ PyBullet DIRECT world, moving bodies rather than re-creating them) and serves
 the queryable ``wm/<g>/sim/imagine`` with :mod:`agents.caregiving.model.service` (the request
 and item forms are documented there). A request's optional ``scene`` pins the
 context; without it the context is W as this replica holds it when the request
-arrives, frozen for the whole batch. The reply is ::
-
-    {"episode", "stamp", "written_at", "compute_ms", "results": [ANSWER, ...]}
+arrives, frozen for the whole batch. The reply is an
+:class:`~agents.caregiving.model.imagine_reply.ImagineReply`.
 
 A malformed item gets its own error entry; a malformed request an error reply.
-Items are served one at a time; batches holding robot moves (Algorithm 2, where
-the reaction time is spent) go before batches of person-only imaginations.
+Items are served one at a time, by one request handler at a time: it serves the
+queued batches' items, batches holding robot moves (Algorithm 2, where the
+reaction time is spent) before batches of person-only imaginations, until its
+own batch is done, and hands over to the next.
 """
 
 from __future__ import annotations
@@ -25,26 +26,32 @@ from dataclasses import dataclass, field
 from itertools import count
 from typing import Any
 
-from agents import bus
 from agents.caregiving import keys
+from agents.caregiving.model import imagine_reply
+from agents.caregiving.model.imagine_reply import Answer, ImagineReply
 from agents.caregiving.model.rollout import BulletRollout, NumpyRollout, Rollout
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import batch_scene, serve_one
+from wm import Event
 
-from ..runtime import Agent, main
+from ..runtime import Agent, main, on
 from .context import Context, read_context
+from .names import OBJECT, PERSON, ROBOT, RT, WORLD
 
 
 @dataclass
 class _Job:
-    """A batch being served: its frozen scene, items, results so far and the future to resolve."""
+    """A batch being served: its frozen scene, items and results so far."""
 
     priority: int
     seq: int
     scene: Scene
     items: list[Any]
-    done: asyncio.Future[list[dict[str, Any]]]
-    results: list[dict[str, Any]] = field(default_factory=list)
+    results: list[Answer] = field(default_factory=list)
+
+    @property
+    def done(self) -> bool:
+        return len(self.results) == len(self.items)
 
 
 class Simulation(Agent):
@@ -65,17 +72,13 @@ class Simulation(Agent):
         self.served = 0
         self.jobs: list[_Job] = []
         self._seq = count()
-        self._wake = asyncio.Event()
-        self._worker = asyncio.get_running_loop().create_task(self._work(), name="imagine-worker")
-        self.g.on(self._changed, type=["person", "object", "robot", "world", "RT"])
-        self._queryable = bus.serve(self.g.network.session, keys.imagine(self.args.graph), self.imagine)  # type: ignore[union-attr]
+        self._serving = asyncio.Lock()
+        self.serve(keys.imagine(self.args.graph), self.imagine)
         self.log.info("serving", key=keys.imagine(self.args.graph), rollout=self.args.rollout)
 
-    async def teardown(self) -> None:
-        self._queryable.undeclare()
-        self._worker.cancel()
-
-    def _changed(self, _event: object) -> None:
+    @on(type=[PERSON, OBJECT, ROBOT, WORLD, RT], coalesce=True)
+    async def changed(self, _events: list[Event]) -> None:
+        """W changed: the next request reads the context again."""
         self.dirty = True
 
     def _context(self) -> Context | None:
@@ -93,33 +96,27 @@ class Simulation(Agent):
         ctx = self._context()
         scene, items = batch_scene(request, ctx.scene if ctx else None)
         joint = any(isinstance(i, dict) and i.get("kind") == "joint" for i in items)
-        job = _Job(0 if joint else 1, next(self._seq), scene, items, asyncio.get_running_loop().create_future())
+        job = _Job(0 if joint else 1, next(self._seq), scene, items)
         self.jobs.append(job)
-        self._wake.set()
-        results = await job.done
-        self.served += len(results)
-        pinned = ctx is None or scene is not ctx.scene
-        return {"episode": None if pinned else ctx.episode, "stamp": scene.time,
-                "written_at": None if pinned else ctx.written_at, "results": results,
-                "compute_ms": (time.perf_counter() - start) * 1e3}
+        async with self._serving:
+            await self._serve_until(job)
+        self.served += len(job.results)
+        context = ctx if ctx is not None and scene is ctx.scene else None  # None: the request pinned its scene
+        return imagine_reply.encode(ImagineReply(
+            context.episode if context else None, scene.time, context.written_at if context else None,
+            (time.perf_counter() - start) * 1e3, tuple(job.results)))
 
-    async def _work(self) -> None:
-        """Serve queued items one at a time, robot-move batches (Algorithm 2) before the others.
+    async def _serve_until(self, mine: _Job) -> None:
+        """Serve queued items one at a time, robot-move batches (Algorithm 2) first, until ``mine`` is done.
 
-        Between items the loop yields, so a batch that arrives meanwhile is queued
-        at once and, if it has priority, served next rather than after the current batch.
+        Between items it yields, so a batch that arrives meanwhile is queued at
+        once and, if it has priority, served next rather than after the current batch.
         """
-        while True:
-            if not self.jobs:
-                self._wake.clear()
-                await self._wake.wait()
-                continue
+        while not mine.done:
             job = min(self.jobs, key=lambda j: (j.priority, j.seq))
             job.results.append(serve_one(job.scene, job.items[len(job.results)], self.rollout))
-            if len(job.results) == len(job.items):
+            if job.done:
                 self.jobs.remove(job)
-                if not job.done.done():
-                    job.done.set_result(job.results)
             await asyncio.sleep(0)
 
 

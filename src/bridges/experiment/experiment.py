@@ -50,8 +50,6 @@ from rich.progress import (
 )
 from rich.table import Table
 
-import wm
-from agents.caregiving import names
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import Scenario, load_scenario
 from agents.caregiving.model.world_model import run_idle
@@ -59,7 +57,7 @@ from bridges.world.bridge import trial_for
 
 from .launch import Stack
 from .oracle import OracleVerdict, oracle
-from .trials import Harness, TrialRecord, finite
+from .trials import TrialRecord, finite, open_harness
 
 #: When no risky intention arose, the oracle acts at the time the pipeline typically does (simulated seconds).
 ORACLE_AT = 0.5
@@ -191,8 +189,7 @@ async def run_trials(scenario: Scenario, stack: Stack, seed: int, indices: list[
     planner = GridPlanner(scenario.scene().bounds)
     timeout = 30.0 / stack.rate + 20.0
     scored: list[Scored] = []
-    async with wm.connect(graph, name="experiment", connect=[stack.endpoint], ontology=wm.Ontology.named(names.ONTOLOGY)) as g:
-        harness = Harness(g, graph)
+    async with open_harness(stack.endpoint, graph) as harness:
         columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
         with Progress(*columns, console=console, transient=True) as progress:
             task = progress.add_task("trials", total=len(indices))
@@ -202,7 +199,6 @@ async def run_trials(scenario: Scenario, stack: Stack, seed: int, indices: list[
                 truth = run_idle(trial_for(scenario, seed, index), planner=planner)
                 scored.append(Scored(record, truth.collided, min(truth.min_clearance.values(), default=float("inf"))))
                 progress.update(task, advance=1, description=f"trials ({sum(s.record.collided for s in scored)} collided)")
-        harness.close()
     return scored
 
 

@@ -12,19 +12,25 @@ happened arrives on ``world/outcome``.
 from __future__ import annotations
 
 import asyncio
+import logging
 import math
 import time
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
 import zenoh
 
-from agents import bus
 from agents.caregiving import keys
-from agents.caregiving.action import INTENTION
-from agents.caregiving.context import WORLD, read_context
-from agents.caregiving.intention import HAS_INTENTION
+from agents.caregiving.context import read_context
+from agents.caregiving.names import HAS_INTENTION, INTENTION, OBJECT, PERSON, WORLD
+import wm
+from agents.messaging import Messaging, TaskSet, logging_guard
 from wm import Event, Graph
+from wm.connection import close_session, open_session
+
+log = logging.getLogger(__name__)
 
 
 class TrialError(RuntimeError):
@@ -84,22 +90,26 @@ def snapshot(g: Graph, action: dict[str, Any] | None) -> Snapshot | None:
 
 
 class Harness:
-    """Drives trials through the world bridge and watches W."""
+    """Drives trials through the world bridge and watches W (a replica over ``session``)."""
 
-    def __init__(self, g: Graph, graph: str) -> None:
+    def __init__(self, g: Graph, session: zenoh.Session, graph: str) -> None:
         self.g = g
         self.graph = graph
-        self.session: zenoh.Session = g.network.session  # type: ignore[union-attr]
         self._outcomes: dict[int, asyncio.Future[dict[str, Any]]] = {}
-        self._sub = bus.subscribe(self.session, keys.world_outcome(graph), self._on_outcome)
         self._record: TrialRecord | None = None
         self._episode = 0
+        self._tasks = TaskSet()
+        self.messaging = Messaging(session, logging_guard(log))
+        self.messaging.subscribe(keys.world_outcome(graph), self._on_outcome)
+        self.messaging.start(self._tasks)
         g.on(self._on_event, type=[HAS_INTENTION, INTENTION])
 
-    def close(self) -> None:
-        self._sub.undeclare()
+    async def close(self) -> None:
+        """Stop listening to the world bridge."""
+        await self._tasks.aclose()
+        self.messaging.close()
 
-    def _on_outcome(self, message: dict[str, Any]) -> None:
+    async def _on_outcome(self, message: dict[str, Any]) -> None:
         future = self._outcomes.get(message.get("trial", -1))
         if future is not None and not future.done():
             future.set_result(message)
@@ -122,14 +132,14 @@ class Harness:
                 rec.snapshot = snapshot(self.g, rec.action)
 
     async def _ask(self, request: dict[str, Any]) -> dict[str, Any]:
-        return await bus.ask(self.session, keys.world_control(self.graph), request, timeout=10.0)
+        return await self.messaging.ask(keys.world_control(self.graph), request, timeout=10.0)
 
     async def _cleared(self, trial: int, timeout: float) -> None:
         def clean() -> bool:
             world = self.g.find_node(WORLD)
-            return (world is not None and world.get("episode") == trial and not self.g.nodes("person")
+            return (world is not None and world.get("episode") == trial and not self.g.nodes(PERSON)
                     and not self.g.nodes(INTENTION) and not self.g.edges(type=HAS_INTENTION)
-                    and all(n.get("kind") == "wall" for n in self.g.nodes("object")))
+                    and all(n.get("kind") == "wall" for n in self.g.nodes(OBJECT)))
 
         deadline = time.monotonic() + timeout
         while not clean():
@@ -158,6 +168,21 @@ class Harness:
             self._outcomes.pop(trial, None)
             self._record = None
         return record
+
+
+@asynccontextmanager
+async def open_harness(endpoint: str, graph: str, name: str = "experiment") -> AsyncIterator[Harness]:
+    """A :class:`Harness` joined to the stack at ``endpoint``: a replica of W and the world bridge's messages."""
+    session = await open_session(connect=[endpoint])
+    try:
+        async with wm.connect(graph, name=name, connect=[endpoint], session=session) as g:
+            harness = Harness(g, session, graph)
+            try:
+                yield harness
+            finally:
+                await harness.close()
+    finally:
+        await close_session(session)
 
 
 def finite(values: list[float | None]) -> list[float]:

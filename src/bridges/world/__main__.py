@@ -30,14 +30,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 async def run(args: argparse.Namespace) -> None:
     scenario = load_scenario(args.scenario)
     session = await open_session(load_with_environment(args.config), connect=args.connect or None, listen=args.listen or None)
-    bridge = WorldBridge(session, args.graph, scenario, rate=args.rate, max_time=args.max_time)
     try:
         with sigterm_cancels_current_task():
-            await bridge.start()
-            print(f"world: ready scenario={scenario.name} rate={args.rate:g}", flush=True)
-            await asyncio.Event().wait()
+            bridge = WorldBridge(session, args.graph, scenario, rate=args.rate, max_time=args.max_time)
+            await bridge.run(lambda: print(f"world: ready scenario={scenario.name} rate={args.rate:g}", flush=True))
     finally:
-        bridge.close()
         await close_session(session)
 
 

@@ -16,7 +16,9 @@ every ``dt`` of simulated time, ``rate`` simulated seconds per wall second, and
   closest approaches, arrivals, the robot's commands and everyone's track.
 
 Every message carries the trial number and simulated time, which is the clock
-all agents use; latency figures are taken in wall time.
+all agents use; latency figures are taken in wall time. The requests, the
+heartbeat and the running trial are tasks of one task group, all cancelled and
+awaited before anything is undeclared.
 """
 
 from __future__ import annotations
@@ -24,15 +26,15 @@ from __future__ import annotations
 import asyncio
 import logging
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import zenoh
 
-from agents import bus
 from agents.caregiving import keys
-from agents.caregiving.model.errors import CaregivingError, RequestError
+from agents.caregiving.model.errors import RequestError
 from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.robot_moves import RobotMove
@@ -40,6 +42,7 @@ from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.scenario import Scenario, load_scenario, sample_trial
 from agents.caregiving.model.scene import shape_to_wire
 from agents.caregiving.model.world_model import World
+from agents.messaging import Messaging, logging_guard
 
 from .sensors import Detection, Sensors
 
@@ -76,7 +79,6 @@ class WorldBridge:
 
     def __init__(self, session: zenoh.Session, graph: str, scenario: Scenario, rate: float = 1.0,
                  dt: float = DT, max_time: float = 30.0) -> None:
-        self.session = session
         self.graph = graph
         self.scenario = scenario
         self.rate = rate
@@ -84,24 +86,31 @@ class WorldBridge:
         self.max_time = max_time
         self.planner = GridPlanner(scenario.scene().bounds)
         self.trial: _Trial | None = None
+        self._tasks: asyncio.TaskGroup | None = None
         self._runner: asyncio.Task[None] | None = None
         self._trials = 0
-        self._frames = session.declare_publisher(keys.frame(graph), express=True)
-        self._states = session.declare_publisher(keys.robot_state(graph), express=True)
-        self._outcomes = session.declare_publisher(keys.world_outcome(graph))
-        self._declared: list[Any] = []
+        self.messaging = Messaging(session, logging_guard(log))
+        self._frames = self.messaging.publisher(keys.frame(graph), express=True)
+        self._states = self.messaging.publisher(keys.robot_state(graph), express=True)
+        self._outcomes = self.messaging.publisher(keys.world_outcome(graph))
+        self.messaging.serve(keys.world_control(graph), self.control)
+        self.messaging.serve(keys.robot_cmd(graph), self.command)
 
-    async def start(self) -> None:
-        """Declare the queryables and start the between-trials heartbeat."""
-        self._declared = [bus.serve(self.session, keys.world_control(self.graph), self.control),
-                          bus.serve(self.session, keys.robot_cmd(self.graph), self.command)]
-        asyncio.get_running_loop().create_task(self._idle_states())
+    async def run(self, ready: Callable[[], None] = lambda: None) -> None:
+        """Answer requests, run trials and send the between-trials heartbeat until cancelled.
 
-    def close(self) -> None:
-        if self._runner is not None:
-            self._runner.cancel()
-        for d in self._declared + [self._frames, self._states, self._outcomes]:
-            d.undeclare()
+        ``ready()`` is called once the queryables are declared. On the way out every
+        task is cancelled and awaited first; only then is anything undeclared.
+        """
+        try:
+            async with asyncio.TaskGroup() as tasks:
+                self._tasks = tasks
+                self.messaging.start(tasks)
+                tasks.create_task(self._idle_states(), name="idle states")
+                ready()
+        finally:
+            self._tasks = None
+            self.messaging.close()
 
     # -- requests ------------------------------------------------------------------------------
     async def control(self, request: Any) -> dict[str, Any]:
@@ -127,8 +136,10 @@ class WorldBridge:
         if op == "go":
             if self.trial is None:
                 raise RequestError("go: no trial is prepared")
+            if self._tasks is None:
+                raise RequestError("go: the world is shutting down")
             if self._runner is None or self._runner.done():
-                self._runner = asyncio.get_running_loop().create_task(self._run(self.trial))
+                self._runner = self._tasks.create_task(self._run(self.trial), name=f"trial {self.trial.number}")
             return {"trial": self.trial.number, "running": True}
         if op == "stop":
             self._halt()
@@ -180,18 +191,17 @@ class WorldBridge:
                 trial.sensors.observe(scene)
                 ready = trial.sensors.ready(world.time)
                 if ready:
-                    self._frames.put(bus.pack({"trial": trial.number, "time": world.time,
-                                               "stamp": ready[-1].stamp,
-                                               "dets": [detection_to_wire(d) for d in ready]}))
+                    self._frames.put({"trial": trial.number, "time": world.time, "stamp": ready[-1].stamp,
+                                      "dets": [detection_to_wire(d) for d in ready]})
                 self._publish_state()
                 if steps % TRACK_EVERY == 0:
                     self._record(trial)
                 await asyncio.sleep(max(0.0, start + steps * self.dt / self.rate - loop.time()))
             self._record(trial)
-            self._outcomes.put(bus.pack(self.outcome(trial)))
+            self._outcomes.put(self.outcome(trial))
             log.info("trial %d finished at t=%.2f s: %d collision(s)", trial.number, world.time,
                      len(world.outcome().collisions))
-        except CaregivingError:
+        except Exception:  # noqa: BLE001 - a failed trial is logged; the world serves the next one
             log.exception("trial %d failed", trial.number)
 
     def _record(self, trial: _Trial) -> None:
@@ -209,14 +219,14 @@ class WorldBridge:
         world = trial.world
         r = world.robot
         walls = [shape_to_wire(o.shape) for o in trial.world.scene().obstacles[4:] if o.kind == "wall"]
-        self._states.put(bus.pack({
+        self._states.put({
             "trial": trial.number, "time": world.time, "running": self._running(),
             "name": r.name, "x": r.x, "y": r.y, "heading": r.heading, "speed": world.robot_speed,
             "route": [c for point in world.robot_route for c in point],
             "length": r.length, "width": r.width, "height": r.height, "max_speed": r.max_speed,
             "max_accel": r.max_accel, "bounds": list(world.scene().bounds), "walls": walls,
             "wall_height": trial.spec.room.wall_height,
-        }))
+        })
 
     def outcome(self, trial: _Trial) -> dict[str, Any]:
         """The record of a trial, as published on ``world/outcome``."""

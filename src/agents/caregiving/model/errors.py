@@ -13,3 +13,7 @@ class ScenarioError(CaregivingError, ValueError):
 
 class RequestError(CaregivingError, ValueError):
     """An imagine request or a wire message is malformed or names unknown entities."""
+
+
+class ReplyError(CaregivingError, ValueError):
+    """An imagine reply is malformed (:mod:`agents.caregiving.model.imagine_reply`)."""

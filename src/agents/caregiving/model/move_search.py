@@ -34,10 +34,12 @@ from typing import Any
 import numpy as np
 
 from .geometry import Polyline, bounding_radius
+from .imagine_reply import Answer
 from .joint import walk_to_wire
 from .robot_moves import RobotMove, robot_fits, standoff_poses, travel_time
 from .scene import Scene
-from .service import JointAnswer, serve_one
+from .service import serve_one
+from .uncertainty import NO_RISK
 from .visibility import WALL_KIND
 from .world_model import Walk
 
@@ -192,7 +194,7 @@ class Verdict:
         return self.arrival is not None and self.arrival < danger.time_to_collision
 
 
-def judge(move: RobotMove | None, answers: list[JointAnswer]) -> Verdict:
+def judge(move: RobotMove | None, answers: list[Answer]) -> Verdict:
     """Fold a move's answers (one per walk set) into a verdict; the first walk that is not clear says why."""
     arrival, risk, worst = None, 0.0, ""
     for a in answers:
@@ -205,8 +207,9 @@ def judge(move: RobotMove | None, answers: list[JointAnswer]) -> Verdict:
                 what = f"into {w.collision_object}" if w.collided else "stuck"
                 return Verdict(move, False, 1.0, None,
                                f"{w.walk.person} walks {what} at gaze {math.degrees(w.walk.gaze):.0f} deg")
-        if a.risk.probability >= risk:
-            risk, worst = a.risk.probability, a.risk.obstacle or ""
+        sampled = a.risk or NO_RISK
+        if sampled.probability >= risk:
+            risk, worst = sampled.probability, sampled.obstacle or ""
         arrival = a.joint.robot_arrival if arrival is None else arrival
     reason = f"everyone imagined walks clear; sampled risk {risk:.2f}" + (f" ({worst})" if risk > 0 else "")
     return Verdict(move, True, risk, arrival, reason)
@@ -266,7 +269,6 @@ def judge_here(scene: Scene, spec: SearchSpec, uncertainty: dict[str, Any]) -> J
     """A :data:`JudgeMoves` that imagines in this process, every walk set of each move (no simulator needed)."""
 
     async def judge_moves(moves: list[RobotMove]) -> list[Verdict]:
-        return [judge(m, [JointAnswer.from_wire(serve_one(scene, item)) for item in spec.items(m, uncertainty)])
-                for m in moves]
+        return [judge(m, [serve_one(scene, item) for item in spec.items(m, uncertainty)]) for m in moves]
 
     return judge_moves

@@ -9,19 +9,19 @@ A request is a msgpack map ``{"items": [ITEM, ...], "scene": SCENE?}``. An ITEM 
   move imagined in time with those walks (Algorithm 2, :func:`agents.caregiving.model.joint.imagine_joint`);
 
 with ``uncertainty = {"size_error", "sigma": {name: metres}, "samples", "seed"}``.
-Each item's answer is ``{"ok": true, "result": ..., "risk": RISK?}`` or
-``{"ok": false, "error": "..."}``; a joint answer's risk is the worst of its walks'.
-:class:`JointAnswer` decodes a joint answer into typed parts.
+Each item's answer is an :class:`~agents.caregiving.model.imagine_reply.Answer`
+(the reply and its wire form are :mod:`agents.caregiving.model.imagine_reply`);
+a joint answer's risk is the worst of its walks'.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 from .errors import CaregivingError, RequestError
 from .fields import Fields
 from .imagine import imagine_person
+from .imagine_reply import Answer
 from .joint import JointImagination, imagine_joint, walk_from_fields
 from .robot_moves import RobotMove
 from .rollout import Rollout
@@ -34,19 +34,6 @@ MAX_DELAY = 5.0
 KINDS = frozenset({"person", "joint"})
 
 
-def risk_to_wire(r: Risk) -> dict[str, Any]:
-    """A msgpack-friendly risk."""
-    return {"probability": r.probability, "time": r.time, "point": list(r.point) if r.point else None,
-            "object": r.obstacle}
-
-
-def risk_from_fields(f: Fields) -> Risk:
-    """Parse :func:`risk_to_wire` output."""
-    point = f.numbers("point", 2) if f.has("point") else None
-    return Risk(f.number("probability", non_negative=True, at_most=1.0), f.optional_number("time"),
-                (point[0], point[1]) if point else None, f.string("object") if f.has("object") else None)
-
-
 def uncertainty_from_fields(u: Fields) -> Uncertainty:
     """Parse an item's ``uncertainty`` map."""
     sigma = u.child("sigma", {})
@@ -55,8 +42,8 @@ def uncertainty_from_fields(u: Fields) -> Uncertainty:
                        int(u.number("samples", 64, positive=True, at_most=4096)), int(u.number("seed", 0)))
 
 
-def serve_item(scene: Scene, item: Any, rollout: Rollout | None = None) -> dict[str, Any]:
-    """Answer one item, adding the sampled collision risk when it asks for one."""
+def serve_item(scene: Scene, item: Any, rollout: Rollout | None = None) -> Answer:
+    """Answer one item, with the sampled collision risk when it asks for one."""
     f = Fields(item, "request", RequestError)
     kind = f.string("kind", choices=KINDS)
     u = f.optional_child("uncertainty")
@@ -64,10 +51,7 @@ def serve_item(scene: Scene, item: Any, rollout: Rollout | None = None) -> dict[
     if kind == "person":
         walk = walk_from_fields(f)
         im = imagine_person(scene, walk.person, walk.target, walk.gaze, rollout, known=walk.known)
-        out: dict[str, Any] = {"ok": True, "result": im.to_wire()}
-        if uncertainty is not None:
-            out["risk"] = risk_to_wire(collision_risk(scene, im, uncertainty))
-        return out
+        return Answer(imagination=im, risk=collision_risk(scene, im, uncertainty) if uncertainty is not None else None)
     walks = tuple(walk_from_fields(w) for w in f.children("walks"))
     if not walks:
         raise f.fail("walks", "expected at least one walk")
@@ -76,10 +60,7 @@ def serve_item(scene: Scene, item: Any, rollout: Rollout | None = None) -> dict[
     joint = imagine_joint(scene, walks, RobotMove.from_fields(move) if move is not None else None,
                           delay=f.number("delay", 0.0, non_negative=True, at_most=MAX_DELAY),
                           current=RobotMove.from_fields(current) if current is not None else None)
-    out = {"ok": True, "result": joint.to_wire()}
-    if uncertainty is not None:
-        out["risk"] = risk_to_wire(joint_risk(scene, joint, uncertainty))
-    return out
+    return Answer(joint=joint, risk=joint_risk(scene, joint, uncertainty) if uncertainty is not None else None)
 
 
 def joint_risk(scene: Scene, joint: JointImagination, u: Uncertainty) -> Risk:
@@ -93,12 +74,12 @@ def joint_risk(scene: Scene, joint: JointImagination, u: Uncertainty) -> Risk:
     return max(risks, key=lambda r: r.probability, default=NO_RISK)
 
 
-def serve_one(scene: Scene, item: Any, rollout: Rollout | None = None) -> dict[str, Any]:
-    """One item's answer; a malformed or unanswerable item gets an error entry."""
+def serve_one(scene: Scene, item: Any, rollout: Rollout | None = None) -> Answer:
+    """One item's answer; a malformed or unanswerable item gets an error answer."""
     try:
         return serve_item(scene, item, rollout)
     except (CaregivingError, ValueError, TypeError, KeyError) as exc:
-        return {"ok": False, "error": f"{type(exc).__name__}: {exc}"}
+        return Answer(error=f"{type(exc).__name__}: {exc}")
 
 
 def batch_scene(request: Any, context: Scene | None) -> tuple[Scene, list[Any]]:
@@ -115,20 +96,3 @@ def batch_scene(request: Any, context: Scene | None) -> tuple[Scene, list[Any]]:
         raise RequestError("no context yet: W holds no world and robot, and the request pins no scene")
     return scene, items
 
-
-@dataclass(frozen=True)
-class JointAnswer:
-    """A joint item's answer, decoded: the imagination and its sampled risk, or the simulator's error."""
-
-    joint: JointImagination | None
-    risk: Risk
-    error: str | None = None
-
-    @classmethod
-    def from_wire(cls, data: object) -> JointAnswer:
-        """Decode one entry of a reply's ``results``; raises :class:`RequestError` when malformed."""
-        f = Fields(data, "answer", RequestError)
-        if not f.boolean("ok"):
-            return cls(None, NO_RISK, f.string("error", "unknown error"))
-        risk = f.optional_child("risk")
-        return cls(JointImagination.from_fields(f.child("result")), risk_from_fields(risk) if risk else NO_RISK)

@@ -1,0 +1,115 @@
+"""The simulator's reply to an imagine request, as a typed message with one encoder and one decoder.
+
+A reply is a msgpack map ::
+
+    {"episode": int | null, "stamp": s, "written_at": s | null, "compute_ms": ms, "results": [ANSWER, ...]}
+
+``episode`` and ``written_at`` are those of the context the batch was imagined
+on (null when the request pinned its own scene), ``stamp`` its simulated time.
+There is one ANSWER per item of the request, in order::
+
+    {"ok": true, "kind": "person", "result": IMAGINATION, "risk"?: RISK}
+    {"ok": true, "kind": "joint", "result": JOINT, "risk"?: RISK}
+    {"ok": false, "error": "..."}
+
+with ``RISK = {"probability", "time", "point", "object"}``, present when the
+item asked for its uncertainty to be sampled. :func:`decode` checks every field
+and raises :class:`~agents.caregiving.model.errors.ReplyError` on anything else.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from .errors import ReplyError
+from .fields import Fields
+from .imagine import Imagination
+from .joint import JointImagination
+from .uncertainty import Risk
+
+KINDS = frozenset({"person", "joint"})
+_REPLY_KEYS = frozenset({"episode", "stamp", "written_at", "compute_ms", "results"})
+_ANSWER_KEYS = frozenset({"ok", "kind", "result", "risk"})
+_ERROR_KEYS = frozenset({"ok", "error"})
+
+
+@dataclass(frozen=True)
+class Answer:
+    """One item's answer: a person's imagined walk or a joint imagination, its sampled risk, or the error."""
+
+    imagination: Imagination | None = None  # a "person" item's walk
+    joint: JointImagination | None = None  # a "joint" item's robot move and walks
+    risk: Risk | None = None  # when the item asked for its uncertainty to be sampled
+    error: str | None = None  # why the item was not imagined
+
+
+@dataclass(frozen=True)
+class ImagineReply:
+    """The answers to one batch, and the context they were imagined on."""
+
+    episode: int | None
+    stamp: float
+    written_at: float | None
+    compute_ms: float
+    results: tuple[Answer, ...]
+
+
+def encode_risk(r: Risk) -> dict[str, Any]:
+    """A msgpack-friendly risk."""
+    return {"probability": r.probability, "time": r.time, "point": list(r.point) if r.point else None,
+            "object": r.obstacle}
+
+
+def encode_answer(a: Answer) -> dict[str, Any]:
+    """One entry of a reply's ``results``."""
+    if a.error is not None:
+        return {"ok": False, "error": a.error}
+    if a.imagination is not None:
+        out: dict[str, Any] = {"ok": True, "kind": "person", "result": a.imagination.to_wire()}
+    elif a.joint is not None:
+        out = {"ok": True, "kind": "joint", "result": a.joint.to_wire()}
+    else:
+        raise ValueError("an answer holds an imagination, a joint imagination or an error")
+    if a.risk is not None:
+        out["risk"] = encode_risk(a.risk)
+    return out
+
+
+def encode(reply: ImagineReply) -> dict[str, Any]:
+    """The msgpack map of a reply."""
+    return {"episode": reply.episode, "stamp": reply.stamp, "written_at": reply.written_at,
+            "compute_ms": reply.compute_ms, "results": [encode_answer(a) for a in reply.results]}
+
+
+def decode_risk(f: Fields) -> Risk:
+    """Parse :func:`encode_risk` output."""
+    point = f.numbers("point", 2) if f.has("point") else None
+    return Risk(f.number("probability", non_negative=True, at_most=1.0), f.optional_number("time"),
+                (point[0], point[1]) if point else None, f.string("object") if f.has("object") else None)
+
+
+def decode_answer(f: Fields) -> Answer:
+    """Parse :func:`encode_answer` output."""
+    if not f.boolean("ok"):
+        f.reject_unknown(_ERROR_KEYS)
+        return Answer(error=f.string("error"))
+    f.reject_unknown(_ANSWER_KEYS)
+    kind = f.string("kind", choices=KINDS)
+    risk = f.optional_child("risk")
+    sampled = decode_risk(risk) if risk is not None else None
+    if kind == "person":
+        return Answer(imagination=Imagination.from_fields(f.child("result")), risk=sampled)
+    return Answer(joint=JointImagination.from_fields(f.child("result")), risk=sampled)
+
+
+def decode(data: object) -> ImagineReply:
+    """Parse and check a reply; anything else raises :class:`ReplyError`."""
+    f = Fields(data, "reply", ReplyError)
+    f.reject_unknown(_REPLY_KEYS)
+    episode = f.optional_number("episode")
+    if episode is not None and not episode.is_integer():
+        raise f.fail("episode", f"expected a whole number, got {episode!r}")
+    return ImagineReply(None if episode is None else int(episode), f.number("stamp"), f.optional_number("written_at"),
+                        f.number("compute_ms", non_negative=True),
+                        tuple(decode_answer(a) for a in f.children("results")))
