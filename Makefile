@@ -24,8 +24,12 @@ system-deps:
 		|| echo "system-deps: could not install chromium and tmux; the browser and terminal tests will skip"; \
 	fi
 
-# The layering contracts of pyproject.toml ([tool.importlinter]): bridges -> agents -> wm.
+# Lint, format, types (strict on wm and the agent runtime) and the layering contracts of
+# pyproject.toml ([tool.importlinter]: bridges -> agents -> wm). The same hooks run from pre-commit.
 check: $(STAMP)
+	$(VENV)/bin/ruff check src tests bench deploy docs
+	$(VENV)/bin/ruff format --check src tests bench deploy docs
+	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports
 
 test: check $(STAMP) system-deps

@@ -30,7 +30,6 @@ from agents.caregiving.model.scenario import load_scenario, sample_trial
 from agents.caregiving.model.world_model import Walk, run_idle
 
 
-
 def timings(call: Callable[[], object], repeat: int) -> dict[str, float]:
     """Median and p95 of ``call()`` in milliseconds, after one warm-up call."""
     call()
@@ -58,7 +57,9 @@ def main() -> None:
     gaze = math.radians(scenario.people[0].gaze_deg)
 
     warm = GridPlanner(scene.bounds)
-    plan_cached = timings(lambda: warm.plan_to_object((person.x, person.y), couch, everything, person.radius), args.repeat)
+    plan_cached = timings(
+        lambda: warm.plan_to_object((person.x, person.y), couch, everything, person.radius), args.repeat
+    )
 
     def cold() -> None:
         warm.clear_cache()
@@ -88,22 +89,40 @@ def main() -> None:
     per_trial = (time.perf_counter() - start) / args.trials * 1e3
 
     report = {
-        "machine": platform.machine(), "python": platform.python_version(),
-        "planning": {"cached_masks": plan_cached, "cold_cache": plan_cold,
-                     "cold_over_cached": plan_cold["median_ms"] / plan_cached["median_ms"]},
-        "rollout": {"steps": walked.steps, "numpy": roll_numpy, "pybullet": roll_bullet,
-                    "pybullet_over_numpy": roll_bullet["median_ms"] / roll_numpy["median_ms"]},
-        "imagine_person": person_latency, "imagine_person_pybullet": person_bullet,
+        "machine": platform.machine(),
+        "python": platform.python_version(),
+        "planning": {
+            "cached_masks": plan_cached,
+            "cold_cache": plan_cold,
+            "cold_over_cached": plan_cold["median_ms"] / plan_cached["median_ms"],
+        },
+        "rollout": {
+            "steps": walked.steps,
+            "numpy": roll_numpy,
+            "pybullet": roll_bullet,
+            "pybullet_over_numpy": roll_bullet["median_ms"] / roll_numpy["median_ms"],
+        },
+        "imagine_person": person_latency,
+        "imagine_person_pybullet": person_bullet,
         "imagine_joint": joint_latency,
-        "ground_truth": {"trials": args.trials, "seed": args.seed, "risky": risky,
-                         "risky_rate": risky / args.trials, "ms_per_trial": per_trial},
+        "ground_truth": {
+            "trials": args.trials,
+            "seed": args.seed,
+            "risky": risky,
+            "risky_rate": risky / args.trials,
+            "ms_per_trial": per_trial,
+        },
     }
     benchlib.write_json(args.json, report)
     print(f"planning (ms, median): cached {plan_cached['median_ms']:.2f}  cold {plan_cold['median_ms']:.2f}")
-    print(f"rollout {walked.steps} steps (ms, median): numpy {roll_numpy['median_ms']:.3f}  "
-          f"pybullet {roll_bullet['median_ms']:.3f}  ratio {report['rollout']['pybullet_over_numpy']:.1f}x")
-    print(f"imagine_person (ms): median {person_latency['median_ms']:.2f}  p95 {person_latency['p95_ms']:.2f}  "
-          f"(pybullet median {person_bullet['median_ms']:.2f})")
+    print(
+        f"rollout {walked.steps} steps (ms, median): numpy {roll_numpy['median_ms']:.3f}  "
+        f"pybullet {roll_bullet['median_ms']:.3f}  ratio {report['rollout']['pybullet_over_numpy']:.1f}x"
+    )
+    print(
+        f"imagine_person (ms): median {person_latency['median_ms']:.2f}  p95 {person_latency['p95_ms']:.2f}  "
+        f"(pybullet median {person_bullet['median_ms']:.2f})"
+    )
     print(f"imagine_joint (ms): median {joint_latency['median_ms']:.2f}  p95 {joint_latency['p95_ms']:.2f}")
     print(f"ground truth: {risky}/{args.trials} risky ({risky / args.trials:.1%}), {per_trial:.0f} ms per trial")
 

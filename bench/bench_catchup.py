@@ -26,6 +26,9 @@ import signal
 import sys
 import time
 
+from pycrdt import Doc
+
+import wm
 from benchlib import (
     endpoint,
     free_port,
@@ -36,9 +39,6 @@ from benchlib import (
     spawn,
     write_json,
 )
-from pycrdt import Doc
-
-import wm
 from wm import keys
 from wm import sync_protocol as proto
 from wm.replication import Replicator
@@ -50,9 +50,16 @@ GOAL_MS = 150.0
 def attrs_of(i: int) -> dict:
     """Ten durable attributes of an ``object`` node."""
     return {
-        "kind": "ball" if i % 2 else "chair", "shape": "circle", "size": (0.1 * (i % 7), 0.2, 0.3),
-        "is_obstacle": bool(i % 3), "is_target": False, "track_id": i, "level": 2, "parent": 1,
-        "pos_x": float(i), "pos_y": -float(i),
+        "kind": "ball" if i % 2 else "chair",
+        "shape": "circle",
+        "size": (0.1 * (i % 7), 0.2, 0.3),
+        "is_obstacle": bool(i % 3),
+        "is_target": False,
+        "track_id": i,
+        "level": 2,
+        "parent": 1,
+        "pos_x": float(i),
+        "pos_y": -float(i),
     }
 
 
@@ -69,8 +76,12 @@ async def joiner(port: int, a_replica: str, repeats: int) -> None:
         connect_ms = (time.perf_counter() - start) * 1e3
         net = g.network
         assert net is not None
-        figures: dict = {"connect_entry_ms": connect_ms, "caught_up_from": net.stats.caught_up_from,
-                         "nodes": g.node_count(), "checksum": checksum(g)}
+        figures: dict = {
+            "connect_entry_ms": connect_ms,
+            "caught_up_from": net.stats.caught_up_from,
+            "nodes": g.node_count(),
+            "checksum": checksum(g),
+        }
         request = proto.encode(proto.SyncRequest("probe", wm.Graph().state_vector()))
         sync_ms, query_ms, apply_ms = [], [], []
         reply_bytes = 0
@@ -104,8 +115,14 @@ async def joiner(port: int, a_replica: str, repeats: int) -> None:
             raw_get.append((t1 - t0) * 1e3)
             raw_apply.append((t2 - t1) * 1e3)
         figures.update(
-            sync_ms=sync_ms, query_ms=query_ms, apply_ms=apply_ms, raw_get_ms=raw_get, raw_apply_ms=raw_apply,
-            sync_reply_bytes=reply_bytes, encode_state_bytes=len(state), crdt_update_bytes=len(update),
+            sync_ms=sync_ms,
+            query_ms=query_ms,
+            apply_ms=apply_ms,
+            raw_get_ms=raw_get,
+            raw_apply_ms=raw_apply,
+            sync_reply_bytes=reply_bytes,
+            encode_state_bytes=len(state),
+            crdt_update_bytes=len(update),
         )
         print("result", json.dumps(figures), flush=True)
         await asyncio.to_thread(sys.stdin.readline)
@@ -126,7 +143,9 @@ async def builder(nodes: int, chunk: int, repeats: int) -> dict:
         encoded = proto.encode(answer)
         answer_ms = (time.perf_counter() - t0) * 1e3
         expected = {"nodes": g.node_count(), "checksum": checksum(g), "reply_bytes": len(encoded)}
-        child = spawn([__file__, "--role", "joiner", "--port", str(port), "--replica", g.replica_id, "--repeats", str(repeats)])
+        child = spawn(
+            [__file__, "--role", "joiner", "--port", str(port), "--replica", g.replica_id, "--repeats", str(repeats)]
+        )
         try:
             result = json.loads(await asyncio.to_thread(read_line, child, "result"))
             child.stdin.write("stop\n")
@@ -177,7 +196,10 @@ def main() -> None:
         "encode_state_bytes": b["encode_state_bytes"],
         "crdt_update_bytes": b["crdt_update_bytes"],
         "b_equals_a": equal,
-        "a_nodes": a["nodes"], "b_nodes": b["nodes"], "a_checksum": a["checksum"], "b_checksum": b["checksum"],
+        "a_nodes": a["nodes"],
+        "b_nodes": b["nodes"],
+        "a_checksum": a["checksum"],
+        "b_checksum": b["checksum"],
         "caught_up_from": b["caught_up_from"],
         "goal_ms": GOAL_MS,
         "meets_goal_sync_p50": sync["p50_ms"] <= GOAL_MS,
@@ -186,11 +208,17 @@ def main() -> None:
         f"late joiner catch-up, {args.nodes} nodes x 10 attributes (B measures)",
         [
             ("wm.connect entry (open + members + sync)", f"{figures['connect_entry_ms']:.1f} ms"),
-            ("sync_from(A) into a fresh replica", f"p50 {sync['p50_ms']:.1f} ms  max {sync['max_ms']:.1f} ms  (n={sync['n']})"),
+            (
+                "sync_from(A) into a fresh replica",
+                f"p50 {sync['p50_ms']:.1f} ms  max {sync['max_ms']:.1f} ms  (n={sync['n']})",
+            ),
             ("  query round trip (incl. A's answer)", f"p50 {query['p50_ms']:.1f} ms"),
             ("  decode + apply (index, events)", f"p50 {apply_['p50_ms']:.1f} ms"),
             ("answer_sync + encode, timed in A", f"{figures['answer_sync_in_a_ms']:.1f} ms"),
-            ("raw pycrdt get_update + apply_update", f"p50 {raw_get['p50_ms']:.1f} + {raw_apply['p50_ms']:.1f} = {raw_total:.1f} ms"),
+            (
+                "raw pycrdt get_update + apply_update",
+                f"p50 {raw_get['p50_ms']:.1f} + {raw_apply['p50_ms']:.1f} = {raw_total:.1f} ms",
+            ),
             ("sync / raw", f"{figures['sync_p50_over_raw_p50']}x"),
             ("SYNC_REPLY bytes", f"{figures['sync_reply_bytes']:,}"),
             ("len(encode_state())", f"{figures['encode_state_bytes']:,}"),

@@ -20,7 +20,6 @@ import benchlib
 import wm
 
 
-
 def calibrate(step: Callable[[int], object], seconds: float) -> int:
     """How many calls of ``step`` take about ``seconds``."""
     count = 1000
@@ -36,7 +35,7 @@ def rates(steps: list[Callable[[int], object]], seconds: float, repeat: int) -> 
     counts = [calibrate(step, seconds) for step in steps]
     best = [0.0] * len(steps)
     for _ in range(repeat):
-        for k, (step, count) in enumerate(zip(steps, counts)):
+        for k, (step, count) in enumerate(zip(steps, counts, strict=False)):
             start = time.perf_counter()
             for i in range(count):
                 step(i)
@@ -88,19 +87,28 @@ def measure(seconds: float, repeat: int) -> dict[str, dict[str, float]]:
     for label, step in cases.items():
         raw, ops = rates([raw_step, step], seconds, repeat)
         results[label] = {"ops_per_s": ops, "raw_ops_per_s": raw, "ratio_to_raw": ops / raw}
-        results["raw pycrdt nested-map float write"]["ops_per_s"] = max(raw, results["raw pycrdt nested-map float write"]["ops_per_s"])
+        results["raw pycrdt nested-map float write"]["ops_per_s"] = max(
+            raw, results["raw pycrdt nested-map float write"]["ops_per_s"]
+        )
     return results
 
 
 def main() -> None:
     parser = benchlib.parser("bench_graph_local", __doc__.split("\n")[0])
     parser.add_argument("--seconds", type=float, default=0.5, help="length of one timed run (default 0.5)")
-    parser.add_argument("--repeat", type=int, default=5, help="timed runs per case and of the baseline beside it; the best counts (default 5)")
+    parser.add_argument(
+        "--repeat",
+        type=int,
+        default=5,
+        help="timed runs per case and of the baseline beside it; the best counts (default 5)",
+    )
     args = parser.parse_args()
     results = measure(args.seconds, args.repeat)
     print(f"{'operation':42} {'ops/s':>12} {'raw beside it':>14} {'ratio to raw':>13}")
     for label, row in results.items():
-        print(f"{label:42} {row['ops_per_s']:12,.0f} {row.get('raw_ops_per_s', row['ops_per_s']):14,.0f} {row['ratio_to_raw']:13.3f}")
+        print(
+            f"{label:42} {row['ops_per_s']:12,.0f} {row.get('raw_ops_per_s', row['ops_per_s']):14,.0f} {row['ratio_to_raw']:13.3f}"
+        )
     benchlib.write_json(args.json, {"benchmark": "graph_local", "results": results})
 
 

@@ -28,9 +28,8 @@ import tempfile
 import time
 from collections import defaultdict
 
-from benchlib import endpoint, free_port, parser, percentiles, print_table, read_line, spawn, write_json
-
 import wm
+from benchlib import endpoint, free_port, parser, percentiles, print_table, read_line, spawn, write_json
 
 GRAPH = "bench_scaling"
 RAW_KEY = "bench/scaling/raw"
@@ -63,7 +62,10 @@ async def subscriber(port: int, index: int) -> None:
 def start_router(port: int, data: str) -> subprocess.Popen[str]:
     router = subprocess.Popen(
         [sys.executable, "-m", "wm.cli", "serve", "--graph", GRAPH, "--data", data, "--listen", endpoint(port)],
-        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
     )
     read_line(router, "wm serve: ready")
     return router
@@ -104,7 +106,9 @@ def run(n: int, count: int) -> dict[str, list[tuple[int, float]]]:
     with tempfile.TemporaryDirectory(prefix="wm-scaling-") as data:
         router = start_router(port, data)
         try:
-            children = [spawn([__file__, "--role", "subscriber", "--port", str(port), "--index", str(i)]) for i in range(n)]
+            children = [
+                spawn([__file__, "--role", "subscriber", "--port", str(port), "--index", str(i)]) for i in range(n)
+            ]
             for child in children:
                 read_line(child, "ready")
             asyncio.run(write_all(port, count, pace_s=max(0.003, 0.0006 * n), subscribers=n))
@@ -155,11 +159,20 @@ def main() -> None:
         seen = run(n, args.count)
         raw, durable = summarise(seen["raw"], n, args.count), summarise(seen["durable"], n, args.count)
         ratio = round(durable["p50_ms"] / raw["p50_ms"], 2)
-        figures[str(n)] = {"raw_zenoh": raw, "wm_durable": durable, "ratio_p50": ratio,
-                           "ratio_slowest_p50": round(durable["slowest_p50_ms"] / raw["slowest_p50_ms"], 2)}
-        rows.append((f"N={n}", f"raw p50 {raw['p50_ms']:.3f} ms  wm p50 {durable['p50_ms']:.3f} ms  ratio {ratio}x  |  "
-                               f"slowest p50 raw {raw['slowest_p50_ms']:.3f} wm {durable['slowest_p50_ms']:.3f}  |  "
-                               f"wm p99 {durable['p99_ms']:.3f} ms  delivered {durable['delivered']:.0%}"))
+        figures[str(n)] = {
+            "raw_zenoh": raw,
+            "wm_durable": durable,
+            "ratio_p50": ratio,
+            "ratio_slowest_p50": round(durable["slowest_p50_ms"] / raw["slowest_p50_ms"], 2),
+        }
+        rows.append(
+            (
+                f"N={n}",
+                f"raw p50 {raw['p50_ms']:.3f} ms  wm p50 {durable['p50_ms']:.3f} ms  ratio {ratio}x  |  "
+                f"slowest p50 raw {raw['slowest_p50_ms']:.3f} wm {durable['slowest_p50_ms']:.3f}  |  "
+                f"wm p99 {durable['p99_ms']:.3f} ms  delivered {durable['delivered']:.0%}",
+            )
+        )
         print(rows[-1][0], rows[-1][1], flush=True)
     print_table("write -> event in N client-mode replicas behind a wm serve router (raw Zenoh fan-out alongside)", rows)
     write_json(args.json, {"graph": GRAPH, "writes_per_kind": args.count, "replicas": figures})

@@ -28,7 +28,9 @@ GRAPH = "bench"
 async def receiver(port: int, count: int) -> None:
     raw: list[float] = []
     session = zenoh.open(build_config(mode="peer", connect=[endpoint(port)], listen=["tcp/127.0.0.1:0"]))
-    session.declare_subscriber("bench/raw", lambda s: raw.append((time.monotonic_ns() - int(s.payload.to_bytes())) / 1e6))
+    session.declare_subscriber(
+        "bench/raw", lambda s: raw.append((time.monotonic_ns() - int(s.payload.to_bytes())) / 1e6)
+    )
     latencies: dict[str, list[float]] = {"durable": [], "volatile": []}
     async with wm.connect(GRAPH, name="receiver", connect=[endpoint(port)]) as g:
         print("ready", flush=True)
@@ -87,7 +89,12 @@ def main() -> None:
         stats = percentiles(samples[kind][50:])
         stats["ratio_p50_to_raw"] = round(stats["p50_ms"] / raw["p50_ms"], 2)
         figures[f"wm_{kind}_write_to_event"] = stats
-        rows.append((f"wm {kind} write -> remote event", f"p50 {stats['p50_ms']:.3f} ms  p99 {stats['p99_ms']:.3f} ms  ratio {stats['ratio_p50_to_raw']}x"))
+        rows.append(
+            (
+                f"wm {kind} write -> remote event",
+                f"p50 {stats['p50_ms']:.3f} ms  p99 {stats['p99_ms']:.3f} ms  ratio {stats['ratio_p50_to_raw']}x",
+            )
+        )
     figures["goals"] = {"p50_ms": 0.4, "p99_ms": 2.0, "ratio": 2.5}
     print_table("write in A -> event in B (same host, two processes)", rows)
     write_json(args.json, figures)

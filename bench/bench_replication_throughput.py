@@ -63,7 +63,21 @@ def run(writes: int, attr: str, per_tick: int) -> float:
     ports = [free_port() for _ in range(3)]
     children = []
     for i in range(3):
-        child = spawn([__file__, "--role", str(i), "--ports", ",".join(map(str, ports)), "--writes", str(writes), "--attr", attr, "--per-tick", str(per_tick)])
+        child = spawn(
+            [
+                __file__,
+                "--role",
+                str(i),
+                "--ports",
+                ",".join(map(str, ports)),
+                "--writes",
+                str(writes),
+                "--attr",
+                attr,
+                "--per-tick",
+                str(per_tick),
+            ]
+        )
         children.append(child)
     try:
         return _measure(children, writes)
@@ -99,7 +113,9 @@ def main() -> None:
     args = p.parse_args()
     if args.role != "main":
         try:
-            asyncio.run(writer(int(args.role), [int(x) for x in args.ports.split(",")], args.writes, args.attr, args.per_tick))
+            asyncio.run(
+                writer(int(args.role), [int(x) for x in args.ports.split(",")], args.writes, args.attr, args.per_tick)
+            )
         except (KeyboardInterrupt, asyncio.CancelledError):
             pass
         return

@@ -118,8 +118,12 @@ def run_baseline(writes: int, target_writes: int) -> dict[str, float]:
 
 def main() -> None:
     parser = benchlib.parser("bench_volatile_memory", __doc__.split("\n")[0])
-    parser.add_argument("--seconds-simulated", type=float, default=3600.0, help="simulated time at 30 Hz (default 3600)")
-    parser.add_argument("--baseline-writes", type=int, default=500_000, help="plain Map overwrites to measure (default 500000)")
+    parser.add_argument(
+        "--seconds-simulated", type=float, default=3600.0, help="simulated time at 30 Hz (default 3600)"
+    )
+    parser.add_argument(
+        "--baseline-writes", type=int, default=500_000, help="plain Map overwrites to measure (default 500000)"
+    )
     args = parser.parse_args()
     ticks = int(args.seconds_simulated * HZ)
     graph = run_graph(ticks)
@@ -135,10 +139,12 @@ def main() -> None:
         f"{baseline['state_bytes']:12,} {baseline['live_state_bytes']:9,} {baseline['state_over_live']:11.2f}"
     )
     print(
-        f"{'  extrapolated to ' + format(graph['writes'], ',') :34} {baseline['extrapolated_writes']:11,} "
+        f"{'  extrapolated to ' + format(graph['writes'], ','):34} {baseline['extrapolated_writes']:11,} "
         f"{baseline['extrapolated_rss_growth_mb']:14.1f} {baseline['extrapolated_state_bytes']:12,.0f}"
     )
-    print(f"goals: RSS growth <= {RSS_GOAL_MB} MB, state <= {STATE_GOAL_RATIO}x live: {'met' if graph['meets_goals'] else 'NOT met'}")
+    print(
+        f"goals: RSS growth <= {RSS_GOAL_MB} MB, state <= {STATE_GOAL_RATIO}x live: {'met' if graph['meets_goals'] else 'NOT met'}"
+    )
     benchlib.write_json(args.json, {"benchmark": "volatile_memory", "graph": graph, "baseline_plain_map": baseline})
 
 

@@ -30,6 +30,9 @@ import sys
 import time
 
 import psutil
+from pycrdt import Doc, Map
+
+import wm
 from benchlib import (
     endpoint,
     free_port,
@@ -39,9 +42,6 @@ from benchlib import (
     spawn,
     write_json,
 )
-from pycrdt import Doc, Map
-
-import wm
 
 GRAPH = "bench_volatile"
 HZ = 30
@@ -66,8 +66,10 @@ async def writer(port: int, seconds: float, target: int) -> None:
         objects = [g.insert_node("object", f"obj{k}", {"kind": "ball"}) for k in range(EDGES)]
         people = [g.insert_node("person", f"person{k}", {"radius": 0.3}) for k in range(PEOPLE)]
         for k, node in enumerate(objects):
-            g.insert_or_assign_edge(world, node, "RT", {"rt_translation": (float(k), 0.0, 0.0), "rt_rotation_euler_xyz": (0.0, 0.0, 0.0)})
-        for k, node in enumerate(people):
+            g.insert_or_assign_edge(
+                world, node, "RT", {"rt_translation": (float(k), 0.0, 0.0), "rt_rotation_euler_xyz": (0.0, 0.0, 0.0)}
+            )
+        for node in people:
             g.update_node(node, {"velocity": (0.0, 0.0), "last_seen": -1.0})
         print("ready", flush=True)
         await asyncio.to_thread(sys.stdin.readline)  # go
@@ -78,17 +80,30 @@ async def writer(port: int, seconds: float, target: int) -> None:
             t = tick / HZ
             with g.batch():  # one 30 Hz tick: 50 writes, one DELTA
                 for k, node in enumerate(objects):
-                    g.insert_or_assign_edge(world, node, "RT", {
-                        "rt_translation": (k + 0.001 * tick, 0.5, 0.0), "rt_rotation_euler_xyz": (0.0, 0.0, 0.01 * tick)})
+                    g.insert_or_assign_edge(
+                        world,
+                        node,
+                        "RT",
+                        {
+                            "rt_translation": (k + 0.001 * tick, 0.5, 0.0),
+                            "rt_rotation_euler_xyz": (0.0, 0.0, 0.01 * tick),
+                        },
+                    )
                 for k, node in enumerate(people):
                     g.update_node(node, {"velocity": (0.5, 0.001 * k), "last_seen": t})
             tick += 1
             await asyncio.sleep(0)  # the replicator publishes the tick
         elapsed = time.monotonic() - start
         confirmed = bool(await g.network.confirm(timeout=30.0))  # type: ignore[union-attr]
-        result = {"ticks": tick, "writes": tick * ATTRIBUTES, "seconds": elapsed, "final_last_seen": (tick - 1) / HZ,
-                  "confirmed": confirmed, "published": g.network.stats.published,  # type: ignore[union-attr]
-                  "rss_growth_mb": rss_mb() - rss_before}
+        result = {
+            "ticks": tick,
+            "writes": tick * ATTRIBUTES,
+            "seconds": elapsed,
+            "final_last_seen": (tick - 1) / HZ,
+            "confirmed": confirmed,
+            "published": g.network.stats.published,  # type: ignore[union-attr]
+            "rss_growth_mb": rss_mb() - rss_before,
+        }
         print("result", json.dumps(result), flush=True)
         await asyncio.to_thread(sys.stdin.readline)  # stop
 
@@ -104,11 +119,15 @@ async def receiver(port: int, interval: float) -> None:
         person0 = g.resolve("person0")
 
         def sample() -> None:
-            samples.append({
-                "t_s": round(time.monotonic() - start, 2), "rss_mb": round(rss_mb(), 2), "state_bytes": len(g.encode_state()),
-                "deltas_applied": g.network.stats.applied,  # type: ignore[union-attr]
-                "last_seen": g.get_node(person0).attrs["last_seen"],
-            })
+            samples.append(
+                {
+                    "t_s": round(time.monotonic() - start, 2),
+                    "rss_mb": round(rss_mb(), 2),
+                    "state_bytes": len(g.encode_state()),
+                    "deltas_applied": g.network.stats.applied,  # type: ignore[union-attr]
+                    "last_seen": g.get_node(person0).attrs["last_seen"],
+                }
+            )
 
         async def sampler() -> None:
             while True:
@@ -123,8 +142,12 @@ async def receiver(port: int, interval: float) -> None:
         sample()
         live = wm.Graph()
         live.load_json(g.to_dict())
-        result = {"samples": samples, "live_state_bytes": len(live.encode_state()), "gaps": g.network.stats.gaps,  # type: ignore[union-attr]
-                  "repairs": g.network.stats.repairs}  # type: ignore[union-attr]
+        result = {
+            "samples": samples,
+            "live_state_bytes": len(live.encode_state()),
+            "gaps": g.network.stats.gaps,  # type: ignore[union-attr]
+            "repairs": g.network.stats.repairs,
+        }  # type: ignore[union-attr]
         print("result", json.dumps(result), flush=True)
         await asyncio.to_thread(sys.stdin.readline)  # stop
 
@@ -156,8 +179,12 @@ def baseline(writes: int, extrapolate_to: list[int]) -> dict:
         live_root[str(k)] = Map(root[str(k)].to_py())
     live_size = len(live.get_update())
     return {
-        "writes": writes, "seconds": round(elapsed, 2), "rss_growth_mb": round(growth, 2), "state_bytes": state,
-        "live_state_bytes": live_size, "state_over_live": round(state / live_size, 1),
+        "writes": writes,
+        "seconds": round(elapsed, 2),
+        "rss_growth_mb": round(growth, 2),
+        "state_bytes": state,
+        "live_state_bytes": live_size,
+        "state_over_live": round(state / live_size, 1),
         "extrapolated": [
             {"writes": n, "rss_growth_mb": round(growth * n / writes, 1), "state_bytes": round(state * n / writes)}
             for n in extrapolate_to
@@ -167,7 +194,9 @@ def baseline(writes: int, extrapolate_to: list[int]) -> dict:
 
 def run(seconds: float, target: int, interval: float) -> tuple[dict, dict]:
     port = free_port()
-    children = [spawn([__file__, "--role", "writer", "--port", str(port), "--seconds", str(seconds), "--target", str(target)])]
+    children = [
+        spawn([__file__, "--role", "writer", "--port", str(port), "--seconds", str(seconds), "--target", str(target)])
+    ]
     try:
         read_line(children[0], "ready")
         children.append(spawn([__file__, "--role", "receiver", "--port", str(port), "--interval", str(interval)]))
@@ -226,7 +255,9 @@ def main() -> None:
         "ticks": written["ticks"],
         "full_hour": writes >= HOUR_WRITES,
         "simulated_seconds_at_30hz": round(written["ticks"] / HZ),
-        "note": None if writes >= HOUR_WRITES else f"time budget: {writes:,} of {HOUR_WRITES:,} writes ({writes / HOUR_WRITES:.0%} of an hour)",
+        "note": None
+        if writes >= HOUR_WRITES
+        else f"time budget: {writes:,} of {HOUR_WRITES:,} writes ({writes / HOUR_WRITES:.0%} of an hour)",
         "write_seconds": round(written["seconds"], 1),
         "writes_per_s": round(writes / written["seconds"]),
         "writer_confirmed": written["confirmed"],
@@ -247,7 +278,9 @@ def main() -> None:
         "receiver_samples": samples,
         "baseline_plain_pycrdt_overwrites": base,
         "goals": {"rss_growth_mb": RSS_GOAL_MB, "state_over_live": STATE_GOAL_RATIO},
-        "meets_goals_from_idle": rss_growth <= RSS_GOAL_MB and peak_growth <= RSS_GOAL_MB and state_ratio <= STATE_GOAL_RATIO,
+        "meets_goals_from_idle": rss_growth <= RSS_GOAL_MB
+        and peak_growth <= RSS_GOAL_MB
+        and state_ratio <= STATE_GOAL_RATIO,
         "meets_goals_after_warmup": steady_growth <= RSS_GOAL_MB and state_ratio <= STATE_GOAL_RATIO,
     }
     print("receiver samples:  t(s)   RSS MB   state B   deltas applied")
@@ -258,18 +291,36 @@ def main() -> None:
         f"50 volatile attributes across processes, {writes:,} writes ({figures['simulated_seconds_at_30hz']:,} s at 30 Hz)",
         [
             ("write rate", f"{figures['writes_per_s']:,}/s over {figures['write_seconds']} s"),
-            ("deltas published / applied by receiver", f"{written['published']:,} / {last['deltas_applied']:,}  (gaps {received['gaps']})"),
+            (
+                "deltas published / applied by receiver",
+                f"{written['published']:,} / {last['deltas_applied']:,}  (gaps {received['gaps']})",
+            ),
             ("receiver RSS growth from idle (end, peak)", f"{rss_growth:.1f} MB, {peak_growth:.1f} MB"),
             (f"receiver RSS growth after {warm['t_s']:.0f} s warm-up", f"{steady_growth:.1f} MB"),
             ("writer RSS growth", f"{written['rss_growth_mb']:.1f} MB"),
-            ("receiver state / live data", f"{last['state_bytes']:,} / {received['live_state_bytes']:,} B = {state_ratio:.2f}x"),
-            (f"plain pycrdt overwrites, {base['writes']:,} writes", f"RSS +{base['rss_growth_mb']} MB, state {base['state_bytes']:,} B ({base['state_over_live']}x live)"),
-            (f"  extrapolated to {writes:,}", f"RSS +{ext[writes]['rss_growth_mb']} MB, state {ext[writes]['state_bytes']:,} B"),
-            (f"  extrapolated to {HOUR_WRITES:,}", f"RSS +{ext[HOUR_WRITES]['rss_growth_mb']} MB, state {ext[HOUR_WRITES]['state_bytes']:,} B"),
-            ("goals", f"RSS growth <= {RSS_GOAL_MB} MB, state <= {STATE_GOAL_RATIO}x live: "
-             f"from idle {'met' if figures['meets_goals_from_idle'] else 'NOT met'}, "
-             f"after warm-up {'met' if figures['meets_goals_after_warmup'] else 'NOT met'}"
-             + ("" if figures["full_hour"] else " (not a full hour of writes)")),
+            (
+                "receiver state / live data",
+                f"{last['state_bytes']:,} / {received['live_state_bytes']:,} B = {state_ratio:.2f}x",
+            ),
+            (
+                f"plain pycrdt overwrites, {base['writes']:,} writes",
+                f"RSS +{base['rss_growth_mb']} MB, state {base['state_bytes']:,} B ({base['state_over_live']}x live)",
+            ),
+            (
+                f"  extrapolated to {writes:,}",
+                f"RSS +{ext[writes]['rss_growth_mb']} MB, state {ext[writes]['state_bytes']:,} B",
+            ),
+            (
+                f"  extrapolated to {HOUR_WRITES:,}",
+                f"RSS +{ext[HOUR_WRITES]['rss_growth_mb']} MB, state {ext[HOUR_WRITES]['state_bytes']:,} B",
+            ),
+            (
+                "goals",
+                f"RSS growth <= {RSS_GOAL_MB} MB, state <= {STATE_GOAL_RATIO}x live: "
+                f"from idle {'met' if figures['meets_goals_from_idle'] else 'NOT met'}, "
+                f"after warm-up {'met' if figures['meets_goals_after_warmup'] else 'NOT met'}"
+                + ("" if figures["full_hour"] else " (not a full hour of writes)"),
+            ),
         ],
     )
     write_json(args.json, figures)

@@ -27,9 +27,8 @@ import subprocess
 import sys
 import time
 
-from benchlib import endpoint, free_port, parser, percentiles, print_table, read_line, spawn, write_json
-
 import wm
+from benchlib import endpoint, free_port, parser, percentiles, print_table, read_line, spawn, write_json
 
 GRAPH = "bench_vs_redis"
 PACE_S = 0.002
@@ -50,7 +49,9 @@ def ensure_redis_server() -> str | None:
             print(f"redis-server is not installed and could not be installed ({exc}); skipping the Redis part")
             return None
         if done.returncode != 0:
-            print(f"redis-server is not installed and `{' '.join(command)}` failed: {done.stderr.strip()[-300:]}; skipping the Redis part")
+            print(
+                f"redis-server is not installed and `{' '.join(command)}` failed: {done.stderr.strip()[-300:]}; skipping the Redis part"
+            )
             return None
     return shutil.which("redis-server")
 
@@ -60,9 +61,23 @@ def start_redis(binary: str, port: int) -> subprocess.Popen[str] | None:
     import redis
 
     server = subprocess.Popen(
-        [binary, "--port", str(port), "--bind", "127.0.0.1", "--save", "", "--appendonly", "no",
-         "--notify-keyspace-events", "Kh", "--daemonize", "no"],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        [
+            binary,
+            "--port",
+            str(port),
+            "--bind",
+            "127.0.0.1",
+            "--save",
+            "",
+            "--appendonly",
+            "no",
+            "--notify-keyspace-events",
+            "Kh",
+            "--daemonize",
+            "no",
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
     )
     client = redis.Redis(port=port)
     for _ in range(100):
@@ -185,7 +200,9 @@ def main() -> None:
         figures["redis"] = theirs
         figures["ratio_p50_wm_to_redis"] = round(ours["p50_ms"] / theirs["p50_ms"], 2)
         figures["ratio_p99_wm_to_redis"] = round(ours["p99_ms"] / theirs["p99_ms"], 2)
-        rows.append(("Redis HSET -> keyspace notification", f"p50 {theirs['p50_ms']:.3f} ms  p99 {theirs['p99_ms']:.3f} ms"))
+        rows.append(
+            ("Redis HSET -> keyspace notification", f"p50 {theirs['p50_ms']:.3f} ms  p99 {theirs['p99_ms']:.3f} ms")
+        )
         rows.append(("wm / Redis", f"p50 {figures['ratio_p50_wm_to_redis']}x  p99 {figures['ratio_p99_wm_to_redis']}x"))
     print_table("write in one process -> notification in another (same host)", rows)
     write_json(args.json, figures)

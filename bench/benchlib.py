@@ -21,7 +21,9 @@ RESULTS = Path(__file__).resolve().parent / "results"
 
 def parser(name: str, description: str) -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog=name, description=description)
-    p.add_argument("--json", type=Path, default=RESULTS / f"{name}.json", help="where to write the figures (default: %(default)s)")
+    p.add_argument(
+        "--json", type=Path, default=RESULTS / f"{name}.json", help="where to write the figures (default: %(default)s)"
+    )
     return p
 
 
@@ -37,7 +39,11 @@ def percentiles(values_ms: Sequence[float]) -> dict[str, float]:
 
 
 def write_json(path: Path, figures: dict[str, Any]) -> None:
-    figures = {"machine": {"cpus": os.cpu_count(), "python": platform.python_version()}, "when": time.strftime("%Y-%m-%dT%H:%M:%S"), **figures}
+    figures = {
+        "machine": {"cpus": os.cpu_count(), "python": platform.python_version()},
+        "when": time.strftime("%Y-%m-%dT%H:%M:%S"),
+        **figures,
+    }
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(figures, indent=2))
     print(f"wrote {path}")
@@ -63,7 +69,10 @@ def endpoint(port: int) -> str:
 def spawn(args: Sequence[str]) -> subprocess.Popen[str]:
     """A child running this Python with ``args`` (stdin and stdout piped); the caller stops it by PID."""
     return subprocess.Popen(
-        [sys.executable, *args], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+        [sys.executable, *args],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
         env={**os.environ, "PYTHONUNBUFFERED": "1"},
     )
 
@@ -72,5 +81,5 @@ def read_line(child: subprocess.Popen[str], prefix: str) -> str:
     assert child.stdout is not None
     for line in child.stdout:
         if line.startswith(prefix):
-            return line[len(prefix):].strip()
+            return line[len(prefix) :].strip()
     raise RuntimeError(f"child exited before printing {prefix!r}")

@@ -84,7 +84,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         variables = {**environment_variables(), **parse_variables([t for t in tokens if _ASSIGNMENT.match(t)])}
         if args.cmd == "run":
-            config = build_config(args.file, variables=variables, mode=args.mode, connect=args.connect, listen=args.listen)
+            config = build_config(
+                args.file, variables=variables, mode=args.mode, connect=args.connect, listen=args.listen
+            )
         else:
             config = build_config(args.file, variables=variables)
         if args.cmd == "render":

@@ -5,4 +5,4 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from procs import spawner  # noqa: E402,F401
+from procs import spawner  # noqa: F401

@@ -33,7 +33,9 @@ def state_of(graph: wm.Graph) -> tuple[Any, ...]:
     return graph.to_dict(), graph.state_vector(), sorted(map(repr, graph.volatile_records()))
 
 
-def assert_refused(graph: wm.Graph, recorder: Recorder, error: type[wm.WMError], write: Callable[[], object]) -> wm.WMError:
+def assert_refused(
+    graph: wm.Graph, recorder: Recorder, error: type[wm.WMError], write: Callable[[], object]
+) -> wm.WMError:
     """``write`` raises ``error`` and changes nothing: no state, no update, no event."""
     before = state_of(graph)
     recorder.clear()

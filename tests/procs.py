@@ -41,8 +41,7 @@ def endpoint(port: int) -> str:
 class Proc:
     """A child process whose output lines are collected on a thread."""
 
-    def __init__(self, argv: Sequence[str], name: str, env: dict[str, str] | None = None,
-                 cwd: Path = REPO) -> None:
+    def __init__(self, argv: Sequence[str], name: str, env: dict[str, str] | None = None, cwd: Path = REPO) -> None:
         self.name = name
         self.argv = list(argv)
         self.popen = subprocess.Popen(
@@ -85,7 +84,9 @@ class Proc:
                 pytest.fail(f"{self.name} exited (rc={self.popen.wait()}) before printing {prefix!r}:\n{self.output()}")
             if line.startswith(prefix) and contains in line:
                 return line
-        pytest.fail(f"{self.name}: no {prefix!r} line with {contains!r} within {timeout} s; output so far:\n{self.output()}")
+        pytest.fail(
+            f"{self.name}: no {prefix!r} line with {contains!r} within {timeout} s; output so far:\n{self.output()}"
+        )
 
     def kill9(self) -> None:
         os.kill(self.popen.pid, signal.SIGKILL)

@@ -37,7 +37,12 @@ def parse_args() -> argparse.Namespace:
 
 def dump(g: wm.Graph, path: Path) -> None:
     assert g.network is not None
-    data = {"graph": g.to_dict(), "members": g.members(), "stats": dataclasses.asdict(g.network.stats), "replica": g.replica_id}
+    data = {
+        "graph": g.to_dict(),
+        "members": g.members(),
+        "stats": dataclasses.asdict(g.network.stats),
+        "replica": g.replica_id,
+    }
     tmp = path.with_suffix(f".{os.getpid()}.tmp")
     tmp.write_text(json.dumps(data, sort_keys=True))
     os.replace(tmp, path)
@@ -51,7 +56,9 @@ async def write(g: wm.Graph, args: argparse.Namespace) -> None:
         node = g.insert_node("object", f"{args.prefix}{i}", {"kind": args.name, "track_id": i})
         first = first or node
         if i % 3 == 0 and g.find_node("world"):
-            g.insert_or_assign_edge("world", node, "RT", {"rt_translation": [i, 0, 0], "rt_rotation_euler_xyz": [0, 0, 0]})
+            g.insert_or_assign_edge(
+                "world", node, "RT", {"rt_translation": [i, 0, 0], "rt_rotation_euler_xyz": [0, 0, 0]}
+            )
         await asyncio.sleep(args.pace)
     for i in range(args.updates):
         g.update_node("world", {"description": f"{args.name}-{i}", "pos_x": float(i)})
@@ -65,14 +72,22 @@ async def write(g: wm.Graph, args: argparse.Namespace) -> None:
 async def main() -> None:
     args = parse_args()
     async with wm.connect(
-        args.graph, name=args.name, connect=args.connect or None, listen=args.listen or None, mode=args.mode,
+        args.graph,
+        name=args.name,
+        connect=args.connect or None,
+        listen=args.listen or None,
+        mode=args.mode,
         heartbeat_period=args.heartbeat,
     ) as g:
         print("ready", g.replica_id, flush=True)
         changed = asyncio.Event()
         g.on(lambda _event: changed.set())
         await write(g, args)
-        print("wrote", bool(await g.network.confirm(10.0)) if args.nodes or args.updates or args.volatile else "", flush=True)
+        print(
+            "wrote",
+            bool(await g.network.confirm(10.0)) if args.nodes or args.updates or args.volatile else "",
+            flush=True,
+        )
         while True:
             if args.dump is not None:
                 dump(g, args.dump)

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import pytest
-from graph_helpers import Recorder, assert_refused
 
 import wm
+from graph_helpers import Recorder, assert_refused
 
 
 @pytest.fixture
@@ -69,8 +69,12 @@ def test_edges_filters(g: wm.Graph) -> None:
     keys = lambda edges: [e.key for e in edges]  # noqa: E731
     assert len(g.edges()) == 5
     assert keys(g.edges(type="RT")) == sorted([(world, ann, "RT"), (world, ball, "RT")])
-    assert sorted(keys(g.edges(src="ann"))) == sorted([(ann, ball, "has_intention"), (ann, couch, "has_intention"), (ann, ball, "collision")])
-    assert sorted(keys(g.edges(dst=ball))) == sorted([(world, ball, "RT"), (ann, ball, "has_intention"), (ann, ball, "collision")])
+    assert sorted(keys(g.edges(src="ann"))) == sorted(
+        [(ann, ball, "has_intention"), (ann, couch, "has_intention"), (ann, ball, "collision")]
+    )
+    assert sorted(keys(g.edges(dst=ball))) == sorted(
+        [(world, ball, "RT"), (ann, ball, "has_intention"), (ann, ball, "collision")]
+    )
     assert keys(g.edges(type="has_intention", src=ann, dst="couch")) == [(ann, couch, "has_intention")]
     assert keys(g.edges(type="collision", src=world)) == []
     assert g.edges(type="has") == []
@@ -127,13 +131,21 @@ def test_delete_edge_attr_errors(g: wm.Graph, rec: Recorder) -> None:
 
 def test_insert_edge_errors_write_nothing(g: wm.Graph, rec: Recorder) -> None:
     assert_refused(g, rec, wm.UnknownTypeError, lambda: g.insert_or_assign_edge("ann", "ball", "likes"))
-    assert_refused(g, rec, wm.UnknownAttributeError, lambda: g.insert_or_assign_edge("ann", "ball", "collision", {"risky": True}))
     assert_refused(
-        g, rec, wm.AttributeTypeError, lambda: g.insert_or_assign_edge("ann", "ball", "has_intention", {"risky": True, "gaze": "up"})
+        g, rec, wm.UnknownAttributeError, lambda: g.insert_or_assign_edge("ann", "ball", "collision", {"risky": True})
+    )
+    assert_refused(
+        g,
+        rec,
+        wm.AttributeTypeError,
+        lambda: g.insert_or_assign_edge("ann", "ball", "has_intention", {"risky": True, "gaze": "up"}),
     )
     assert_refused(g, rec, wm.NodeNotFoundError, lambda: g.insert_or_assign_edge("ann", "nobody", "collision"))
     assert_refused(
-        g, rec, wm.UnknownAttributeError, lambda: g.insert_or_assign_edge("ann", "ball", "has_intention", {"stamp": 1.0, "kind": "x"})
+        g,
+        rec,
+        wm.UnknownAttributeError,
+        lambda: g.insert_or_assign_edge("ann", "ball", "has_intention", {"stamp": 1.0, "kind": "x"}),
     )
 
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import asyncio
 
 import pytest
-from graph_helpers import Recorder
 
 import wm
+from graph_helpers import Recorder
 from wm import EventKind as K
 
 
@@ -82,7 +82,11 @@ def test_filters_by_kind_type_and_name(g: wm.Graph) -> None:
     g.update_node(ball, {"kind": "ball"})
     g.delete_node(ball)
     assert [e.kind for e in by_kind] == [K.EDGE_ADDED, K.NODE_REMOVED]
-    assert [(e.kind, e.type) for e in by_type] == [(K.NODE_ADDED, "object"), (K.NODE_UPDATED, "object"), (K.NODE_REMOVED, "object")]
+    assert [(e.kind, e.type) for e in by_type] == [
+        (K.NODE_ADDED, "object"),
+        (K.NODE_UPDATED, "object"),
+        (K.NODE_REMOVED, "object"),
+    ]
     assert [e.kind for e in by_name] == [K.NODE_ADDED, K.EDGE_ADDED, K.NODE_UPDATED, K.EDGE_REMOVED]
     assert [(e.kind, e.name) for e in combined] == [(K.NODE_UPDATED, "ann")]
     with pytest.raises(ValueError):

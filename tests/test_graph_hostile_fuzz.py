@@ -35,21 +35,37 @@ from wm.persistence import DiskLog, Persister
 ROOTS = ("nodes", "edges", "edge_attrs", "deleted")
 
 plain_values = st.one_of(
-    st.none(), st.booleans(), st.integers(-(2**63) + 1, 2**63 - 1), st.floats(allow_nan=True, allow_infinity=True),
-    st.text(max_size=8), st.binary(max_size=8), st.lists(st.floats(-10, 10), max_size=4),
+    st.none(),
+    st.booleans(),
+    st.integers(-(2**63) + 1, 2**63 - 1),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.text(max_size=8),
+    st.binary(max_size=8),
+    st.lists(st.floats(-10, 10), max_size=4),
     st.sampled_from(["object", "person", "bogus_type", "RT", "has", "", "@x"]),
 )
-real_ids = st.builds(lambda prefix, counter: str(prefix << 21 | counter), st.integers(1000, 1002), st.integers(1, 4))  # ids in use
+real_ids = st.builds(
+    lambda prefix, counter: str(prefix << 21 | counter), st.integers(1000, 1002), st.integers(1, 4)
+)  # ids in use
 keys = st.one_of(
     real_ids,
-    st.builds(lambda a, b, t: f"{a}>{b}>{t}", real_ids, real_ids, st.sampled_from(["has", "RT", "has.status", "has.bogus"])),
+    st.builds(
+        lambda a, b, t: f"{a}>{b}>{t}", real_ids, real_ids, st.sampled_from(["has", "RT", "has.status", "has.bogus"])
+    ),
     st.sampled_from(["1", "2", "3", "0", "007", "-4", str(2**53), str(2**70), "not-an-int", "", "@type", "@name"]),
     st.integers(1, 2**60).map(str),
     st.text(max_size=10),
-    st.builds(lambda a, b, t: f"{a}>{b}>{t}", st.sampled_from(["1", "2", "x", str(2**70)]), st.sampled_from(["1", "3", ""]),
-              st.sampled_from(["RT", "has", "bogus", "has.status", ""])),
-    st.builds(lambda k, a: f"{k}.{a}", st.sampled_from(["1>2>has", "1>2>RT", "x>y>z", "2>1>has"]),
-              st.sampled_from(["status", "bogus", "rt_translation", "updated_at", ""])),
+    st.builds(
+        lambda a, b, t: f"{a}>{b}>{t}",
+        st.sampled_from(["1", "2", "x", str(2**70)]),
+        st.sampled_from(["1", "3", ""]),
+        st.sampled_from(["RT", "has", "bogus", "has.status", ""]),
+    ),
+    st.builds(
+        lambda k, a: f"{k}.{a}",
+        st.sampled_from(["1>2>has", "1>2>RT", "x>y>z", "2>1>has"]),
+        st.sampled_from(["status", "bogus", "rt_translation", "updated_at", ""]),
+    ),
 )
 attr_names = st.sampled_from(["@type", "@name", "kind", "pos_x", "track_id", "size", "bogus", "radius", "texture", ""])
 
@@ -131,7 +147,13 @@ def test_hostile_documents_never_break_a_replica_and_every_replica_shows_the_sam
                 net.hostile(r, data.draw(writes))
             elif action == "volatile":
                 owner = data.draw(st.sampled_from(["n:1", "n:x", "e:1>2>has", "e:garbage", "q:1"]))
-                record = (owner, data.draw(attr_names), data.draw(plain_values), data.draw(st.integers(0, 9)), "mallory")
+                record = (
+                    owner,
+                    data.draw(attr_names),
+                    data.draw(plain_values),
+                    data.draw(st.integers(0, 9)),
+                    "mallory",
+                )
                 net.graphs[r].merge_volatile([record], "mallory")
             elif net.in_flight:
                 net.deliver(data.draw(st.integers(0, 10**6)) % len(net.in_flight), keep_copy=data.draw(st.booleans()))

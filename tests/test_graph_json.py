@@ -7,9 +7,9 @@ from pathlib import Path
 
 import msgpack
 import pytest
-from graph_helpers import Recorder, assert_refused
 
 import wm
+from graph_helpers import Recorder, assert_refused
 
 
 def sample_graph() -> wm.Graph:
@@ -115,7 +115,11 @@ DSR_SCENE = {
                 "id": "201",
                 "name": "camera",
                 "type": "rgbd",
-                "attribute": {"level": {"type": 1, "value": 2}, "parent": {"type": 7, "value": "200"}, "cam_rgb": {"type": 5, "value": [1, 2]}},
+                "attribute": {
+                    "level": {"type": 1, "value": 2},
+                    "parent": {"type": 7, "value": "200"},
+                    "cam_rgb": {"type": 5, "value": [1, 2]},
+                },
                 "links": [],
             },
             "300": {
@@ -143,7 +147,14 @@ def test_dsr_scene_imports_with_skipped_attributes_reported() -> None:
     )
     world = g.get_node(100)
     assert (world.type, world.name) == ("world", "world")
-    assert world.attrs == {"level": 0, "parent": 0, "pos_x": -350.0, "pos_y": 12.5, "color": "SeaGreen", "OuterRegionLeft": -5000}
+    assert world.attrs == {
+        "level": 0,
+        "parent": 0,
+        "pos_x": -350.0,
+        "pos_y": 12.5,
+        "color": "SeaGreen",
+        "OuterRegionLeft": -5000,
+    }
     assert g.get_node("robot").attrs == {"level": 1, "parent": 100}
     assert g.get_node("camera").attrs["cam_rgb"] == bytes([1, 2])
     x, y, yaw = g.rt.pose2d("world", "camera")
@@ -161,7 +172,13 @@ def test_dsr_byte_vectors_import_as_bytes() -> None:
     ontology = wm.Ontology.from_dict(
         {"attributes": {"blob": {"type": "bytes"}}, "nodes": {"camera": {"attributes": ["blob"]}}}
     )
-    symbol = {"id": "7", "name": "cam", "type": "camera", "attribute": {"blob": {"type": 5, "value": [0, 1, 255]}}, "links": []}
+    symbol = {
+        "id": "7",
+        "name": "cam",
+        "type": "camera",
+        "attribute": {"blob": {"type": 5, "value": [0, 1, 255]}},
+        "links": [],
+    }
     g = wm.Graph(ontology)
     g.load_json({"DSRModel": {"symbols": {"7": symbol}}})
     assert g.get_node("cam").attrs["blob"] == b"\x00\x01\xff"
@@ -188,7 +205,9 @@ def _bad_scenes() -> list[tuple[object, type]]:
     cycle = json.loads(json.dumps(good))
     cycle["edges"].append({"src": ids[2], "dst": ids[0], "type": "RT", "attrs": {}})
     dsr_big_int = json.loads(json.dumps(DSR_SCENE))
-    dsr_big_int["DSRModel"]["symbols"]["300"]["attribute"]["parent"]["value"] = "18446744073709551616"  # 2**64: past uint64
+    dsr_big_int["DSRModel"]["symbols"]["300"]["attribute"]["parent"]["value"] = (
+        "18446744073709551616"  # 2**64: past uint64
+    )
     dsr_unknown_type = json.loads(json.dumps(DSR_SCENE))
     dsr_unknown_type["DSRModel"]["symbols"]["300"]["type"] = "dragon"
     dsr_no_name = json.loads(json.dumps(DSR_SCENE))
@@ -225,7 +244,12 @@ def test_a_scene_clashing_with_the_graph_writes_nothing() -> None:
     deleted = wm.Graph()
     node = deleted.insert_node("object", "gone")
     deleted.delete_node(node)
-    scene = {"format": "cortex-wm", "version": 1, "nodes": [{"id": node, "type": "object", "name": "back"}], "edges": []}
+    scene = {
+        "format": "cortex-wm",
+        "version": 1,
+        "nodes": [{"id": node, "type": "object", "name": "back"}],
+        "edges": [],
+    }
     assert_refused(deleted, Recorder(deleted), wm.NodeExistsError, lambda: deleted.load_json(scene))
 
 

@@ -6,9 +6,9 @@ import dataclasses
 
 import numpy as np
 import pytest
-from graph_helpers import Recorder, assert_refused
 
 import wm
+from graph_helpers import Recorder, assert_refused
 from wm.ids import COUNTER_BITS, IdAllocator
 
 
@@ -85,7 +85,9 @@ def test_concurrent_updates_of_different_attributes_both_survive() -> None:
     b.update_node(node_id, {"fov": 2.0})
     a.apply_update(b.diff(a.state_vector()), "b")
     b.apply_update(a.diff(b.state_vector()), "a")
-    assert dict(a.get_node(node_id).attrs) == dict(b.get_node(node_id).attrs) == {"radius": 0.3, "speed": 1.0, "fov": 2.0}
+    assert (
+        dict(a.get_node(node_id).attrs) == dict(b.get_node(node_id).attrs) == {"radius": 0.3, "speed": 1.0, "fov": 2.0}
+    )
 
 
 def test_update_with_empty_attrs_writes_nothing(g: wm.Graph, rec: Recorder) -> None:
@@ -128,7 +130,9 @@ def test_rename_moves_the_name(g: wm.Graph, rec: Recorder) -> None:
     g.rename_node("ann", "anna")
     assert g.get_node("anna").id == node_id
     assert g.find_node("ann") is None
-    assert [(e.kind, e.name, e.attrs) for e in rec.events] == [(wm.EventKind.NODE_UPDATED, "anna", frozenset({"@name"}))]
+    assert [(e.kind, e.name, e.attrs) for e in rec.events] == [
+        (wm.EventKind.NODE_UPDATED, "anna", frozenset({"@name"}))
+    ]
     g.insert_node("person", "ann")  # the old name is free again
 
 
@@ -223,7 +227,9 @@ def test_reads_are_immutable_snapshots(g: wm.Graph) -> None:
 
 
 def test_numpy_values_are_accepted_and_stored_as_python(g: wm.Graph) -> None:
-    p = g.insert_node("person", "ann", {"track_id": np.int64(3), "speed": np.float32(1.5), "velocity": np.array([1, 2])})
+    p = g.insert_node(
+        "person", "ann", {"track_id": np.int64(3), "speed": np.float32(1.5), "velocity": np.array([1, 2])}
+    )
     node = g.get_node(p)
     assert node.attrs == {"track_id": 3, "speed": 1.5, "velocity": (1.0, 2.0)}
     assert type(node.attrs["track_id"]) is int

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from graph_helpers import Recorder, assert_refused
 
 import wm
+from graph_helpers import Recorder, assert_refused
 
 GOOD = """
 attributes:
@@ -147,7 +147,15 @@ def test_unknown_type_and_attribute_messages(g: wm.Graph, rec: Recorder) -> None
 def test_every_value_type_round_trips(g: wm.Graph) -> None:
     values = {"n": -(2**53), "x": 2, "flag": False, "label": "é", "blob": b"\x00\xff", "pose": [0, 1, 2], "path": []}
     node = g.get_node(g.insert_node("thing", "t", values))
-    assert node.attrs == {"n": -(2**53), "x": 2.0, "flag": False, "label": "é", "blob": b"\x00\xff", "pose": (0.0, 1.0, 2.0), "path": ()}
+    assert node.attrs == {
+        "n": -(2**53),
+        "x": 2.0,
+        "flag": False,
+        "label": "é",
+        "blob": b"\x00\xff",
+        "pose": (0.0, 1.0, 2.0),
+        "path": (),
+    }
     assert type(node.attrs["n"]) is int and type(node.attrs["x"]) is float and type(node.attrs["flag"]) is bool
     replica = wm.Graph(g.ontology)
     replica.load_state(g.encode_state())

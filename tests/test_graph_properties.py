@@ -91,7 +91,18 @@ def _do_op(data: st.DataObject, net: Net, r: int) -> None:
     graph = net.graphs[r]
     op = data.draw(
         st.sampled_from(
-            ["insert", "insert", "update", "volatile", "delete_attr", "delete_node", "edge", "rt", "delete_edge", "rename"]
+            [
+                "insert",
+                "insert",
+                "update",
+                "volatile",
+                "delete_attr",
+                "delete_node",
+                "edge",
+                "rt",
+                "delete_edge",
+                "rename",
+            ]
         )
     )
     if op == "insert":
@@ -101,7 +112,9 @@ def _do_op(data: st.DataObject, net: Net, r: int) -> None:
     if op == "edge":
         src, dst = _pick_node(data, graph), _pick_node(data, graph)
         if src is not None and dst is not None:
-            graph.insert_or_assign_edge(src, dst, "has_intention", {"risky": data.draw(st.booleans()), "stamp": data.draw(finite)})
+            graph.insert_or_assign_edge(
+                src, dst, "has_intention", {"risky": data.draw(st.booleans()), "stamp": data.draw(finite)}
+            )
         return
     if op in ("delete_edge", "rt"):
         edge = _pick_edge(data, graph)
@@ -116,7 +129,9 @@ def _do_op(data: st.DataObject, net: Net, r: int) -> None:
     if node is None:
         return
     if op == "update":
-        graph.update_node(node, {data.draw(st.sampled_from(["radius", "speed", "track_id"])): data.draw(st.integers(0, 9))})
+        graph.update_node(
+            node, {data.draw(st.sampled_from(["radius", "speed", "track_id"])): data.draw(st.integers(0, 9))}
+        )
     elif op == "volatile":
         graph.update_node(node, {data.draw(st.sampled_from(["last_seen", "stamp"])): data.draw(finite)})
     elif op == "delete_attr":

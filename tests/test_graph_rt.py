@@ -6,11 +6,11 @@ import math
 
 import numpy as np
 import pytest
-from graph_helpers import Recorder, assert_refused
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import wm
+from graph_helpers import Recorder, assert_refused
 from wm.rt import euler_xyz, rotation_matrix
 
 
@@ -40,7 +40,13 @@ T_CUP = ((0.5, 0.5, 0.9), (0.3, 0.2, -1.0))
 @pytest.fixture
 def g() -> wm.Graph:
     graph = wm.Graph(replica_id="local")
-    for node_type, name in [("world", "world"), ("robot", "robot"), ("person", "ann"), ("rgbd", "camera"), ("object", "cup")]:
+    for node_type, name in [
+        ("world", "world"),
+        ("robot", "robot"),
+        ("person", "ann"),
+        ("rgbd", "camera"),
+        ("object", "cup"),
+    ]:
         graph.insert_node(node_type, name)
     graph.rt.insert_or_assign("world", "robot", *T_ROBOT)
     graph.rt.insert_or_assign("world", "ann", *T_PERSON)
@@ -50,7 +56,13 @@ def g() -> wm.Graph:
 
 
 def in_world(name: str) -> np.ndarray:
-    chain = {"world": [], "robot": [T_ROBOT], "ann": [T_PERSON], "camera": [T_ROBOT, T_CAMERA], "cup": [T_PERSON, T_CUP]}[name]
+    chain = {
+        "world": [],
+        "robot": [T_ROBOT],
+        "ann": [T_PERSON],
+        "camera": [T_ROBOT, T_CAMERA],
+        "cup": [T_PERSON, T_CUP],
+    }[name]
     m = np.eye(4)
     for t, r in chain:
         m = m @ pose(t, r)
@@ -128,7 +140,11 @@ def test_nodes_in_different_trees(g: wm.Graph) -> None:
 
 def test_concurrent_second_parents_resolve_to_the_lowest_id() -> None:
     a, b = wm.Graph(replica_id="a"), wm.Graph(replica_id="b")
-    world, other, ball = a.insert_node("world", "world"), a.insert_node("world", "other"), a.insert_node("object", "ball")
+    world, other, ball = (
+        a.insert_node("world", "world"),
+        a.insert_node("world", "other"),
+        a.insert_node("object", "ball"),
+    )
     b.apply_update(a.diff(), "a")
     a.rt.set_pose2d(world, ball, 1, 0, 0)
     b.rt.set_pose2d(other, ball, 2, 0, 0)

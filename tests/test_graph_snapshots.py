@@ -80,7 +80,9 @@ def test_remote_changes_reach_kept_snapshots(g: wm.Graph) -> None:
         ("velocity", (0.5, 1.5), (0.5, 1.5)),
     ],
 )
-def test_values_not_in_stored_form_are_coerced_as_the_ontology_says(g: wm.Graph, attr: str, value: object, stored: object) -> None:
+def test_values_not_in_stored_form_are_coerced_as_the_ontology_says(
+    g: wm.Graph, attr: str, value: object, stored: object
+) -> None:
     g.update_node("ann", {attr: value})
     got = g.get_node("ann").attrs[attr]
     assert got == stored and type(got) is type(stored)

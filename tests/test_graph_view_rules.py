@@ -41,7 +41,9 @@ def g() -> wm.Graph:
     return graph
 
 
-@pytest.mark.parametrize("attrs", [{"pos_x": math.nan}, {"pos_x": math.inf}, {"size": (1.0, -math.inf, 0.0)}, {"last_seen": math.nan}])
+@pytest.mark.parametrize(
+    "attrs", [{"pos_x": math.nan}, {"pos_x": math.inf}, {"size": (1.0, -math.inf, 0.0)}, {"last_seen": math.nan}]
+)
 def test_nan_and_infinity_are_refused(g: wm.Graph, attrs: dict) -> None:
     with pytest.raises(wm.AttributeTypeError, match="NaN and infinity"):
         g.update_node("ball", attrs)
@@ -51,17 +53,28 @@ def test_nan_and_infinity_are_refused(g: wm.Graph, attrs: dict) -> None:
 
 
 def test_an_entry_may_allow_nan_and_the_json_dump_stays_strict_and_round_trips() -> None:
-    ontology = wm.Ontology.from_dict({
-        "attributes": {"reading": {"type": "float", "nonfinite": True}, "samples": {"type": "vec", "nonfinite": True}},
-        "nodes": {"sensor": {"attributes": ["reading", "samples"]}},
-    })
+    ontology = wm.Ontology.from_dict(
+        {
+            "attributes": {
+                "reading": {"type": "float", "nonfinite": True},
+                "samples": {"type": "vec", "nonfinite": True},
+            },
+            "nodes": {"sensor": {"attributes": ["reading", "samples"]}},
+        }
+    )
     g = wm.Graph(ontology)
     g.insert_node("sensor", "s", {"reading": math.nan, "samples": [1.0, math.inf, -math.inf]})
     dumped = strict(g.to_json())
-    assert dumped["nodes"][0]["attrs"] == {"reading": {"$float": "nan"}, "samples": [1.0, {"$float": "inf"}, {"$float": "-inf"}]}
+    assert dumped["nodes"][0]["attrs"] == {
+        "reading": {"$float": "nan"},
+        "samples": [1.0, {"$float": "inf"}, {"$float": "-inf"}],
+    }
     copy = wm.Graph(ontology)
     copy.load_json(dumped)
-    assert math.isnan(copy.get_node("s").attrs["reading"]) and copy.get_node("s").attrs["samples"][1:] == (math.inf, -math.inf)
+    assert math.isnan(copy.get_node("s").attrs["reading"]) and copy.get_node("s").attrs["samples"][1:] == (
+        math.inf,
+        -math.inf,
+    )
 
 
 def test_only_a_float_or_a_vec_may_allow_nan() -> None:
@@ -91,11 +104,13 @@ def test_values_and_names_beyond_the_default_limits_are_refused(g: wm.Graph) -> 
 
 
 def test_limits_are_configured_in_the_ontology_and_apply_to_every_kind_of_value() -> None:
-    ontology = wm.Ontology.from_dict({
-        "limits": {"max_value_bytes": 16, "max_name_length": 20},
-        "attributes": {"label": "str", "blob": "bytes", "path": "vec"},
-        "nodes": {"thing": {"attributes": ["label", "blob", "path"]}},
-    })
+    ontology = wm.Ontology.from_dict(
+        {
+            "limits": {"max_value_bytes": 16, "max_name_length": 20},
+            "attributes": {"label": "str", "blob": "bytes", "path": "vec"},
+            "nodes": {"thing": {"attributes": ["label", "blob", "path"]}},
+        }
+    )
     g = wm.Graph(ontology)
     for attrs in ({"label": "x" * 17}, {"blob": b"x" * 17}, {"path": [0.0, 1.0, 2.0]}):  # a vec element is 8 bytes
         with pytest.raises(wm.AttributeTypeError, match="exceeds the limit of 16 bytes"):
@@ -122,7 +137,10 @@ def test_remote_content_beyond_the_limits_is_left_out(g: wm.Graph) -> None:
 
     g.apply_update(hostile(g, craft), "mallory")
     assert g.get_node("ball").attrs == {"kind": "ball"} and g.find_node("n" * 257) is None
-    assert [(e.kind, e.key, e.writer) for e in g.left_out()] == [("node", "4242", "mallory"), ("node_attr", f"{ball}.color", "mallory")]
+    assert [(e.kind, e.key, e.writer) for e in g.left_out()] == [
+        ("node", "4242", "mallory"),
+        ("node_attr", f"{ball}.color", "mallory"),
+    ]
     assert g.left_out_by_writer() == {"mallory": 2}
 
 
@@ -134,7 +152,9 @@ def test_a_local_write_replaces_a_value_the_view_left_out(g: wm.Graph) -> None:
     assert g.get_node("ball").attrs["pos_x"] == 1.5 and g.left_out() == []
 
 
-def test_a_remote_rename_to_an_invalid_name_removes_the_node_from_the_view_and_a_valid_one_brings_it_back(g: wm.Graph) -> None:
+def test_a_remote_rename_to_an_invalid_name_removes_the_node_from_the_view_and_a_valid_one_brings_it_back(
+    g: wm.Graph,
+) -> None:
     ball = str(g.get_node("ball").id)
     events: list[wm.Event] = []
     g.on(events.append)
@@ -175,8 +195,13 @@ def test_wm_check_lists_what_is_left_out_with_its_sender_and_repair_deletes_it(t
     disk.close()
 
     def wm_check(*extra: str) -> subprocess.CompletedProcess[str]:
-        return subprocess.run([*WM, "check", "--data", str(data), "--graph", "home", *extra], capture_output=True, text=True,
-                              timeout=60, cwd=REPO)
+        return subprocess.run(
+            [*WM, "check", "--data", str(data), "--graph", "home", *extra],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            cwd=REPO,
+        )
 
     listed = wm_check()
     assert listed.returncode == 2, listed.stderr
@@ -190,6 +215,7 @@ def test_wm_check_lists_what_is_left_out_with_its_sender_and_repair_deletes_it(t
 
 
 def test_wm_check_names_a_missing_graph_in_one_line(tmp_path: Path) -> None:
-    result = subprocess.run([*WM, "check", "--data", str(tmp_path), "--graph", "nope"], capture_output=True, text=True,
-                            timeout=60, cwd=REPO)
+    result = subprocess.run(
+        [*WM, "check", "--data", str(tmp_path), "--graph", "nope"], capture_output=True, text=True, timeout=60, cwd=REPO
+    )
     assert result.returncode == 1 and result.stderr.count("\n") == 1 and "no graph 'nope'" in result.stderr

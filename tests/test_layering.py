@@ -35,9 +35,17 @@ class Venv:
         return self.python.parent / name
 
 
-def _run(argv: Sequence[str | Path], cwd: Path, env: dict[str, str] | None = None, timeout: float = 240) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([str(a) for a in argv], cwd=cwd, env={**os.environ, **(env or {})}, capture_output=True, text=True,
-                          timeout=timeout)
+def _run(
+    argv: Sequence[str | Path], cwd: Path, env: dict[str, str] | None = None, timeout: float = 240
+) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [str(a) for a in argv],
+        cwd=cwd,
+        env={**os.environ, **(env or {})},
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
 
 
 def _clean_env(**extra: str) -> dict[str, str]:
@@ -64,8 +72,14 @@ def core_venv(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Venv]:
 def _serve_starts(argv: Sequence[str | Path], cwd: Path, env: dict[str, str]) -> None:
     """``wm serve`` on a free loopback port prints its ready line; then it is stopped by its PID."""
     port = free_port()
-    proc = subprocess.Popen([str(a) for a in [*argv, "serve", "--data", cwd / "data", "--graph", "alone", "--listen", endpoint(port)]],
-                            cwd=cwd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    proc = subprocess.Popen(
+        [str(a) for a in [*argv, "serve", "--data", cwd / "data", "--graph", "alone", "--listen", endpoint(port)]],
+        cwd=cwd,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
     lines: list[str] = []
     try:
         assert proc.stdout is not None
@@ -88,7 +102,9 @@ def _serve_starts(argv: Sequence[str | Path], cwd: Path, env: dict[str, str]) ->
 
 def test_the_venv_is_quick(core_venv: Venv) -> None:
     if core_venv.seconds > VENV_BUDGET_S:
-        pytest.fail(f"creating the venv with wm's dependencies took {core_venv.seconds:.0f} s (budget {VENV_BUDGET_S:.0f} s)")
+        pytest.fail(
+            f"creating the venv with wm's dependencies took {core_venv.seconds:.0f} s (budget {VENV_BUDGET_S:.0f} s)"
+        )
 
 
 def test_wm_alone_imports_serves_and_answers_help(core_venv: Venv) -> None:
@@ -119,7 +135,10 @@ def test_the_project_without_extras_runs_wm_and_names_what_the_application_lacks
     for name in ("pyproject.toml", "README.md"):
         shutil.copy(REPO / name, source / name)
     shutil.copytree(REPO / "src", source / "src", ignore=shutil.ignore_patterns("__pycache__", "*.egg-info"))
-    done = _run([core_venv.python, "-m", "pip", "install", "-q", "--disable-pip-version-check", "--no-deps", source], cwd=core_venv.root)
+    done = _run(
+        [core_venv.python, "-m", "pip", "install", "-q", "--disable-pip-version-check", "--no-deps", source],
+        cwd=core_venv.root,
+    )
     assert done.returncode == 0, done.stderr
     env = _clean_env()
 

@@ -43,7 +43,9 @@ def test_the_application_commands_are_installed_plugins() -> None:
 def test_a_broken_plugin_is_a_one_line_typed_error_and_other_commands_still_work(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
-    _fake_entry_points(monkeypatch, plugins.COMMANDS, {"broken": "no_such_module_for_wm", "nomain": "json", "serve": "json"})
+    _fake_entry_points(
+        monkeypatch, plugins.COMMANDS, {"broken": "no_such_module_for_wm", "nomain": "json", "serve": "json"}
+    )
     found = {command.name: command for command in plugins.commands()}
     assert isinstance(found["broken"].error, wm.errors.PluginError)
     assert "no_such_module_for_wm" in str(found["broken"].error) and "ModuleNotFoundError" in str(found["broken"].error)
@@ -58,14 +60,18 @@ def test_a_broken_plugin_is_a_one_line_typed_error_and_other_commands_still_work
     assert cli.build_parser().parse_args(["serve", "--data", str(tmp_path)]).command == "serve"
 
 
-def test_ontologies_come_from_plugins_and_the_default_falls_back_to_the_neutral_base(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_ontologies_come_from_plugins_and_the_default_falls_back_to_the_neutral_base(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     caregiving = wm.Ontology.named("caregiving")
     assert {"person", "robot", "intention"} <= set(caregiving.node_types) and "has_intention" in caregiving.edge_types
     assert caregiving.node_type("person").show == ("fov", "speed", "velocity", "track_id")
     base = wm.Ontology.named("base")
     assert {"world", "agent"} <= set(base.node_types) and "RT" in base.edge_types
     assert "fov" not in base.attributes and "has_intention" not in base.node_types
-    assert set(wm.Ontology.default().node_types) == set(caregiving.node_types)  # the application names itself the default
+    assert set(wm.Ontology.default().node_types) == set(
+        caregiving.node_types
+    )  # the application names itself the default
 
     _fake_entry_points(monkeypatch, plugins.ONTOLOGIES, {})
     assert wm.Ontology.names() == ["base", "default", "dsr"]

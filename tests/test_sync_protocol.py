@@ -41,7 +41,9 @@ def test_every_message_round_trips(message: proto.Message) -> None:
 
 def test_a_fresh_replica_catches_up_by_reading_the_document() -> None:
     source, fresh = sample(), wm.Graph()
-    reply = proto.decode(proto.encode(proto.answer_sync(source, proto.SyncRequest(fresh.replica_id, fresh.state_vector()), 1)))
+    reply = proto.decode(
+        proto.encode(proto.answer_sync(source, proto.SyncRequest(fresh.replica_id, fresh.state_vector()), 1))
+    )
     assert isinstance(reply, proto.SyncReply)
     added = []
     fresh.on(added.append, kind=["node_added", "edge_added"])

@@ -14,6 +14,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+
 from procs import REPO, Proc, endpoint, free_port
 
 pytestmark = pytest.mark.timeout(900)
@@ -21,7 +22,9 @@ pytestmark = pytest.mark.timeout(900)
 
 def _run(argv: list[str], cwd: Path, timeout: float) -> subprocess.CompletedProcess[str]:
     done = subprocess.run(argv, cwd=cwd, capture_output=True, text=True, timeout=timeout, env=_clean_env())
-    assert done.returncode == 0, f"{' '.join(argv)} failed ({done.returncode}):\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
+    assert done.returncode == 0, (
+        f"{' '.join(argv)} failed ({done.returncode}):\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
+    )
     return done
 
 
@@ -54,19 +57,39 @@ def test_the_installed_packages_come_from_the_venv(venv: Path, elsewhere: Path) 
     assert str(REPO / "src") not in out and "site-packages" in out
 
 
-def test_wm_serve_and_an_agent_run_from_the_wheel(venv: Path, elsewhere: Path,
-                                                  spawner: Callable[..., Proc]) -> None:
+def test_wm_serve_and_an_agent_run_from_the_wheel(venv: Path, elsewhere: Path, spawner: Callable[..., Proc]) -> None:
     ep = endpoint(free_port())
-    serve = spawner([str(venv / "wm"), "serve", "--graph", "home", "--data", str(elsewhere / "data"), "--listen", ep],
-                    name="serve", env=_clean_env(), cwd=elsewhere)
+    serve = spawner(
+        [str(venv / "wm"), "serve", "--graph", "home", "--data", str(elsewhere / "data"), "--listen", ep],
+        name="serve",
+        env=_clean_env(),
+        cwd=elsewhere,
+    )
     serve.wait_line("wm serve: ready", timeout=60)
-    agent = spawner([str(venv / "python"), "-m", "agents.caregiving.simulation", "--graph", "home", "--connect", ep],
-                    name="simulation", env=_clean_env(), cwd=elsewhere)
+    agent = spawner(
+        [str(venv / "python"), "-m", "agents.caregiving.simulation", "--graph", "home", "--connect", ep],
+        name="simulation",
+        env=_clean_env(),
+        cwd=elsewhere,
+    )
     agent.wait_line("", timeout=60, contains=" running ")
     assert serve.popen.poll() is None and agent.popen.poll() is None
 
 
 def test_a_one_trial_experiment_runs_from_the_wheel(venv: Path, elsewhere: Path) -> None:
-    out = _run([str(venv / "wm"), "experiment", "paper_experiment1", "--trials", "1", "--rate", "2",
-                "--json", str(elsewhere / "result.json")], elsewhere, 300).stdout
+    out = _run(
+        [
+            str(venv / "wm"),
+            "experiment",
+            "paper_experiment1",
+            "--trials",
+            "1",
+            "--rate",
+            "2",
+            "--json",
+            str(elsewhere / "result.json"),
+        ],
+        elsewhere,
+        300,
+    ).stdout
     assert "prevented" in out and (elsewhere / "result.json").is_file()

@@ -30,10 +30,10 @@ from typing import Any
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import websockets  # noqa: E402
-from google.protobuf import descriptor_pb2, descriptor_pool, message_factory  # noqa: E402
-from matplotlib.patches import Circle, Polygon, Rectangle  # noqa: E402
+import matplotlib.pyplot as plt
+import websockets
+from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+from matplotlib.patches import Circle, Polygon, Rectangle
 
 REPO = Path(__file__).resolve().parents[2]
 OUT = Path(__file__).resolve().parent / "wm-foxglove.png"
@@ -74,8 +74,14 @@ async def receive(port: int) -> dict[str, Any]:
             if message["op"] == "advertise":
                 channels |= {c["topic"]: c for c in message["channels"]}
         topics = {1: "/wm/tf", 2: "/wm/scene"}
-        await ws.send(json.dumps({"op": "subscribe", "subscriptions": [
-            {"id": sub, "channelId": channels[topic]["id"]} for sub, topic in topics.items()]}))
+        await ws.send(
+            json.dumps(
+                {
+                    "op": "subscribe",
+                    "subscriptions": [{"id": sub, "channelId": channels[topic]["id"]} for sub, topic in topics.items()],
+                }
+            )
+        )
         decoded: dict[str, Any] = {}
         while len(decoded) < len(topics):
             data = await ws.recv()
@@ -99,7 +105,11 @@ def world_poses(transforms: Any, root: str) -> dict[str, tuple[float, float, flo
             t = parent[frame]
             px, py, pa = pose(t.parent_frame_id)
             x, y = t.translation.x, t.translation.y
-            poses[frame] = (px + x * math.cos(pa) - y * math.sin(pa), py + x * math.sin(pa) + y * math.cos(pa), pa + yaw(t.rotation))
+            poses[frame] = (
+                px + x * math.cos(pa) - y * math.sin(pa),
+                py + x * math.sin(pa) + y * math.cos(pa),
+                pa + yaw(t.rotation),
+            )
         return poses[frame]
 
     for frame in parent:
@@ -119,31 +129,57 @@ def draw(decoded: dict[str, Any], out: Path) -> None:
         for cube in entity.cubes:
             p, a = cube.pose.position, yaw(cube.pose.orientation)
             corner = (p.x - cube.size.x / 2, p.y - cube.size.y / 2)
-            ax.add_patch(Rectangle(corner, cube.size.x, cube.size.y, angle=math.degrees(a), rotation_point="center", color=rgba(cube.color)))
+            ax.add_patch(
+                Rectangle(
+                    corner,
+                    cube.size.x,
+                    cube.size.y,
+                    angle=math.degrees(a),
+                    rotation_point="center",
+                    color=rgba(cube.color),
+                )
+            )
         for cylinder in entity.cylinders:
             p = cylinder.pose.position
             ax.add_patch(Circle((p.x, p.y), cylinder.size.x / 2, color=rgba(cylinder.color)))
         for fan in entity.triangles:
             for i in range(0, len(fan.points) - 2, 3):
-                ax.add_patch(Polygon([(q.x, q.y) for q in fan.points[i:i + 3]], color=rgba(fan.color), lw=0))
+                ax.add_patch(Polygon([(q.x, q.y) for q in fan.points[i : i + 3]], color=rgba(fan.color), lw=0))
         for line in entity.lines:
             ax.plot([q.x for q in line.points], [q.y for q in line.points], color=rgba(line.color), lw=2.5)
         for sphere in entity.spheres:
             p = sphere.pose.position
             ax.add_patch(Circle((p.x, p.y), sphere.size.x / 2, color=rgba(sphere.color)))
         for text in entity.texts:
-            ax.annotate(text.text, (text.pose.position.x, text.pose.position.y), color="white", fontsize=9, ha="center",
-                        xytext=(0, 12), textcoords="offset points")
+            ax.annotate(
+                text.text,
+                (text.pose.position.x, text.pose.position.y),
+                color="white",
+                fontsize=9,
+                ha="center",
+                xytext=(0, 12),
+                textcoords="offset points",
+            )
     root = scene.entities[0].frame_id if scene.entities else "world"
     for frame, (x, y, a) in world_poses(transforms, root).items():
         for angle, color in ((a, "#ff4040"), (a + math.pi / 2, "#40ff40")):
-            ax.arrow(x, y, 0.35 * math.cos(angle), 0.35 * math.sin(angle), width=0.015, color=color, length_includes_head=True)
+            ax.arrow(
+                x,
+                y,
+                0.35 * math.cos(angle),
+                0.35 * math.sin(angle),
+                width=0.015,
+                color=color,
+                length_includes_head=True,
+            )
         ax.annotate(frame, (x, y), color="#bbbbbb", fontsize=7, xytext=(4, -10), textcoords="offset points")
     ax.set_aspect("equal")
     ax.autoscale_view()
     ax.margins(0.08)
     ax.grid(color="#44444f", lw=0.5)
-    ax.set_title(f"wm foxglove: /wm/tf ({len(transforms.transforms)} frames) and /wm/scene ({len(scene.entities)} entities)")
+    ax.set_title(
+        f"wm foxglove: /wm/tf ({len(transforms.transforms)} frames) and /wm/scene ({len(scene.entities)} entities)"
+    )
     fig.tight_layout()
     fig.savefig(out)
 
@@ -159,7 +195,12 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as data:
             procs.append(start([*WM, "serve", "--data", data, "--graph", GRAPH, "--listen", where], "wm serve: ready"))
             subprocess.run([*WM, "load", str(SCENE), "--graph", GRAPH, "--connect", where], check=True, cwd=REPO)
-            procs.append(start([*WM, "foxglove", "--port", str(fox_port), "--graph", GRAPH, "--connect", where], "wm foxglove: serving"))
+            procs.append(
+                start(
+                    [*WM, "foxglove", "--port", str(fox_port), "--graph", GRAPH, "--connect", where],
+                    "wm foxglove: serving",
+                )
+            )
             draw(asyncio.run(asyncio.wait_for(receive(fox_port), 60)), args.out)
             print(f"wrote {args.out}")
     finally:

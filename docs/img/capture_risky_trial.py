@@ -62,8 +62,24 @@ def main() -> None:
     shot = None
     with demo_stack(logs, args.rate) as stack:
         console.print(f"stack on {stack.endpoint}, logs in {logs}")
-        view = stack.add("view", [sys.executable, "-m", "wm.cli", "view", "--graph", stack.graph,
-                                  "--connect", stack.endpoint, "--host", "127.0.0.1", "--port", "0"], "wm view: serving")
+        view = stack.add(
+            "view",
+            [
+                sys.executable,
+                "-m",
+                "wm.cli",
+                "view",
+                "--graph",
+                stack.graph,
+                "--connect",
+                stack.endpoint,
+                "--host",
+                "127.0.0.1",
+                "--port",
+                "0",
+            ],
+            "wm view: serving",
+        )
         url = next(line for line in view.text().splitlines() if line.startswith("wm view: serving")).rsplit(" ", 1)[1]
         console.print(f"wm view on {url}")
         for attempt in range(1, args.attempts + 1):
@@ -75,7 +91,9 @@ def main() -> None:
             narrate(trial.result(), console)  # re-raises what the trial raised
             if shot is not None:
                 break
-            console.print(f"attempt {attempt}: the page never showed a risky intention and the robot's intention together")
+            console.print(
+                f"attempt {attempt}: the page never showed a risky intention and the robot's intention together"
+            )
     if shot is None:
         sys.exit(f"no screenshot after {args.attempts} runs of the trial")
     args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -62,7 +62,12 @@ class AgentNode:
     async def _create(self, name_taken: bool) -> None:
         if name_taken:
             await self._resolve_name_clash()
-        static = {"pid": os.getpid(), "host": socket.gethostname(), "replica": self.g.replica_id, "alive_since": self.alive_since}
+        static = {
+            "pid": os.getpid(),
+            "host": socket.gethostname(),
+            "replica": self.g.replica_id,
+            "alive_since": self.alive_since,
+        }
         self.g.insert_node(AGENT_TYPE, self.name, {**static, **self._load()})
         self.log.info("agent node created", node=self.name, replica=self.g.replica_id)
 

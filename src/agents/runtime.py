@@ -194,8 +194,14 @@ class Agent:
 
     # -- messages beside the graph --------------------------------------------
 
-    def subscribe(self, key: str, handler: Callable[[T], Awaitable[None]], *, decode: Callable[[Any], T] = plain,
-                  maxsize: int = 1024) -> None:
+    def subscribe(
+        self,
+        key: str,
+        handler: Callable[[T], Awaitable[None]],
+        *,
+        decode: Callable[[Any], T] = plain,
+        maxsize: int = 1024,
+    ) -> None:
         """Run ``await handler(decode(message))`` for every message on ``key`` (see :meth:`Messaging.subscribe`)."""
         self.messaging.subscribe(key, handler, decode=decode, maxsize=maxsize)
 
@@ -219,7 +225,9 @@ class Agent:
 
     @classmethod
     def periodic_tasks(cls) -> dict[str, float]:
-        return {n: getattr(m, EVERY_ATTR) for n, m in inspect.getmembers(cls, inspect.isfunction) if hasattr(m, EVERY_ATTR)}
+        return {
+            n: getattr(m, EVERY_ATTR) for n, m in inspect.getmembers(cls, inspect.isfunction) if hasattr(m, EVERY_ATTR)
+        }
 
     # -- running --------------------------------------------------------------
 
@@ -229,14 +237,19 @@ class Agent:
         self.zenoh = self.messaging.session = session
         reaper = install_reaper(g)
         specs = self.handlers()
-        streams = {handler: g.events(spec.kind, spec.type, spec.name, maxsize=spec.maxsize)
-                   for handler, spec in specs.items()}
+        streams = {
+            handler: g.events(spec.kind, spec.type, spec.name, maxsize=spec.maxsize) for handler, spec in specs.items()
+        }
         node = AgentNode(g, self.name, self.log, self.status_period)
         try:
             await node.start()
             await self.setup()
-            self.log.info("running", replica=g.replica_id, handlers=",".join(streams) or "-",
-                          periodic=",".join(self.periodic_tasks()) or "-")
+            self.log.info(
+                "running",
+                replica=g.replica_id,
+                handlers=",".join(streams) or "-",
+                periodic=",".join(self.periodic_tasks()) or "-",
+            )
             async with asyncio.TaskGroup() as tasks:
                 self.messaging.start(tasks)
                 for handler, stream in streams.items():
@@ -259,8 +272,13 @@ class Agent:
         stats = self.stats.setdefault(handler, TaskStats())
         async for event in stream:
             if stream.dropped > stats.dropped:
-                self.log.warning("events dropped", handler=handler, dropped=stream.dropped - stats.dropped,
-                                 total=stream.dropped, backlog=len(stream))
+                self.log.warning(
+                    "events dropped",
+                    handler=handler,
+                    dropped=stream.dropped - stats.dropped,
+                    total=stream.dropped,
+                    backlog=len(stream),
+                )
                 stats.dropped = stream.dropped
             if coalesce:
                 burst = [event]
@@ -294,7 +312,7 @@ class Agent:
         try:
             await method(*args)
             return True
-        except Exception as exc:  # noqa: BLE001 - a failing handler must not stop the agent
+        except Exception as exc:
             self._failed(what, stats, exc, args[0] if args else None)
             return False
 
@@ -312,8 +330,13 @@ class Agent:
         while recent and recent[0] < now - self.crash_loop_window:
             recent.popleft()
         if len(recent) >= self.crash_loop_failures:
-            self.log.error("crash loop", handler=what, failures=len(recent), window=f"{self.crash_loop_window:g}s",
-                           total=stats.failures)
+            self.log.error(
+                "crash loop",
+                handler=what,
+                failures=len(recent),
+                window=f"{self.crash_loop_window:g}s",
+                total=stats.failures,
+            )
             recent.clear()
 
 
@@ -325,12 +348,23 @@ def build_parser(agent_class: type[Agent]) -> argparse.ArgumentParser:
     doc = inspect.getdoc(agent_class) or f"the {agent_class.name} agent"
     parser = argparse.ArgumentParser(prog=_program(agent_class), description=doc)
     parser.add_argument("--graph", default="default", help="graph name (default: %(default)s)")
-    parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
-                        help="Zenoh endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable)")
-    parser.add_argument("--listen", action="append", default=[], metavar="ENDPOINT", help="Zenoh endpoint to listen on (repeatable)")
+    parser.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="Zenoh endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable)",
+    )
+    parser.add_argument(
+        "--listen", action="append", default=[], metavar="ENDPOINT", help="Zenoh endpoint to listen on (repeatable)"
+    )
     parser.add_argument("--mode", choices=["peer", "client"], help="Zenoh mode (default: the config's, else peer)")
-    parser.add_argument("--config", help="Zenoh config file (JSON5, see deploy/zenoh/; placeholders from WM_ZENOH_<NAME>)")
-    parser.add_argument("--name", default=agent_class.name, help="agent name, also its node's name (default: %(default)s)")
+    parser.add_argument(
+        "--config", help="Zenoh config file (JSON5, see deploy/zenoh/; placeholders from WM_ZENOH_<NAME>)"
+    )
+    parser.add_argument(
+        "--name", default=agent_class.name, help="agent name, also its node's name (default: %(default)s)"
+    )
     parser.add_argument("--ontology", help="ontology file (default: the packaged one)")
     parser.add_argument("--log-level", default="INFO", choices=["DEBUG", "INFO", "WARNING", "ERROR"])
     agent_class.add_arguments(parser)
@@ -339,7 +373,7 @@ def build_parser(agent_class: type[Agent]) -> argparse.ArgumentParser:
 
 def _program(agent_class: type[Agent]) -> str | None:
     """``python -m agents.x`` when run as a module, else argparse's default."""
-    module = agent_class.__module__
+    module: str | None = agent_class.__module__
     if module == "__main__":
         spec = getattr(sys.modules["__main__"], "__spec__", None)
         module = spec.name if spec is not None else None
@@ -360,7 +394,12 @@ async def run_agent(agent: Agent) -> None:
         session = await open_session(config, connect=args.connect or None, listen=args.listen or None, mode=args.mode)
         try:
             async with wm.connect(
-                args.graph, config, agent.name, connect=args.connect or None, ontology=ontology, session=session,
+                args.graph,
+                config,
+                agent.name,
+                connect=args.connect or None,
+                ontology=ontology,
+                session=session,
             ) as g:
                 await agent.run(g, session)
         finally:
@@ -386,7 +425,7 @@ def main(agent_class: type[Agent], argv: Sequence[str] | None = None) -> NoRetur
     except (wm.WMError, OSError, ValueError) as exc:
         agent.log.error("cannot run", exc=exc)
         sys.exit(1)
-    except Exception as exc:  # noqa: BLE001 - setup failed: one line, not a traceback
+    except Exception as exc:
         agent.log.error("stopped by an error", exc=exc)
         sys.exit(1)
     agent.log.info("stopped")

@@ -19,13 +19,13 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
+from . import dsr_json, plugins
 from .check import check
 from .connection import connect
-from .launch import command as launch_command
-from .monitoring import commands as monitoring_commands
-from . import dsr_json, plugins
 from .errors import NotFoundError, PluginError, UnknownAttributeError, WMError
 from .graph import Graph
+from .launch import command as launch_command
+from .monitoring import commands as monitoring_commands
 from .ontology import Ontology
 from .zenoh_config import load_with_environment
 
@@ -36,9 +36,15 @@ class CommandError(WMError):
 
 def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--graph", default="default", help="graph name (default: %(default)s)")
-    parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT", help="Zenoh endpoint, e.g. tcp/127.0.0.1:7447")
+    parser.add_argument(
+        "--connect", action="append", default=[], metavar="ENDPOINT", help="Zenoh endpoint, e.g. tcp/127.0.0.1:7447"
+    )
     parser.add_argument("--config", help="Zenoh config file (JSON5; placeholders from WM_ZENOH_<NAME>)")
-    parser.add_argument("--ontology", help="ontology file, or a packaged one by name: default, base, dsr, or one a plugin adds (default: %(default)s)", default="default")
+    parser.add_argument(
+        "--ontology",
+        help="ontology file, or a packaged one by name: default, base, dsr, or one a plugin adds (default: %(default)s)",
+        default="default",
+    )
     parser.add_argument("--timeout", type=float, default=3.0, help="seconds to wait for a peer (default: %(default)s)")
     parser.add_argument("-v", "--verbose", action="store_true", help="log replication details")
 
@@ -50,8 +56,12 @@ def build_parser() -> argparse.ArgumentParser:
     p = commands.add_parser("serve", help="the durable member: keep graphs on disk, optionally be the Zenoh router")
     _common(p)
     p.add_argument("--data", required=True, help="directory for the graphs on disk")
-    p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT", help="listen here (router mode unless --config)")
-    p.add_argument("--also", action="append", default=[], metavar="GRAPH", help="serve another graph in the same process")
+    p.add_argument(
+        "--listen", action="append", default=[], metavar="ENDPOINT", help="listen here (router mode unless --config)"
+    )
+    p.add_argument(
+        "--also", action="append", default=[], metavar="GRAPH", help="serve another graph in the same process"
+    )
 
     p = commands.add_parser("load", help="insert a JSON scene (ours or DSR's)")
     _common(p)
@@ -60,7 +70,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = commands.add_parser("dump", help="print the current graph, read from the network")
     _common(p)
-    p.add_argument("--format", choices=["text", "json", "dsr"], default="text", help="dsr: a DSR scene file, as DSR writes it")
+    p.add_argument(
+        "--format", choices=["text", "json", "dsr"], default="text", help="dsr: a DSR scene file, as DSR writes it"
+    )
     monitoring_commands.add_dump_source(p)
 
     p = commands.add_parser("watch", help="print live events, one per line")
@@ -78,8 +90,12 @@ def build_parser() -> argparse.ArgumentParser:
     p = commands.add_parser("check", help="list what the view of a graph on disk leaves out, and who sent it")
     p.add_argument("--data", required=True, help="the data directory of `wm serve`")
     p.add_argument("--graph", default="default", help="graph name (default: %(default)s)")
-    p.add_argument("--ontology", default="default", help="ontology file, or a packaged one by name (default: %(default)s)")
-    p.add_argument("--repair", action="store_true", help="delete what is left out and compact the files (stop `wm serve` first)")
+    p.add_argument(
+        "--ontology", default="default", help="ontology file, or a packaged one by name (default: %(default)s)"
+    )
+    p.add_argument(
+        "--repair", action="store_true", help="delete what is left out and compact the files (stop `wm serve` first)"
+    )
     p.add_argument("-v", "--verbose", action="store_true", help="log each record replayed")
 
     p = commands.add_parser("rm", help="delete a node and its edges")
@@ -127,7 +143,9 @@ async def _joined(g: Graph, graph_name: str, timeout: float) -> None:
         if await g.network.catch_up():
             return
         await asyncio.sleep(0.1)
-    raise CommandError(f"no replica of graph {graph_name!r} answered within {timeout:g} s (is `wm serve` or an agent running?)")
+    raise CommandError(
+        f"no replica of graph {graph_name!r} answered within {timeout:g} s (is `wm serve` or an agent running?)"
+    )
 
 
 async def _live_members(g: Graph, graph_name: str, timeout: float) -> dict[str, str]:
@@ -180,13 +198,22 @@ async def run(args: argparse.Namespace) -> int:
     if args.command == "serve":
         from .serve import serve
 
-        await serve(args.data, [args.graph, *args.also], config=args.config, connect=args.connect, listen=args.listen, ontology=ontology)
+        await serve(
+            args.data,
+            [args.graph, *args.also],
+            config=args.config,
+            connect=args.connect,
+            listen=args.listen,
+            ontology=ontology,
+        )
         return 0
     if args.command == "check":
         return _check(args, ontology)
     if args.command in monitoring_commands.COMMANDS or getattr(args, "source", None):
         return await monitoring_commands.run(args, ontology)
-    async with connect(args.graph, args.config, f"wm-{args.command}", connect=args.connect or None, ontology=ontology) as g:
+    async with connect(
+        args.graph, args.config, f"wm-{args.command}", connect=args.connect or None, ontology=ontology
+    ) as g:
         if args.command == "members":
             members = await _live_members(g, args.graph, args.timeout)
             for replica, agent in sorted(members.items(), key=lambda m: (m[1], m[0])):
@@ -224,8 +251,10 @@ async def run(args: argparse.Namespace) -> int:
 def _check(args: argparse.Namespace, ontology: Ontology | None) -> int:
     """Print what the view leaves out; exit status 2 if something is (and was not repaired)."""
     report = check(args.data, args.graph, ontology, repair=args.repair)
-    print(f"graph {args.graph!r}: {report.nodes} nodes, {report.edges} edges, {report.records} log records replayed; "
-          f"{len(report.left_out)} entries left out of the view")
+    print(
+        f"graph {args.graph!r}: {report.nodes} nodes, {report.edges} edges, {report.records} log records replayed; "
+        f"{len(report.left_out)} entries left out of the view"
+    )
     for entry in report.left_out:
         print(f"  {entry}")
     for writer, count in sorted(report.by_writer().items()):
@@ -242,7 +271,9 @@ def _node_ref(text: str) -> int | str:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args, unknown = parser.parse_known_args(argv)
-    if unknown and not getattr(args, "plugin_broken", False):  # a broken plugin's command says why, whatever it was given
+    if unknown and not getattr(
+        args, "plugin_broken", False
+    ):  # a broken plugin's command says why, whatever it was given
         parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     if args.command == "launch":
         return launch_command.main(args)
@@ -253,7 +284,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"wm {args.command}: error: {exc}", file=sys.stderr)
             return 1
         except ModuleNotFoundError as exc:  # the plugin's own dependencies are not installed
-            print(f"wm {args.command}: error: {exc} (a dependency of the plugin that adds this command)", file=sys.stderr)
+            print(
+                f"wm {args.command}: error: {exc} (a dependency of the plugin that adds this command)", file=sys.stderr
+            )
             return 1
     logging.basicConfig(
         level=logging.INFO if args.verbose or args.command == "serve" else logging.WARNING,

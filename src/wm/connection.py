@@ -30,7 +30,6 @@ from .ontology import Ontology
 from .replication import Replicator
 from .zenoh_config import ConfigSource, Endpoints, Mode, ZenohConfigError, build_config
 
-
 LOOPBACK_ANY_PORT = "tcp/127.0.0.1:0"
 DEFAULT_JOIN_WAIT = 3.0
 
@@ -79,7 +78,9 @@ def sigterm_cancels_current_task() -> Iterator[None]:
     """While inside, SIGTERM cancels the current task so that ``finally`` blocks run."""
     loop = asyncio.get_running_loop()
     task = asyncio.current_task()
-    usable = threading.current_thread() is threading.main_thread() and signal.getsignal(signal.SIGTERM) == signal.SIG_DFL
+    usable = (
+        threading.current_thread() is threading.main_thread() and signal.getsignal(signal.SIGTERM) == signal.SIG_DFL
+    )
     if usable and task is not None:
         loop.add_signal_handler(signal.SIGTERM, task.cancel)
     try:

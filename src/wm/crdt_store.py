@@ -56,14 +56,21 @@ class RawChanges:
     edges_added: list[str] = field(default_factory=list)
     edges_removed: list[str] = field(default_factory=list)
     edge_attrs: dict[str, set[str]] = field(default_factory=dict)
-    malformed_edge_attrs: list[str] = field(default_factory=list)  # edge_attrs keys without a '.' (only a peer writes them)
+    malformed_edge_attrs: list[str] = field(
+        default_factory=list
+    )  # edge_attrs keys without a '.' (only a peer writes them)
     # pycrdt occasionally reports a nested change with no keys (seen when concurrent
     # writes to one key are merged); the index then re-checks every node's name.
     unreliable: bool = False
 
     def __bool__(self) -> bool:
         return bool(
-            self.nodes_added or self.nodes_removed or self.node_attrs or self.edges_added or self.edges_removed or self.edge_attrs
+            self.nodes_added
+            or self.nodes_removed
+            or self.node_attrs
+            or self.edges_added
+            or self.edges_removed
+            or self.edge_attrs
             or self.malformed_edge_attrs
         )
 
@@ -76,7 +83,7 @@ class _Read:
 
     __slots__ = ("doc", "own")
 
-    def __init__(self, doc: Doc) -> None:
+    def __init__(self, doc: Doc[Any]) -> None:
         self.doc = doc
 
     def __enter__(self) -> Any:
@@ -127,12 +134,12 @@ def _is_panic(exc: BaseException) -> bool:
 class CrdtStore:
     """One pycrdt document holding one graph."""
 
-    def __init__(self, doc: Doc | None = None) -> None:
+    def __init__(self, doc: Doc[Any] | None = None) -> None:
         self.doc = doc if doc is not None else Doc()
-        self.nodes: Map = self.doc.get("nodes", type=Map)
-        self.edges: Map = self.doc.get("edges", type=Map)
-        self.edge_attrs: Map = self.doc.get("edge_attrs", type=Map)
-        self.deleted: Map = self.doc.get("deleted", type=Map)
+        self.nodes: Map[Any] = self.doc.get("nodes", type=Map)
+        self.edges: Map[Any] = self.doc.get("edges", type=Map)
+        self.edge_attrs: Map[Any] = self.doc.get("edge_attrs", type=Map)
+        self.deleted: Map[Any] = self.doc.get("deleted", type=Map)
         self.pending = RawChanges()
         self.current_origin: Any = None
         self._txn: Any = None  # pycrdt's raw transaction while :meth:`transaction` is open
@@ -212,7 +219,7 @@ class CrdtStore:
     def has_node(self, key: str) -> bool:
         return key in self.nodes
 
-    def node_map(self, key: str) -> Map | None:
+    def node_map(self, key: str) -> Map[Any] | None:
         value = self.nodes.get(key)
         return value if isinstance(value, Map) else None
 
@@ -299,7 +306,7 @@ class CrdtStore:
                     values[key] = {a: node.get(raw_txn, a) for a in attrs if node.has(raw_txn, a)}
         return values
 
-    def read_flat(self, root_map: Map, keys: Iterable[str]) -> dict[str, Any]:
+    def read_flat(self, root_map: Map[Any], keys: Iterable[str]) -> dict[str, Any]:
         """The stored values of the present ``keys`` of a root map (edges or edge_attrs), in one transaction."""
         with self._read() as raw_txn:
             root = root_map.integrated

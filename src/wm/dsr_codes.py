@@ -50,8 +50,15 @@ DSR_TYPES: dict[str, DsrType] = {
     )
 }
 BY_CODE: dict[int, DsrType] = {t.code: t for t in DSR_TYPES.values()}
-_DEFAULT_FOR_OURS = {"str": "string", "float": "float", "vec": "float vector", "bool": "bool", "bytes": "byte vector",
-                     "u64": "uint64", "u64vec": "uint64 vector"}
+_DEFAULT_FOR_OURS = {
+    "str": "string",
+    "float": "float",
+    "vec": "float vector",
+    "bool": "bool",
+    "bytes": "byte vector",
+    "u64": "uint64",
+    "u64vec": "uint64 vector",
+}
 
 
 def _number(value: Any) -> float:
@@ -101,7 +108,9 @@ def from_json(code: Any, value: Any, where: str) -> Any:
             return [_integer(v) for v in _items(value)]
         return [_number(v) for v in _items(value)]
     except (TypeError, ValueError) as exc:
-        raise SceneFormatError(f"{where}: a DSR {kind.name} (type {kind.code}) cannot hold {value!r:.60}: {exc}") from None
+        raise SceneFormatError(
+            f"{where}: a DSR {kind.name} (type {kind.code}) cannot hold {value!r:.60}: {exc}"
+        ) from None
 
 
 def dsr_type_of(ours: str, length: int | None, dsr_name: str | None, value: Any) -> DsrType:

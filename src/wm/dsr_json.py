@@ -36,7 +36,9 @@ def _check_type(ontology: Ontology, kind: str, type_name: str, where: str) -> No
         if packaged
         else "no packaged ontology declares it: add it to your ontology file (docs/ontology.md)"
     )
-    raise UnknownTypeError(f"{where} has {kind} type {type_name!r}, which ontology {ontology.source!r} does not declare; {hint}")
+    raise UnknownTypeError(
+        f"{where} has {kind} type {type_name!r}, which ontology {ontology.source!r} does not declare; {hint}"
+    )
 
 
 def _attrs(ontology: Ontology, raw: Any, kind: str, type_name: str, where: str, skipped: list[str]) -> dict[str, Any]:
@@ -85,19 +87,30 @@ def parse(ontology: Ontology, data: Mapping[str, Any]) -> tuple[list[SceneNode],
             node_id, node_type, name = _node_id(symbol["id"], "DSR symbol"), str(symbol["type"]), str(symbol["name"])
             where = f"node {name!r}"
             _check_type(ontology, "node", node_type, f"DSR scene {where}")
-            nodes.append((node_id, node_type, name, _attrs(ontology, symbol.get("attribute"), "node", node_type, where, skipped)))
+            nodes.append(
+                (node_id, node_type, name, _attrs(ontology, symbol.get("attribute"), "node", node_type, where, skipped))
+            )
             for link in symbol.get("links", []) or []:
                 edge_type = str(link["label"])
                 src, dst = _node_id(link["src"], where), _node_id(link["dst"], where)
                 link_where = f"edge {src}-[{edge_type}]->{dst}"
                 _check_type(ontology, "edge", edge_type, f"DSR scene {link_where}")
-                edges.append((src, dst, edge_type, _attrs(ontology, link.get("linkAttribute"), "edge", edge_type, link_where, skipped)))
+                edges.append(
+                    (
+                        src,
+                        dst,
+                        edge_type,
+                        _attrs(ontology, link.get("linkAttribute"), "edge", edge_type, link_where, skipped),
+                    )
+                )
     except (KeyError, TypeError, AttributeError) as exc:
         raise SceneFormatError(f"malformed DSR scene: missing or wrong field {exc}") from exc
     return nodes, edges, skipped
 
 
-def _encode_attrs(ontology: Ontology, element_kind: str, type_name: str, attrs: Mapping[str, Any], empty_vectors: bool) -> dict[str, Any]:
+def _encode_attrs(
+    ontology: Ontology, element_kind: str, type_name: str, attrs: Mapping[str, Any], empty_vectors: bool
+) -> dict[str, Any]:
     element = ontology.node_type(type_name) if element_kind == "node" else ontology.edge_type(type_name)
     encoded: dict[str, Any] = {}
     for name, value in sorted(attrs.items()):
@@ -115,8 +128,12 @@ def graph_to_dsr(graph: Graph, skip_content: Collection[str] = ()) -> dict[str, 
     links: dict[int, list[dict[str, Any]]] = {}
     for edge in graph.edges():
         links.setdefault(edge.src, []).append(
-            {"dst": str(edge.dst), "label": edge.type, "linkAttribute": _encode_attrs(ontology, "edge", edge.type, edge.attrs, False),
-             "src": str(edge.src)}
+            {
+                "dst": str(edge.dst),
+                "label": edge.type,
+                "linkAttribute": _encode_attrs(ontology, "edge", edge.type, edge.attrs, False),
+                "src": str(edge.src),
+            }
         )
     symbols = {
         str(node.id): {
@@ -129,4 +146,3 @@ def graph_to_dsr(graph: Graph, skip_content: Collection[str] = ()) -> dict[str, 
         for node in graph.nodes()
     }
     return {"DSRModel": {"symbols": symbols}}
-

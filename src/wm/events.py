@@ -58,14 +58,14 @@ class Event:
     src_name: str | None = None
     dst_name: str | None = None
 
-    def __init__(  # noqa: PLR0913 - the fields, in order, as the generated __init__ would take them
+    def __init__(
         self,
         kind: EventKind,
-        type: str,  # noqa: A002
+        type: str,
         writer: str,
         local: bool,
         attrs: frozenset[str] = frozenset(),
-        id: int | None = None,  # noqa: A002
+        id: int | None = None,
         name: str | None = None,
         src: int | None = None,
         dst: int | None = None,
@@ -73,8 +73,19 @@ class Event:
         dst_name: str | None = None,
     ) -> None:
         # one dict update instead of the frozen dataclass's object.__setattr__ per field (a third of the cost)
-        self.__dict__.update(kind=kind, type=type, writer=writer, local=local, attrs=attrs, id=id, name=name,
-                             src=src, dst=dst, src_name=src_name, dst_name=dst_name)
+        self.__dict__.update(
+            kind=kind,
+            type=type,
+            writer=writer,
+            local=local,
+            attrs=attrs,
+            id=id,
+            name=name,
+            src=src,
+            dst=dst,
+            src_name=src_name,
+            dst_name=dst_name,
+        )
 
     def __str__(self) -> str:
         where = "local" if self.local else f"remote:{self.writer}"
@@ -106,7 +117,7 @@ class EventFilter:
     def of(
         cls,
         kind: str | Iterable[str] | None = None,
-        type: str | Iterable[str] | None = None,  # noqa: A002 - mirrors the public API
+        type: str | Iterable[str] | None = None,
         name: str | Iterable[str] | None = None,
     ) -> EventFilter:
         kinds = _as_set(kind)
@@ -215,7 +226,8 @@ class EventHub:
         if wanted is None:
             filters = [c.filter for c in self._callbacks] + [s.filter for s in self._streams]
             wanted = self._wanted[(kind, type_name)] = any(
-                (f.kinds is None or kind.value in f.kinds) and (f.types is None or type_name in f.types) for f in filters
+                (f.kinds is None or kind.value in f.kinds) and (f.types is None or type_name in f.types)
+                for f in filters
             )
         return wanted
 

@@ -39,8 +39,8 @@ from .errors import (
 from .events import Event, EventFilter, EventHub, EventKind, EventStream, Subscription
 from .ids import IdAllocator
 from .index import GraphIndex, IndexResult
-from .model import Edge, Node, edge_key, freeze
 from .limits import CONFLICT_SUFFIX_ROOM, FLOAT_BYTES
+from .model import Edge, Node, edge_key, freeze
 from .ontology import MAX_EXACT_INT, ElementType, Ontology, Value
 from .rt import RTApi
 from .view_rules import LeftOut, ViewRules
@@ -57,7 +57,9 @@ log = logging.getLogger(__name__)
 class Graph:
     """A typed graph replica: nodes with unique names, edges keyed by (src, dst, type)."""
 
-    def __init__(self, ontology: Ontology | None = None, *, replica_id: str | None = None, id_prefix: int | None = None) -> None:
+    def __init__(
+        self, ontology: Ontology | None = None, *, replica_id: str | None = None, id_prefix: int | None = None
+    ) -> None:
         """``id_prefix`` fixes the creator prefix of new ids (reproducible tests); by default it is random."""
         self.ontology = ontology if ontology is not None else Ontology.default()
         self._ids = IdAllocator(id_prefix)
@@ -135,7 +137,9 @@ class Graph:
 
     def reconcile(self) -> None:
         """Compare the whole index with the document and publish what differed (replication calls it now and then)."""
-        self._repair([self._apply_to_index(self._index.missed_changes(self._store), "reconcile", local=False)], "reconcile")
+        self._repair(
+            [self._apply_to_index(self._index.missed_changes(self._store), "reconcile", local=False)], "reconcile"
+        )
         if self._depth == 0:
             self._flush_events()
 
@@ -147,7 +151,9 @@ class Graph:
             return None
         self._forget_snapshots(changes, local)
         wants = self._hub.wants
-        result = self._index.apply(self._store, changes, writer, local, self._volatile_attr_names, wants, check_values, describe)
+        result = self._index.apply(
+            self._store, changes, writer, local, self._volatile_attr_names, wants, check_values, describe
+        )
         self._take(result, writer)
         return result
 
@@ -155,8 +161,13 @@ class Graph:
         """Log what the index left out, forget the registers of removed elements, queue the events."""
         if result.left_out:
             first = result.left_out[0]
-            log.warning("left out %d entr%s of the document sent by %s, e.g. %s",
-                        len(result.left_out), "y" if len(result.left_out) == 1 else "ies", writer, first)
+            log.warning(
+                "left out %d entr%s of the document sent by %s, e.g. %s",
+                len(result.left_out),
+                "y" if len(result.left_out) == 1 else "ies",
+                writer,
+                first,
+            )
         for node_id in result.removed_nodes:
             self._volatile.drop_owner(node_owner(node_id))
         for key in result.removed_edges:
@@ -201,7 +212,7 @@ class Graph:
     def events(
         self,
         kind: str | Iterable[str] | None = None,
-        type: str | Iterable[str] | None = None,  # noqa: A002 - the documented keyword
+        type: str | Iterable[str] | None = None,
         name: str | Iterable[str] | None = None,
         maxsize: int = 4096,
     ) -> EventStream:
@@ -212,7 +223,7 @@ class Graph:
         self,
         callback: Callable[[Event], object],
         kind: str | Iterable[str] | None = None,
-        type: str | Iterable[str] | None = None,  # noqa: A002
+        type: str | Iterable[str] | None = None,
         name: str | Iterable[str] | None = None,
     ) -> Subscription:
         """Call ``callback(event)`` for every matching event, after the change is complete."""
@@ -251,7 +262,9 @@ class Graph:
             return LeftOut(kind, key, problem, seen.writer if seen is not None else "unknown")
 
         heads = self._store.read_nodes([str(node_id) for node_id in self._index.node_meta])
-        stored = self._store.read_node_attrs({key: content.attrs for key, content in heads.items() if content is not None})
+        stored = self._store.read_node_attrs(
+            {key: content.attrs for key, content in heads.items() if content is not None}
+        )
         for key, values in stored.items():
             element = self.ontology.node_types[self._index.node_meta[int(key)][0]]
             for attr, value in values.items():
@@ -262,7 +275,13 @@ class Graph:
             key, dot, attr = flat_key.rpartition(".")
             parsed = self._rules.edge_parts(key) if dot else None
             if parsed is None:
-                found.append(entry("edge_attr", flat_key, "the key is not \"src>dst>type.attribute\" with node ids and a known edge type"))
+                found.append(
+                    entry(
+                        "edge_attr",
+                        flat_key,
+                        'the key is not "src>dst>type.attribute" with node ids and a known edge type',
+                    )
+                )
                 continue
             problem = self._rules.attr_problem(self.ontology.edge_types[parsed[2]], attr, value)
             if problem is not None:
@@ -291,7 +310,7 @@ class Graph:
 
     # -- nodes ---------------------------------------------------------------
 
-    def insert_node(self, type: str, name: str | None = None, attrs: Mapping[str, Any] | None = None) -> int:  # noqa: A002
+    def insert_node(self, type: str, name: str | None = None, attrs: Mapping[str, Any] | None = None) -> int:
         """Create a node and return its new id. Its name must be unique (default ``<type>_<id>``)."""
         element = self.ontology.node_type(type)
         values = self._checks.split(element, attrs)
@@ -360,9 +379,19 @@ class Graph:
         written = store.write_node_attrs(key, values, self.replica_id)
         pending = store.pending
         attrs = pending.node_attrs.get(key)
-        if (not written or attrs is None or NAME_KEY in attrs or TYPE_KEY in attrs or len(pending.node_attrs) > 1
-                or pending.nodes_added or pending.nodes_removed or pending.edges_added or pending.edges_removed
-                or pending.edge_attrs or pending.malformed_edge_attrs):
+        if (
+            not written
+            or attrs is None
+            or NAME_KEY in attrs
+            or TYPE_KEY in attrs
+            or len(pending.node_attrs) > 1
+            or pending.nodes_added
+            or pending.nodes_removed
+            or pending.edges_added
+            or pending.edges_removed
+            or pending.edge_attrs
+            or pending.malformed_edge_attrs
+        ):
             self._settle(self.replica_id, local=True)
             if not written:
                 self._lost_node(node_id)
@@ -444,7 +473,7 @@ class Graph:
         except NodeNotFoundError:
             return None
 
-    def nodes(self, type: str | None = None) -> list[Node]:  # noqa: A002
+    def nodes(self, type: str | None = None) -> list[Node]:
         """Snapshots of every live node, or of one type, in id order."""
         ids = self._index.node_meta if type is None else self._index.by_type.get(type, ())
         return [self._node_snapshot(node_id) for node_id in sorted(ids)]
@@ -472,7 +501,9 @@ class Graph:
 
     # -- edges ---------------------------------------------------------------
 
-    def insert_or_assign_edge(self, src: NodeRef, dst: NodeRef, type: str, attrs: Mapping[str, Any] | None = None) -> None:  # noqa: A002
+    def insert_or_assign_edge(
+        self, src: NodeRef, dst: NodeRef, type: str, attrs: Mapping[str, Any] | None = None
+    ) -> None:
         """Create the edge if needed and write the given attributes, one by one."""
         src_id, dst_id = self.resolve(src), self.resolve(dst)
         durable, volatile = self._checks.split(self.ontology.edge_type(type), attrs)
@@ -487,22 +518,22 @@ class Graph:
             if volatile:
                 self._write_volatile(edge_owner(key), volatile)
 
-    def get_edge(self, src: NodeRef, dst: NodeRef, type: str) -> Edge:  # noqa: A002
+    def get_edge(self, src: NodeRef, dst: NodeRef, type: str) -> Edge:
         key = self._visible_edge_key(src, dst, type)
         return self._edge_snapshot(key)
 
-    def find_edge(self, src: NodeRef, dst: NodeRef, type: str) -> Edge | None:  # noqa: A002
+    def find_edge(self, src: NodeRef, dst: NodeRef, type: str) -> Edge | None:
         try:
             return self.get_edge(src, dst, type)
         except (EdgeNotFoundError, NodeNotFoundError):
             return None
 
-    def delete_edge(self, src: NodeRef, dst: NodeRef, type: str) -> None:  # noqa: A002
+    def delete_edge(self, src: NodeRef, dst: NodeRef, type: str) -> None:
         key = self._visible_edge_key(src, dst, type)
         with self._transaction(structural=True):
             self._store.delete_edge(key, self._index.edge_attr_names.get(key, set()))
 
-    def delete_edge_attr(self, src: NodeRef, dst: NodeRef, type: str, attr: str) -> None:  # noqa: A002
+    def delete_edge_attr(self, src: NodeRef, dst: NodeRef, type: str, attr: str) -> None:
         key = self._visible_edge_key(src, dst, type)
         spec = self.ontology.attribute_for(self.ontology.edge_type(type), attr)
         with self._transaction(crdt=not spec.volatile):
@@ -512,7 +543,7 @@ class Graph:
             else:
                 self._store.delete_edge_attrs(key, {attr})
 
-    def edges(self, type: str | None = None, src: NodeRef | None = None, dst: NodeRef | None = None) -> list[Edge]:  # noqa: A002
+    def edges(self, type: str | None = None, src: NodeRef | None = None, dst: NodeRef | None = None) -> list[Edge]:
         """Snapshots of the visible edges matching every given filter."""
         index = self._index
         candidates: set[str] | None = None
@@ -557,7 +588,9 @@ class Graph:
             self._volatile.write(owner, attr, value)
         self._forget_owner(owner)
         if self._hub.has_consumers:
-            self._pending.extend(self._index.volatile_events([(owner, a) for a in values], self.replica_id, True, self._hub.wants))
+            self._pending.extend(
+                self._index.volatile_events([(owner, a) for a in values], self.replica_id, True, self._hub.wants)
+            )
 
     def _forget_owner(self, owner: str) -> None:
         """Drop the cached snapshot of a volatile register's owner (``n:<id>`` or ``e:<key>``)."""
@@ -565,7 +598,6 @@ class Graph:
             self._node_cache.pop(int(owner[2:]), None)
         else:
             self._edge_cache.pop(owner[2:], None)
-
 
     def _delete_dangling(self, keys: list[str]) -> None:
         with self._transaction(structural=True):
@@ -586,8 +618,14 @@ class Graph:
                 ids = sorted(self._index.names.get(name, ()))
                 for loser in ids[1:]:
                     new_name = f"{name[:room]}~{loser}"
-                    log.warning("name %r: node %d keeps it, node %d is renamed %r (conflict shown by a change from %s)",
-                                name, ids[0], loser, new_name, writer)
+                    log.warning(
+                        "name %r: node %d keeps it, node %d is renamed %r (conflict shown by a change from %s)",
+                        name,
+                        ids[0],
+                        loser,
+                        new_name,
+                        writer,
+                    )
                     self._store.set_node_attrs(str(loser), {NAME_KEY: new_name})
 
     # -- replication hooks (used by wm.replication and wm.persistence) --------
@@ -633,7 +671,9 @@ class Graph:
         gc.disable()  # the index adds tens of thousands of objects without cycles: full collections would only rescan them
         try:
             if self._hub.has_consumers:  # their node_added events name attributes: the general diff reads them
-                result = self._apply_to_index(self._index.missed_changes(self._store), writer, False, check_values=False)
+                result = self._apply_to_index(
+                    self._index.missed_changes(self._store), writer, False, check_values=False
+                )
             else:
                 result = self._index.load(self._store, writer, self._volatile_attr_names, self._hub.wants)
                 self._take(result, writer)
@@ -729,7 +769,7 @@ class Graph:
         """Insert a scene in our JSON format or DSR's (``{"DSRModel": {"symbols": ...}}``)."""
         return scene_json.load_into(self, source, keep_ids=keep_ids)
 
-    def insert_node_with_id(self, node_id: int, type: str, name: str, attrs: Mapping[str, Any] | None = None) -> None:  # noqa: A002
+    def insert_node_with_id(self, node_id: int, type: str, name: str, attrs: Mapping[str, Any] | None = None) -> None:
         """Create a node with a given id (scene import). A live or deleted id is refused."""
         self.check_new_id(node_id)
         element = self.ontology.node_type(type)
@@ -809,10 +849,13 @@ class _WriteChecks:
             exact, nonfinite, is_volatile, length = entry
             kind = type(value)
             if kind is not exact or not (
-                kind is float and (nonfinite or math.isfinite(value))
-                or kind is int and -MAX_EXACT_INT <= value <= MAX_EXACT_INT
+                kind is float
+                and (nonfinite or math.isfinite(value))
+                or kind is int
+                and -MAX_EXACT_INT <= value <= MAX_EXACT_INT
                 or kind is bool
-                or kind is tuple and self._vector_as_is(value, nonfinite, length)
+                or kind is tuple
+                and self._vector_as_is(value, nonfinite, length)
             ):
                 value = self.ontology.check_attrs(element, {attr: value})[attr]
             (volatile if is_volatile else durable)[attr] = value

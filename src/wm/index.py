@@ -143,7 +143,7 @@ class GraphIndex:
             self._discard(self.edge_type, edge_type, key)
 
     @staticmethod
-    def _discard(index: dict, key: object, value: object) -> None:
+    def _discard(index: dict[Any, set[Any]], key: object, value: object) -> None:
         members = index.get(key)
         if members is not None:
             members.discard(value)
@@ -175,9 +175,15 @@ class GraphIndex:
         match them.
         """
         result = IndexResult()
-        if not (changes.nodes_added or changes.nodes_removed or changes.edges_added or changes.edges_removed
-                or changes.edge_attrs or changes.malformed_edge_attrs
-                or any(NAME_KEY in attrs or TYPE_KEY in attrs for attrs in changes.node_attrs.values())):
+        if not (
+            changes.nodes_added
+            or changes.nodes_removed
+            or changes.edges_added
+            or changes.edges_removed
+            or changes.edge_attrs
+            or changes.malformed_edge_attrs
+            or any(NAME_KEY in attrs or TYPE_KEY in attrs for attrs in changes.node_attrs.values())
+        ):
             # the common change, attributes of nodes and nothing else: no node or edge can appear or go
             result.events = self._attribute_updates(store, changes, writer, local, set(), set(), {}, wants, result)
             return result
@@ -191,7 +197,7 @@ class GraphIndex:
         out_edges, in_edges = self.out_edges, self.in_edges
         for node_id in new_ids + [e.id for e in removed_nodes]:
             if node_id in out_edges or node_id in in_edges:
-                touched_edges.update(dict.fromkeys(self.edges_of(node_id)))  # type: ignore[arg-type]
+                touched_edges.update(dict.fromkeys(self.edges_of(node_id)))
         present = self._present_markers(store, touched_edges, writer, local, result) if touched_edges else set()
         added_edges, removed_edges, new_edges = [], [], set()
         for key in touched_edges:
@@ -217,10 +223,14 @@ class GraphIndex:
                 if not wants(EventKind.EDGE_ADDED, edge_type):
                     continue
                 attrs = frozenset(self.edge_attr_names.get(key, ())) | frozenset(volatile_attrs(f"e:{key}"))
-                added_edges.append(Event(EventKind.EDGE_ADDED, edge_type, writer, local, attrs, None, None, src, dst, *names))
+                added_edges.append(
+                    Event(EventKind.EDGE_ADDED, edge_type, writer, local, attrs, None, None, src, dst, *names)
+                )
             else:
                 result.removed_edges.append(key)
-                removed_edges.append(Event(EventKind.EDGE_REMOVED, edge_type, writer, local, frozenset(), None, None, src, dst, *names))
+                removed_edges.append(
+                    Event(EventKind.EDGE_REMOVED, edge_type, writer, local, frozenset(), None, None, src, dst, *names)
+                )
                 if is_present:
                     result.dangling_edges.append(key)
 
@@ -299,7 +309,7 @@ class GraphIndex:
                 continue
             attrs: frozenset[str] = frozenset()
             if volatile_attrs is not None:
-                attrs = shown.get(key, frozenset(contents[key].attrs)) | frozenset(volatile_attrs(f"n:{key}"))  # type: ignore[union-attr]
+                attrs = shown.get(key, frozenset(contents[key].attrs)) | frozenset(volatile_attrs(f"n:{key}"))  # type: ignore[union-attr]  # new nodes have content
             added.append(Event(EventKind.NODE_ADDED, node_type, writer, local, attrs, node_id, name))
         return [node_id for _, node_id in new], added, removed, retyped
 
@@ -349,18 +359,19 @@ class GraphIndex:
             if problem is not None:
                 self.left_out.add(LeftOut("node", key, problem, writer), result)
                 continue
-            node_type, name = meta[node_id] = head  # type: ignore[index,assignment]
+            assert node_id is not None and head is not None  # what _head_problem found no problem with
+            node_type, name = meta[node_id] = head
             same_name = names.get(name)
             if same_name is None:
-                names[name] = {node_id}  # type: ignore[set-item]
+                names[name] = {node_id}
             else:
-                same_name.add(node_id)  # type: ignore[arg-type]
+                same_name.add(node_id)
                 conflicts.append(name)
             of_type = by_type.get(node_type)
             if of_type is None:
-                by_type[node_type] = {node_id}  # type: ignore[set-item]
+                by_type[node_type] = {node_id}
             else:
-                of_type.add(node_id)  # type: ignore[arg-type]
+                of_type.add(node_id)
         edges = self.missed_changes(store, nodes=False)
         if edges:
             rest = self.apply(store, edges, writer, False, volatile_attrs, wants, check_values=False, describe=False)
@@ -379,7 +390,7 @@ class GraphIndex:
         result: IndexResult,
     ) -> dict[str, frozenset[str]]:
         """The attributes of new remote nodes that the view shows; records the others."""
-        stored = store.read_node_attrs({key: contents[key].attrs for key, _ in new})  # type: ignore[union-attr]
+        stored = store.read_node_attrs({key: contents[key].attrs for key, _ in new})  # type: ignore[union-attr]  # new nodes have content
         shown = {}
         for key, node_id in new:
             element = self.rules.ontology.node_types[self.node_meta[node_id][0]]
@@ -411,7 +422,7 @@ class GraphIndex:
                 continue
             value = stored[key]
             if self.rules.edge_parts(key) is None:
-                problem: str | None = "the key is not \"src>dst>type\" with node ids and a known edge type"
+                problem = 'the key is not "src>dst>type" with node ids and a known edge type'
             elif value is not True:
                 problem = f"the marker is {type(value).__name__}, not true"
             else:
@@ -450,7 +461,7 @@ class GraphIndex:
                 flat_key = f"{key}.{attr}"
                 present = flat_key in stored
                 if element is None:
-                    problem: str | None = "the key is not \"src>dst>type.attribute\" with node ids and a known edge type"
+                    problem: str | None = 'the key is not "src>dst>type.attribute" with node ids and a known edge type'
                 elif present or attr not in element.attributes:
                     problem = self.rules.attr_problem(element, attr, stored.get(flat_key))
                 else:
@@ -497,7 +508,11 @@ class GraphIndex:
         writes to one key, change the document without an event. Evaluating a
         key that did not change costs a read and produces nothing.
         """
-        node_keys = set(store.nodes.keys()) | {str(node_id) for node_id in self.node_meta} | set(self.left_out.keys("node")) if nodes else ()
+        node_keys = (
+            set(store.nodes.keys()) | {str(node_id) for node_id in self.node_meta} | set(self.left_out.keys("node"))
+            if nodes
+            else ()
+        )
         edge_keys = set(store.edges.keys()) | set(self.markers) | set(self.left_out.keys("edge"))
         known = {f"{key}.{attr}" for key, attrs in self.edge_attr_names.items() for attr in attrs}
         changes = RawChanges(nodes_added=sorted(node_keys) if nodes else [], edges_added=sorted(edge_keys))
@@ -536,8 +551,19 @@ class GraphIndex:
                 if not wants(EventKind.EDGE_UPDATED, edge_type):
                     continue
                 events.append(
-                    Event(EventKind.EDGE_UPDATED, edge_type, writer, local, frozenset(shown), None, None,
-                          src, dst, self.node_name(src), self.node_name(dst))
+                    Event(
+                        EventKind.EDGE_UPDATED,
+                        edge_type,
+                        writer,
+                        local,
+                        frozenset(shown),
+                        None,
+                        None,
+                        src,
+                        dst,
+                        self.node_name(src),
+                        self.node_name(dst),
+                    )
                 )
         return events
 
@@ -547,14 +573,19 @@ class GraphIndex:
         """Per node in the view, the changed attributes an update event lists (remote values checked)."""
         if local:  # this replica writes only into its live nodes
             meta = self.node_meta
-            live = {key: attrs for key, attrs in changes.node_attrs.items() if (i := int(key)) in meta and i not in fresh}
+            live = {
+                key: attrs for key, attrs in changes.node_attrs.items() if (i := int(key)) in meta and i not in fresh
+            }
             if self.left_out.counts["node_attr"]:
                 for key, attrs in live.items():
                     for attr in attrs:
                         self.left_out.discard("node_attr", f"{key}.{attr}")
             return live
-        live = {key: attrs for key, attrs in changes.node_attrs.items()
-                if (node_id := node_id_of(key)) is not None and node_id in self.node_meta and node_id not in fresh}
+        live = {
+            key: attrs
+            for key, attrs in changes.node_attrs.items()
+            if (node_id := node_id_of(key)) is not None and node_id in self.node_meta and node_id not in fresh
+        }
         stored = store.read_node_attrs({key: {a for a in attrs if type(a) is str} for key, attrs in live.items()})
         shown: dict[str, set[str]] = {}
         left_out = self.left_out
@@ -598,11 +629,24 @@ class GraphIndex:
                 node_id = int(ident)
                 meta = self.node_meta.get(node_id)
                 if meta and wants(EventKind.NODE_UPDATED, meta[0]):
-                    events.append(Event(EventKind.NODE_UPDATED, meta[0], writer, local, frozenset(attrs), node_id, meta[1]))
+                    events.append(
+                        Event(EventKind.NODE_UPDATED, meta[0], writer, local, frozenset(attrs), node_id, meta[1])
+                    )
             elif ident in self.visible and wants(EventKind.EDGE_UPDATED, self.markers[ident][2]):
                 src, dst, edge_type = self.markers[ident]
                 events.append(
-                    Event(EventKind.EDGE_UPDATED, edge_type, writer, local, frozenset(attrs), None, None,
-                          src, dst, self.node_name(src), self.node_name(dst))
+                    Event(
+                        EventKind.EDGE_UPDATED,
+                        edge_type,
+                        writer,
+                        local,
+                        frozenset(attrs),
+                        None,
+                        None,
+                        src,
+                        dst,
+                        self.node_name(src),
+                        self.node_name(dst),
+                    )
                 )
         return events

@@ -28,8 +28,10 @@ class Limits:
         if self.max_value_bytes < 1:
             raise ValueError(f"max_value_bytes must be positive, got {self.max_value_bytes}")
         if self.max_name_length <= CONFLICT_SUFFIX_ROOM:
-            raise ValueError(f"max_name_length must leave room for a conflict suffix (> {CONFLICT_SUFFIX_ROOM}), "
-                             f"got {self.max_name_length}")
+            raise ValueError(
+                f"max_name_length must leave room for a conflict suffix (> {CONFLICT_SUFFIX_ROOM}), "
+                f"got {self.max_name_length}"
+            )
 
     def size_problem(self, value: Any) -> str | None:
         """Why a canonical value (str, bytes or a tuple of floats) is too large or not encodable, or None."""

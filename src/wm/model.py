@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any
 
+
 def freeze(attrs: dict[str, Any]) -> Mapping[str, Any]:
     return MappingProxyType(attrs)
 

@@ -69,7 +69,9 @@ class AttributeSpec:
                 f"{owner}.{self.name}: expected {self.describe()}, got a vector of length {len(result)}"
             )
         if self.type in _REAL and not self.nonfinite and non_finite(result):
-            raise AttributeTypeError(f"{owner}.{self.name}: NaN and infinity are not allowed (the ontology entry says so)")
+            raise AttributeTypeError(
+                f"{owner}.{self.name}: NaN and infinity are not allowed (the ontology entry says so)"
+            )
         return result
 
     def decode(self, stored: Any) -> Value:
@@ -158,8 +160,14 @@ def _as_vec(value: Any) -> tuple[float, ...]:
 
 
 _STORAGE: dict[str, type | tuple[type, ...]] = {
-    "bool": bool, "int": (int, float), "float": (int, float), "str": str, "u64": str,
-    "bytes": (bytes, bytearray), "vec": (list, tuple), "u64vec": (list, tuple),
+    "bool": bool,
+    "int": (int, float),
+    "float": (int, float),
+    "str": str,
+    "u64": str,
+    "bytes": (bytes, bytearray),
+    "vec": (list, tuple),
+    "u64vec": (list, tuple),
 }
 _COERCERS: dict[str, Callable[[Any], Value]] = {
     "bool": _as_bool,
@@ -221,7 +229,9 @@ class Ontology:
     def named(cls, name: str) -> Ontology:
         """A packaged ontology by name: ``base``, ``dsr``, ``default``, or one an installed plugin adds."""
         built = _packaged(name)
-        return cls(built.attributes, built.node_types, built.edge_types, built.source, built.limits)  # own dicts, shared specs
+        return cls(
+            built.attributes, built.node_types, built.edge_types, built.source, built.limits
+        )  # own dicts, shared specs
 
     @staticmethod
     def names() -> list[str]:
@@ -312,7 +322,9 @@ class Ontology:
             return {}
         if not isinstance(attrs, Mapping):
             raise AttributeTypeError(f"{element.name}: attributes must be a mapping, got {type(attrs).__name__}")
-        return {name: self._checked(self.attribute_for(element, name), value, element.name) for name, value in attrs.items()}
+        return {
+            name: self._checked(self.attribute_for(element, name), value, element.name) for name, value in attrs.items()
+        }
 
     def _checked(self, spec: AttributeSpec, value: Any, owner: str) -> Value:
         result = spec.coerce(value, owner)
@@ -355,7 +367,9 @@ def _mapping(value: Any, where: str) -> Mapping[str, Any]:
 def _packaged(name: str) -> Ontology:
     """A packaged ontology (wm's own or a plugin's), read and validated once per process."""
     if name in PACKAGED:
-        return Ontology.from_text(resources.files("wm").joinpath(PACKAGED[name]).read_text(encoding="utf-8"), source=name)
+        return Ontology.from_text(
+            resources.files("wm").joinpath(PACKAGED[name]).read_text(encoding="utf-8"), source=name
+        )
     found = plugins.ontology_files().get(name)
     if found is None:
         if name == DEFAULT:
@@ -363,7 +377,9 @@ def _packaged(name: str) -> Ontology:
         raise OntologyError(f"no packaged ontology named {name!r}; known: {', '.join(Ontology.names())}")
     file = found()
     try:
-        text = file.read_text(encoding="utf-8") if hasattr(file, "read_text") else Path(file).read_text(encoding="utf-8")
+        text = (
+            file.read_text(encoding="utf-8") if hasattr(file, "read_text") else Path(file).read_text(encoding="utf-8")
+        )
     except (OSError, TypeError) as exc:
         raise PluginError(f"plugin ontology {name!r} ({plugins.ONTOLOGIES}): cannot read {file!r}: {exc}") from exc
     return Ontology.from_text(text, source=name)
@@ -389,7 +405,9 @@ def _merge(base: Ontology, top: Ontology) -> Ontology:
         below = base.attributes.get(name)
         if below is not None and below.type != spec.type:
             if below.volatile != spec.volatile:
-                raise OntologyError(f"{top.source}: attributes.{name}: redeclares {base.source}'s attribute with another volatility")
+                raise OntologyError(
+                    f"{top.source}: attributes.{name}: redeclares {base.source}'s attribute with another volatility"
+                )
             clashes[name] = below
             attributes[name] = spec
         else:
@@ -400,18 +418,30 @@ def _merge(base: Ontology, top: Ontology) -> Ontology:
         for name, lower in theirs.items():
             upper = mine.get(name)
             own = upper.attributes if upper is not None else frozenset()
-            overrides = {**lower.overrides, **{a: clashes[a] for a in lower.attributes - own if a in clashes},
-                         **(upper.overrides if upper is not None else {})}
+            overrides = {
+                **lower.overrides,
+                **{a: clashes[a] for a in lower.attributes - own if a in clashes},
+                **(upper.overrides if upper is not None else {}),
+            }
             types[name] = replace(lower, overrides=MappingProxyType(overrides))
             if upper is not None:
-                types[name] = replace(types[name], attributes=own | lower.attributes, doc=upper.doc or lower.doc,
-                                      show=upper.show or lower.show)
+                types[name] = replace(
+                    types[name],
+                    attributes=own | lower.attributes,
+                    doc=upper.doc or lower.doc,
+                    show=upper.show or lower.show,
+                )
         for name, upper in mine.items():
             types.setdefault(name, upper)
         return types
 
-    return Ontology(attributes, united(top.node_types, base.node_types), united(top.edge_types, base.edge_types),
-                    top.source, top.limits)
+    return Ontology(
+        attributes,
+        united(top.node_types, base.node_types),
+        united(top.edge_types, base.edge_types),
+        top.source,
+        top.limits,
+    )
 
 
 def _parse_attribute(name: str, spec: Any, where: str) -> AttributeSpec:
@@ -426,7 +456,9 @@ def _parse_attribute(name: str, spec: Any, where: str) -> AttributeSpec:
     if value_type not in VALUE_TYPES:
         raise OntologyError(f"{where}.type: expected one of {', '.join(VALUE_TYPES)}, got {value_type!r}")
     length = spec.get("length")
-    if length is not None and (value_type != "vec" or not isinstance(length, int) or isinstance(length, bool) or length < 1):
+    if length is not None and (
+        value_type != "vec" or not isinstance(length, int) or isinstance(length, bool) or length < 1
+    ):
         raise OntologyError(f"{where}.length: only a vec may have a length, and it must be a positive int")
     volatile = spec.get("volatile", False)
     if not isinstance(volatile, bool):
@@ -437,7 +469,9 @@ def _parse_attribute(name: str, spec: Any, where: str) -> AttributeSpec:
         if dsr_type is None:
             raise OntologyError(f"{where}.dsr: expected one of {', '.join(DSR_TYPES)}, got {dsr!r}")
         if dsr_type.ours != value_type or (dsr_type.length is not None and dsr_type.length != length):
-            raise OntologyError(f"{where}.dsr: a DSR {dsr} is not held by {value_type}" + (f"[{length}]" if length else ""))
+            raise OntologyError(
+                f"{where}.dsr: a DSR {dsr} is not held by {value_type}" + (f"[{length}]" if length else "")
+            )
     nonfinite = spec.get("nonfinite", False)
     if not isinstance(nonfinite, bool) or (nonfinite and value_type not in ("float", "vec")):
         raise OntologyError(f"{where}.nonfinite: only a float or a vec may allow NaN and infinity (true or false)")
@@ -459,7 +493,9 @@ def _parse_limits(section: Any, where: str) -> Limits:
         raise OntologyError(f"{where}: {exc}") from None
 
 
-def _parse_types(kind: str, section: Any, attributes: Mapping[str, AttributeSpec], where: str) -> dict[str, ElementType]:
+def _parse_types(
+    kind: str, section: Any, attributes: Mapping[str, AttributeSpec], where: str
+) -> dict[str, ElementType]:
     types: dict[str, ElementType] = {}
     for type_name, spec in _mapping(section, where).items():
         spec = spec or {}

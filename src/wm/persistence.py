@@ -58,7 +58,7 @@ class DiskLog:
         self.directory.mkdir(parents=True, exist_ok=True)
         self.snapshot_path = self.directory / "snapshot.bin"
         self.log_path = self.directory / "log.bin"
-        self._log = open(self.log_path, "ab")  # noqa: SIM115 - kept open for the life of the server
+        self._log = open(self.log_path, "ab")
         self._last_fsync = time.monotonic()
 
     def load_into(self, graph: Graph) -> int:
@@ -84,7 +84,9 @@ class DiskLog:
             position += _HEADER.size + length
             count += 1
         if position < len(data):
-            log.warning("%s: cutting a torn record at byte %d (%d bytes)", self.log_path, position, len(data) - position)
+            log.warning(
+                "%s: cutting a torn record at byte %d (%d bytes)", self.log_path, position, len(data) - position
+            )
             self._log.truncate(position)
         return count
 

@@ -66,9 +66,10 @@ def load(entry: metadata.EntryPoint) -> Any:
     """The object of an entry point, or :class:`PluginError` saying which plugin failed and why."""
     try:
         return entry.load()
-    except Exception as exc:  # noqa: BLE001 - any failure of foreign code is the plugin's
-        raise PluginError(f"plugin {entry.name!r} ({entry.group} = {entry.value}) cannot be loaded: "
-                          f"{type(exc).__name__}: {exc}") from exc
+    except Exception as exc:
+        raise PluginError(
+            f"plugin {entry.name!r} ({entry.group} = {entry.value}) cannot be loaded: {type(exc).__name__}: {exc}"
+        ) from exc
 
 
 def commands() -> list[Command]:
@@ -101,16 +102,19 @@ def add_commands(subparsers: Any, reserved: set[str]) -> None:
             try:
                 command.plugin.add_command(subparsers)
                 parser = subparsers.choices[command.name]
-            except Exception as exc:  # noqa: BLE001 - the plugin's own code failed
+            except Exception as exc:
                 subparsers.choices.pop(command.name, None)
-                error = PluginError(f"plugin {command.name!r} ({COMMANDS} = {command.value}) cannot add its command: "
-                                    f"{type(exc).__name__}: {exc}")
+                error = PluginError(
+                    f"plugin {command.name!r} ({COMMANDS} = {command.value}) cannot add its command: "
+                    f"{type(exc).__name__}: {exc}"
+                )
             else:
                 parser.set_defaults(plugin_main=command.plugin.main)
                 continue
         assert error is not None
-        parser = subparsers.add_parser(command.name, help=f"(unavailable: plugin {command.name!r} cannot be loaded)",
-                                       description=str(error))
+        parser = subparsers.add_parser(
+            command.name, help=f"(unavailable: plugin {command.name!r} cannot be loaded)", description=str(error)
+        )
         parser.set_defaults(plugin_main=functools.partial(_broken, error), plugin_broken=True)
 
 

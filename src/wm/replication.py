@@ -125,16 +125,20 @@ class Replicator:
             )
             self._declared += [
                 self._publisher,
-                session.declare_queryable(keys.sync(self.name, me), lambda q: handoff(self._answer, q), allowed_origin=remote),
+                session.declare_queryable(
+                    keys.sync(self.name, me), lambda q: handoff(self._answer, q), allowed_origin=remote
+                ),
                 session.liveliness().declare_token(keys.alive(self.name, me, self.agent)),
             ]
         self._declared += [
             session.declare_subscriber(
-                keys.delta(self.name), lambda s: handoff(self._on_delta, str(s.key_expr), s.payload.to_bytes()),
+                keys.delta(self.name),
+                lambda s: handoff(self._on_delta, str(s.key_expr), s.payload.to_bytes()),
                 allowed_origin=remote,
             ),
             session.declare_subscriber(
-                keys.heartbeat(self.name), lambda s: handoff(self._on_heartbeat, str(s.key_expr), s.payload.to_bytes()),
+                keys.heartbeat(self.name),
+                lambda s: handoff(self._on_heartbeat, str(s.key_expr), s.payload.to_bytes()),
                 allowed_origin=remote,
             ),
             session.liveliness().declare_subscriber(
@@ -292,7 +296,7 @@ class Replicator:
             log.exception("answering a query on %s failed", key)
             query.reply_err(f"cannot answer: {exc}")
         finally:
-            query.drop()
+            query.drop()  # type: ignore[no-untyped-call]  # zenoh's stub leaves drop() unannotated
 
     # -- repair and catch-up -------------------------------------------------
 
@@ -386,7 +390,10 @@ class Replicator:
 
         def ask() -> list[tuple[str, bytes]]:
             replies = self.session.get(
-                selector, payload=payload, timeout=wait, target=zenoh.QueryTarget.ALL,
+                selector,
+                payload=payload,
+                timeout=wait,
+                target=zenoh.QueryTarget.ALL,
                 allowed_destination=zenoh.Locality.REMOTE,
             )
             return [(str(r.ok.key_expr), r.ok.payload.to_bytes()) for r in replies if r.ok is not None]

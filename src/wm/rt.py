@@ -106,7 +106,9 @@ class RTApi:
         if parent is None:
             return np.eye(4)
         edge = self._graph.get_edge(parent, child, RT)
-        return homogeneous(edge.get("rt_translation", (0.0, 0.0, 0.0)), edge.get("rt_rotation_euler_xyz", (0.0, 0.0, 0.0)))
+        return homogeneous(
+            edge.get("rt_translation", (0.0, 0.0, 0.0)), edge.get("rt_rotation_euler_xyz", (0.0, 0.0, 0.0))
+        )
 
     def _ancestors(self, node: int) -> list[int]:
         """``node`` and its RT ancestors up to the root."""

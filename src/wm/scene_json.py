@@ -84,11 +84,21 @@ def graph_to_dict(graph: Graph) -> dict[str, Any]:
         "format": FORMAT,
         "version": VERSION,
         "nodes": [
-            {"id": n.id, "type": n.type, "name": n.name, "attrs": {k: encode_value(v) for k, v in sorted(n.attrs.items())}}
+            {
+                "id": n.id,
+                "type": n.type,
+                "name": n.name,
+                "attrs": {k: encode_value(v) for k, v in sorted(n.attrs.items())},
+            }
             for n in graph.nodes()
         ],
         "edges": [
-            {"src": e.src, "dst": e.dst, "type": e.type, "attrs": {k: encode_value(v) for k, v in sorted(e.attrs.items())}}
+            {
+                "src": e.src,
+                "dst": e.dst,
+                "type": e.type,
+                "attrs": {k: encode_value(v) for k, v in sorted(e.attrs.items())},
+            }
             for e in graph.edges()
         ],
     }
@@ -124,11 +134,21 @@ def _parse_ours(data: Mapping[str, Any]) -> _Scene:
         raise SceneFormatError(f"unsupported cortex-wm scene version {data.get('version')!r}")
     try:
         nodes = [
-            (int(n["id"]), str(n["type"]), str(n["name"]), {k: _decode_value(v) for k, v in (n.get("attrs") or {}).items()})
+            (
+                int(n["id"]),
+                str(n["type"]),
+                str(n["name"]),
+                {k: _decode_value(v) for k, v in (n.get("attrs") or {}).items()},
+            )
             for n in data.get("nodes", [])
         ]
         edges = [
-            (int(e["src"]), int(e["dst"]), str(e["type"]), {k: _decode_value(v) for k, v in (e.get("attrs") or {}).items()})
+            (
+                int(e["src"]),
+                int(e["dst"]),
+                str(e["type"]),
+                {k: _decode_value(v) for k, v in (e.get("attrs") or {}).items()},
+            )
             for e in data.get("edges", [])
         ]
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
@@ -164,7 +184,9 @@ def _check(graph: Graph, scene: _Scene, keep_ids: bool) -> None:
             try:
                 graph.check_new_id(node_id)
             except (ValidationError, NodeExistsError) as exc:
-                raise type(exc)(f"{exc}; load the scene with fresh ids instead (wm load --new-ids, keep_ids=False)") from None
+                raise type(exc)(
+                    f"{exc}; load the scene with fresh ids instead (wm load --new-ids, keep_ids=False)"
+                ) from None
         names.add(name)
         ids.add(node_id)
     rt_parents: dict[int, int] = {}
@@ -172,7 +194,9 @@ def _check(graph: Graph, scene: _Scene, keep_ids: bool) -> None:
         ontology.check_attrs(ontology.edge_type(edge_type), attrs)
         for end in (src, dst):
             if end not in ids:
-                raise SceneFormatError(f"edge {src}-[{edge_type}]->{dst} refers to node {end}, which the scene does not define")
+                raise SceneFormatError(
+                    f"edge {src}-[{edge_type}]->{dst} refers to node {end}, which the scene does not define"
+                )
         if edge_type == "RT":
             if rt_parents.setdefault(dst, src) != src:
                 raise SceneFormatError(f"node {dst} has two RT parents in the scene")

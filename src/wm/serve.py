@@ -12,12 +12,12 @@ import logging
 from collections.abc import Sequence
 from pathlib import Path
 
-from .reaper import install_reaper
 from .connection import close_session, open_session, sigterm_cancels_current_task
 from .graph import Graph
 from .keys import check_segment
 from .ontology import Ontology
 from .persistence import DiskLog, Persister
+from .reaper import install_reaper
 from .replication import DURABLE_AGENT, Replicator
 from .zenoh_config import ConfigSource, Mode
 
@@ -61,9 +61,16 @@ async def serve(
                 replicators.append(replicator)
                 log.info(
                     "serving graph %r: %d nodes from %s (%d log records), replica %s",
-                    name, graph.node_count(), disk.directory, replayed, graph.replica_id,
+                    name,
+                    graph.node_count(),
+                    disk.directory,
+                    replayed,
+                    graph.replica_id,
                 )
-            print(f"wm serve: ready, graphs {', '.join(graphs)}, listening on {', '.join(listen) or 'config endpoints'}", flush=True)
+            print(
+                f"wm serve: ready, graphs {', '.join(graphs)}, listening on {', '.join(listen) or 'config endpoints'}",
+                flush=True,
+            )
             if ready is not None:
                 ready.set()
             await asyncio.Event().wait()

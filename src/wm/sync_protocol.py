@@ -133,15 +133,16 @@ def decode(data: bytes) -> Message:
     if len(rest) != len(fields):
         raise DecodeError(f"{kind.name} has {len(fields)} fields after the sender, got {len(rest)}")
     values: dict[str, Any] = {}
-    for (name, types), value in zip(fields, rest):
+    for (name, types), value in zip(fields, rest, strict=False):
         if not isinstance(value, types) or (isinstance(value, bool) and int in types):
             raise DecodeError(f"{kind.name}.{name}: wrong type {type(value).__name__}")
         if name == "volatile":
             value = check_records(value)
-        elif name == "state_vector":
+        elif name == "state_vector" and isinstance(value, bytes):
             parse_state_vector(value)
         values[name] = value
-    return cls(sender=sender, **values)
+    message: Message = cls(sender=sender, **values)
+    return message
 
 
 # -- state vectors -------------------------------------------------------------

@@ -60,8 +60,11 @@ class ViewRules:
         self.ontology = ontology
         self.limits = ontology.limits
         specs = {*ontology.attributes.values()}
-        specs |= {spec for t in (*ontology.node_types.values(), *ontology.edge_types.values())
-                  for spec in t.overrides.values()}
+        specs |= {
+            spec
+            for t in (*ontology.node_types.values(), *ontology.edge_types.values())
+            for spec in t.overrides.values()
+        }
         self._fits = {spec: _fits(spec, ontology.limits.max_value_bytes) for spec in specs}
 
     def node_problem(self, node_type: Any, name: Any) -> str | None:
@@ -130,8 +133,14 @@ def _is_int(value: Any) -> bool:
 
 def _is_u64(value: Any) -> bool:
     """A uint64 as the ontology stores it: canonical decimal digits, below 2**64."""
-    return (type(value) is str and value.isdecimal() and value.isascii() and len(value) <= 20
-            and (value == "0" or value[0] != "0") and int(value) < U64_RANGE)
+    return (
+        type(value) is str
+        and value.isdecimal()
+        and value.isascii()
+        and len(value) <= 20
+        and (value == "0" or value[0] != "0")
+        and int(value) < U64_RANGE
+    )
 
 
 def _is_vec(value: Any) -> bool:
@@ -156,7 +165,8 @@ def _fits(spec: AttributeSpec, max_bytes: int) -> Callable[[Any], bool]:
 
         def fits_vec(v: Any) -> bool:
             return (
-                type(v) in (list, tuple) and (len(v) == length if length is not None else len(v) <= elements)
+                type(v) in (list, tuple)
+                and (len(v) == length if length is not None else len(v) <= elements)
                 and all(type(x) is int or (type(x) is float and (not finite or isfinite(x))) for x in v)
             )
 

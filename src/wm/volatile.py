@@ -120,7 +120,9 @@ class VolatileStore:
     def records(self) -> list[Record]:
         """Every register, for a catch-up or a snapshot on disk."""
         return [
-            (owner, attr, reg[0], reg[1], reg[2]) for owner, attrs in self._owners.items() for attr, reg in attrs.items()
+            (owner, attr, reg[0], reg[1], reg[2])
+            for owner, attrs in self._owners.items()
+            for attr, reg in attrs.items()
         ]
 
     def __len__(self) -> int:

@@ -78,7 +78,9 @@ def read_config(source: PathLike | Mapping[str, Any], variables: Mapping[str, An
         raise ZenohConfigError(f"Zenoh config source must be a path or a mapping, not {type(source).__name__}")
     missing: list[str] = []
     render = partial(_inline_text, where)
-    filled: dict[str, Any] = _fill(data, lambda text: placeholders.expand_value(text, variables or {}, missing.append, render))
+    filled: dict[str, Any] = _fill(
+        data, lambda text: placeholders.expand_value(text, variables or {}, missing.append, render)
+    )
     if missing:
         raise ZenohConfigError(f"{where}: no value for template variable(s) {', '.join(sorted(set(missing)))}")
     return filled
@@ -183,7 +185,9 @@ def _fill(value: Any, expand: Callable[[str], Any]) -> Any:
 def _inline_text(where: str, name: str, value: Any) -> str:
     """A variable's text inside a longer string: JSON spelling for booleans; no lists or mappings."""
     if isinstance(value, (list, tuple, set, frozenset, Mapping)):
-        raise ZenohConfigError(f"{where}: variable {name} is a {type(value).__name__} but is used inside a longer string")
+        raise ZenohConfigError(
+            f"{where}: variable {name} is a {type(value).__name__} but is used inside a longer string"
+        )
     if isinstance(value, bool):
         return "true" if value else "false"
     return str(value)

@@ -54,7 +54,9 @@ class Launch:
             return {}
         return {p["name"]: p for p in data["processes"]}
 
-    def wait(self, name: str, condition: Callable[[dict[str, Any]], bool], what: str, timeout: float = 30) -> dict[str, Any]:
+    def wait(
+        self, name: str, condition: Callable[[dict[str, Any]], bool], what: str, timeout: float = 30
+    ) -> dict[str, Any]:
         wait_until(lambda: name in self.status() and condition(self.status()[name]), timeout, f"{name}: {what}")
         return self.status()[name]
 
@@ -65,7 +67,9 @@ class Launch:
         """Stop the launcher by SIGTERM (or wait for it to end) and read its output to the end; its exit status."""
         returncode = self.proc.stop(timeout) if stop else self.proc.popen.wait(timeout)
         last = ("every process stopped cleanly", "failures in: ")
-        wait_until(lambda: any(text in line for line in self.proc.lines[-1:] for text in last), 10, "the launcher's last line")
+        wait_until(
+            lambda: any(text in line for line in self.proc.lines[-1:] for text in last), 10, "the launcher's last line"
+        )
         assert returncode is not None
         return returncode
 
@@ -73,9 +77,13 @@ class Launch:
         return (self.log_dir / f"{name}.log").read_text()
 
 
-def start_launch(spawner: Callable[..., Proc], file: Path, log_dir: Path, *args: str, argv: Sequence[str] = ()) -> Launch:
+def start_launch(
+    spawner: Callable[..., Proc], file: Path, log_dir: Path, *args: str, argv: Sequence[str] = ()
+) -> Launch:
     """``wm launch FILE`` (prefixed by ``argv``, e.g. ``ip netns exec NS``), without the live table."""
-    proc = spawner([*argv, *WM, "launch", str(file), "--no-table", "--log-dir", str(log_dir), *args], name=f"launch {file.name}")
+    proc = spawner(
+        [*argv, *WM, "launch", str(file), "--no-table", "--log-dir", str(log_dir), *args], name=f"launch {file.name}"
+    )
     return Launch(proc, log_dir)
 
 
@@ -88,7 +96,9 @@ def run_wm(*args: str, argv: Sequence[str] = (), check: bool = True) -> subproce
 
 def read_graph(graph: str, endpoint: str, argv: Sequence[str] = ()) -> dict[str, Any]:
     """The graph as ``wm dump --format json`` reads it from the network ({} when nothing answers)."""
-    result = run_wm("dump", "--format", "json", "--graph", graph, "--connect", endpoint, "--timeout", "2", argv=argv, check=False)
+    result = run_wm(
+        "dump", "--format", "json", "--graph", graph, "--connect", endpoint, "--timeout", "2", argv=argv, check=False
+    )
     return json.loads(result.stdout) if result.returncode == 0 else {}
 
 
@@ -104,8 +114,12 @@ def agent_nodes(graph: dict[str, Any]) -> dict[str, dict[str, Any]]:
 
 def load_nodes(tmp: Path, graph: str, endpoint: str, *nodes: tuple[str, str], argv: Sequence[str] = ()) -> None:
     """Insert nodes ``(type, name)`` with ``wm load`` (fresh ids), through a scene file in ``tmp``."""
-    scene = {"format": "cortex-wm", "version": 1, "edges": [],
-             "nodes": [{"id": i + 1, "type": t, "name": n, "attrs": {}} for i, (t, n) in enumerate(nodes)]}
+    scene = {
+        "format": "cortex-wm",
+        "version": 1,
+        "edges": [],
+        "nodes": [{"id": i + 1, "type": t, "name": n, "attrs": {}} for i, (t, n) in enumerate(nodes)],
+    }
     path = tmp / f"scene-{nodes[0][1]}.json"
     path.write_text(json.dumps(scene))
     run_wm("load", str(path), "--new-ids", "--graph", graph, "--connect", endpoint, argv=argv)

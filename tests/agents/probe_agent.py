@@ -44,7 +44,9 @@ class Probe(Agent):
         objects = ",".join(sorted(n.name for n in self.g.nodes("object")))
         mine = [n for n in self.g.nodes("agent") if n.get("replica") == self.g.replica_id]
         if mine:
-            self.g.update_node(mine[0].id, {"description": f"tag={self.args.tag} objects={objects} handled={self.handled}"})
+            self.g.update_node(
+                mine[0].id, {"description": f"tag={self.args.tag} objects={objects} handled={self.handled}"}
+            )
 
 
 if __name__ == "__main__":

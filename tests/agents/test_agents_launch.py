@@ -14,6 +14,7 @@ from launch_helpers import (
     read_graph,
     start_launch,
 )
+
 from procs import endpoint, free_port, wait_until
 
 GRAPH = "agents"
@@ -34,7 +35,9 @@ def test_launch_serve_and_three_agents_kill_one_and_stop(spawner, tmp_path: Path
     # every agent is a member and keeps an agent node with its pid, replica and load
     wait_until(lambda: set(agent_nodes(read_graph(GRAPH, router))) == set(AGENTS), 60, "three agent nodes")
     nodes = agent_nodes(read_graph(GRAPH, router))
-    wait_until(lambda: sorted(members(GRAPH, router).values()) == sorted(["serve", *AGENTS]), 30, "wm members to list all")
+    wait_until(
+        lambda: sorted(members(GRAPH, router).values()) == sorted(["serve", *AGENTS]), 30, "wm members to list all"
+    )
     listed = members(GRAPH, router)
     for agent in AGENTS:
         assert nodes[agent]["pid"] == pids[agent]
@@ -44,15 +47,22 @@ def test_launch_serve_and_three_agents_kill_one_and_stop(spawner, tmp_path: Path
     # the world node links every agent node
     load_nodes(tmp_path, GRAPH, router, ("world", "world"), ("object", "before-kill"))
     wait_until(
-        lambda: {e["dst"] for e in read_graph(GRAPH, router).get("edges", []) if e["type"] == "has"}
-        == {n["id"] for n in read_graph(GRAPH, router)["nodes"] if n["type"] == "agent"},
-        30, "a has edge from the world to each agent node",
+        lambda: (
+            {e["dst"] for e in read_graph(GRAPH, router).get("edges", []) if e["type"] == "has"}
+            == {n["id"] for n in read_graph(GRAPH, router)["nodes"] if n["type"] == "agent"}
+        ),
+        30,
+        "a has edge from the world to each agent node",
     )
 
     # a handler that raises does not stop its agent
     load_nodes(tmp_path, GRAPH, router, ("object", "boom"))
     load_nodes(tmp_path, GRAPH, router, ("object", "after-boom"))
-    wait_until(lambda: "after-boom" in described(read_graph(GRAPH, router), "a1"), 30, "a1 to handle an object after the failure")
+    wait_until(
+        lambda: "after-boom" in described(read_graph(GRAPH, router), "a1"),
+        30,
+        "a1 to handle an object after the failure",
+    )
     assert launch.pid("a1") == pids["a1"]
     assert "handler failed" in launch.log("a1") and 'error="RuntimeError: refusing boom"' in launch.log("a1")
 

@@ -5,10 +5,13 @@ from __future__ import annotations
 from pathlib import Path
 
 from launch_helpers import python_cmd, run_wm, start_launch
+
 from procs import REPO, wait_until
 
 SLEEPER = "import time; print('up', flush=True); time.sleep(600)"
-STUBBORN = "import signal, time; signal.signal(signal.SIGTERM, signal.SIG_IGN); print('up', flush=True); time.sleep(600)"
+STUBBORN = (
+    "import signal, time; signal.signal(signal.SIGTERM, signal.SIG_IGN); print('up', flush=True); time.sleep(600)"
+)
 
 
 def write(tmp: Path, text: str) -> Path:
@@ -18,12 +21,15 @@ def write(tmp: Path, text: str) -> Path:
 
 
 def test_a_failed_process_with_restart_never_ends_the_launch_with_status_1(spawner, tmp_path: Path) -> None:
-    file = write(tmp_path, f"""
+    file = write(
+        tmp_path,
+        f"""
 [[process]]
 name = "fails"
 cmd = {python_cmd("import sys; print('giving up', flush=True); sys.exit(3)")}
 restart = "never"
-""")
+""",
+    )
     launch = start_launch(spawner, file, tmp_path / "logs")
     assert launch.finish(stop=False) == 1
     assert launch.status()["fails"]["state"] == "failed"
@@ -33,7 +39,9 @@ restart = "never"
 
 
 def test_restart_always_with_backoff_then_a_clean_stop_is_status_0(spawner, tmp_path: Path) -> None:
-    file = write(tmp_path, f"""
+    file = write(
+        tmp_path,
+        f"""
 [defaults]
 backoff = {{ initial = 0.05, factor = 2.0, max = 0.2 }}
 
@@ -46,7 +54,8 @@ ready = "ready now"
 name = "blinks"
 cmd = {python_cmd("print('blink', flush=True)")}
 restart = "always"
-""")
+""",
+    )
     launch = start_launch(spawner, file, tmp_path / "logs")
     launch.wait("blinks", lambda p: p["restarts"] >= 3, "three restarts")
     output = launch.proc.output()
@@ -58,7 +67,9 @@ restart = "always"
 
 
 def test_a_process_that_ignores_sigterm_is_killed_and_counted_as_a_failure(spawner, tmp_path: Path) -> None:
-    file = write(tmp_path, f"""
+    file = write(
+        tmp_path,
+        f"""
 stop_timeout = 0.5
 
 [[process]]
@@ -68,7 +79,8 @@ cmd = {python_cmd(SLEEPER)}
 [[process]]
 name = "stubborn"
 cmd = {python_cmd(STUBBORN)}
-""")
+""",
+    )
     launch = start_launch(spawner, file, tmp_path / "logs")
     stubborn = launch.pid("stubborn")
     wait_until(lambda: "stubborn | up" in launch.proc.output(), 30, "stubborn to ignore SIGTERM")
@@ -79,7 +91,9 @@ cmd = {python_cmd(STUBBORN)}
 
 
 def test_check_names_every_bad_key_and_starts_nothing(tmp_path: Path) -> None:
-    file = write(tmp_path, """
+    file = write(
+        tmp_path,
+        """
 colour = "blue"
 
 [vars]
@@ -99,7 +113,8 @@ name = "a"
 cmd = ["surely-no-such-program-here"]
 module = "x"
 backoff = { initial = -1, jitter = 2 }
-""")
+""",
+    )
     result = run_wm("launch", "--check", str(file), check=False)
     assert result.returncode == 1
     errors = result.stderr

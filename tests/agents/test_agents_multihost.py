@@ -14,6 +14,7 @@ from launch_helpers import (
     read_graph,
     start_launch,
 )
+
 from netns import NetnsLab, netns_unavailable
 from procs import wait_until
 
@@ -45,13 +46,17 @@ def test_agents_on_two_hosts_converge_through_the_router_host(spawner, lab: Netn
         return read_graph(GRAPH, router, argv=lab.cmd(host))
 
     wait_until(lambda: set(agent_nodes(view(2))) == {"a1", "a2"}, 60, "both agent nodes, seen from host 2")
-    wait_until(lambda: sorted(members(GRAPH, router, lab.cmd(1)).values()) == ["a1", "a2", "serve"], 30,
-               "wm members on host 1 to list serve, a1 and a2")
+    wait_until(
+        lambda: sorted(members(GRAPH, router, lab.cmd(1)).values()) == ["a1", "a2", "serve"],
+        30,
+        "wm members on host 1 to list serve, a1 and a2",
+    )
 
     load_nodes(tmp_path, GRAPH, router, ("object", "from-host-1"), argv=lab.cmd(1))
     wait_until(
         lambda: all("from-host-1" in str(node.get("description")) for node in agent_nodes(view(2)).values()),
-        60, "both agents to see the object written on host 1",
+        60,
+        "both agents to see the object written on host 1",
     )
     names = [{(n["type"], n["name"]) for n in view(host)["nodes"]} for host in (1, 2)]
     assert names[0] == names[1] == {("object", "from-host-1"), ("agent", "a1"), ("agent", "a2")}

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 from launch_helpers import PROBE, PROBE_PATH
-from procs import PYTHON, REPO, WM, endpoint, free_port
 
 import wm
+from procs import PYTHON, REPO, WM, endpoint, free_port
 from wm.zenoh_config import load_with_environment
 
 GRAPH = "secure"
@@ -24,8 +24,12 @@ ACL_ROUTER = str(REPO / "deploy" / "zenoh" / "acl" / "router.json5")
 
 
 def make_certs(outdir: Path, *agents: str) -> Path:
-    subprocess.run(["bash", str(REPO / "deploy" / "certs" / "make-test-certs.sh"), str(outdir), *agents],
-                   check=True, capture_output=True, timeout=60)
+    subprocess.run(
+        ["bash", str(REPO / "deploy" / "certs" / "make-test-certs.sh"), str(outdir), *agents],
+        check=True,
+        capture_output=True,
+        timeout=60,
+    )
     return outdir
 
 
@@ -35,13 +39,23 @@ def secure_stack(spawner, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> in
     pki = make_certs(tmp_path / "pki", "probe1", "writer", "monitor")
     port = free_port()
     common = {"WM_ZENOH_CERT_DIR": str(pki), "WM_ZENOH_ROUTER_PORT": str(port)}
-    acl = {"WM_ZENOH_LISTEN_HOST": "127.0.0.1", "WM_ZENOH_WRITERS": '["probe1","writer"]',
-           "WM_ZENOH_MONITORS": '["monitor"]', "WM_ZENOH_ROUTERS": '["router"]'}
-    serve = spawner([*WM, "serve", "--data", str(tmp_path / "data"), "--graph", GRAPH, "--config", ACL_ROUTER],
-                    name="serve", env={**common, **acl})
+    acl = {
+        "WM_ZENOH_LISTEN_HOST": "127.0.0.1",
+        "WM_ZENOH_WRITERS": '["probe1","writer"]',
+        "WM_ZENOH_MONITORS": '["monitor"]',
+        "WM_ZENOH_ROUTERS": '["router"]',
+    }
+    serve = spawner(
+        [*WM, "serve", "--data", str(tmp_path / "data"), "--graph", GRAPH, "--config", ACL_ROUTER],
+        name="serve",
+        env={**common, **acl},
+    )
     serve.wait_line("wm serve: ready", 30)
-    spawner([PYTHON, str(PROBE), "--graph", GRAPH, "--config", TLS_CLIENT, "--name", "probe1"], name="probe1",
-            env={**common, "WM_ZENOH_AGENT": "probe1", "PYTHONPATH": PROBE_PATH})
+    spawner(
+        [PYTHON, str(PROBE), "--graph", GRAPH, "--config", TLS_CLIENT, "--name", "probe1"],
+        name="probe1",
+        env={**common, "WM_ZENOH_AGENT": "probe1", "PYTHONPATH": PROBE_PATH},
+    )
     for name, value in common.items():
         monkeypatch.setenv(name, value)
     return port
@@ -78,7 +92,9 @@ async def test_a_monitor_reads_but_its_writes_are_refused(secure_stack: int, mon
             writer.insert_node("object", "legit")
             assert await writer.network.confirm(timeout=10.0)
             # the probe handles 'legit' and reports every object it holds: the intruder never reached it
-            await until(lambda: "objects=legit " in description(writer, "probe1"), "the probe to report the writer's object")
+            await until(
+                lambda: "objects=legit " in description(writer, "probe1"), "the probe to report the writer's object"
+            )
             assert writer.find_node("intruder") is None
             assert "defaced" not in description(writer, "probe1")
 

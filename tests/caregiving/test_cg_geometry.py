@@ -9,7 +9,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from agents.caregiving.model.geometry import (
-    displacement,
     Box,
     Circle,
     aabb,
@@ -17,6 +16,7 @@ from agents.caregiving.model.geometry import (
     bounding_radius,
     closest_boundary_point,
     corners,
+    displacement,
     point_distance,
     polyline_length,
     resample_by_distance,

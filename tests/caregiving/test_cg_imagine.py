@@ -43,8 +43,15 @@ def test_bullet_and_numpy_imagine_the_same(scene: Scene) -> None:
 
 
 def test_unreachable_target(scene: Scene) -> None:
-    fenced = replace(scene, obstacles=scene.obstacles + (
-        replace(scene.obstacle("ball"), name="fence", kind="wall", shape=replace(scene.obstacle("wall2").shape, x=2.0)),))
+    fenced = replace(
+        scene,
+        obstacles=scene.obstacles
+        + (
+            replace(
+                scene.obstacle("ball"), name="fence", kind="wall", shape=replace(scene.obstacle("wall2").shape, x=2.0)
+            ),
+        ),
+    )
     im = imagine_person(fenced, "person", "couch", GAZE)
     assert not im.reachable and not im.collided and im.path == ()
 
@@ -67,40 +74,74 @@ def test_the_service_dispatches_wire_requests(scene: Scene) -> None:
     assert joint is not None and joint.move == move and joint.walks[0].walk.person == "person"
 
 
-@pytest.mark.parametrize(("request_", "message"), [
-    ({"kind": "dance", "person": "person", "target": "couch", "gaze": 0.1}, "request.kind: expected one of"),
-    ({"kind": "person", "target": "couch", "gaze": 0.1}, "request.person: is required"),
-    ({"kind": "person", "person": "ghost", "target": "couch", "gaze": 0.1}, "unknown person 'ghost'"),
-    ({"kind": "person", "person": "person", "target": "fridge", "gaze": 0.1}, "unknown object 'fridge'"),
-    ({"kind": "person", "person": "person", "target": "couch", "gaze": "up"}, "request.gaze: expected a number"),
-    ({"kind": "person", "person": "person", "target": "couch", "gaze": 3.0}, "gaze: expected a pitch"),
-    ({"kind": "joint", "move": None}, "request.walks: is required"),
-    ({"kind": "joint", "walks": [], "move": None}, "request.walks: expected at least one walk"),
-    ({"kind": "joint", "walks": [{"person": "person", "target": "couch", "gaze": 0.1}], "move": {"x": 1, "y": 2}},
-     "request.move.target: is required"),
-    ({"kind": "joint", "walks": [{"person": "person", "target": "couch", "gaze": 0.1}],
-      "move": {"target": "ball", "x": "a", "y": 2}}, "request.move.x: expected a number"),
-    ({"kind": "joint", "walks": [{"person": "ghost", "target": "couch", "gaze": 0.1}], "move": None},
-     "unknown person 'ghost'"),
-    ({"kind": "joint", "walks": [{"person": "person", "target": "couch", "gaze": 0.1}], "move": None, "delay": -1},
-     "request.delay: expected a non-negative number"),
-    ({"kind": "joint", "walks": [{"person": "person", "target": "couch"}], "move": None},
-     "request.walks[0].gaze: is required"),
-    ([1, 2], "request: expected a mapping"),
-])
+@pytest.mark.parametrize(
+    ("request_", "message"),
+    [
+        ({"kind": "dance", "person": "person", "target": "couch", "gaze": 0.1}, "request.kind: expected one of"),
+        ({"kind": "person", "target": "couch", "gaze": 0.1}, "request.person: is required"),
+        ({"kind": "person", "person": "ghost", "target": "couch", "gaze": 0.1}, "unknown person 'ghost'"),
+        ({"kind": "person", "person": "person", "target": "fridge", "gaze": 0.1}, "unknown object 'fridge'"),
+        ({"kind": "person", "person": "person", "target": "couch", "gaze": "up"}, "request.gaze: expected a number"),
+        ({"kind": "person", "person": "person", "target": "couch", "gaze": 3.0}, "gaze: expected a pitch"),
+        ({"kind": "joint", "move": None}, "request.walks: is required"),
+        ({"kind": "joint", "walks": [], "move": None}, "request.walks: expected at least one walk"),
+        (
+            {
+                "kind": "joint",
+                "walks": [{"person": "person", "target": "couch", "gaze": 0.1}],
+                "move": {"x": 1, "y": 2},
+            },
+            "request.move.target: is required",
+        ),
+        (
+            {
+                "kind": "joint",
+                "walks": [{"person": "person", "target": "couch", "gaze": 0.1}],
+                "move": {"target": "ball", "x": "a", "y": 2},
+            },
+            "request.move.x: expected a number",
+        ),
+        (
+            {"kind": "joint", "walks": [{"person": "ghost", "target": "couch", "gaze": 0.1}], "move": None},
+            "unknown person 'ghost'",
+        ),
+        (
+            {
+                "kind": "joint",
+                "walks": [{"person": "person", "target": "couch", "gaze": 0.1}],
+                "move": None,
+                "delay": -1,
+            },
+            "request.delay: expected a non-negative number",
+        ),
+        (
+            {"kind": "joint", "walks": [{"person": "person", "target": "couch"}], "move": None},
+            "request.walks[0].gaze: is required",
+        ),
+        ([1, 2], "request: expected a mapping"),
+    ],
+)
 def test_malformed_requests_raise_request_error(scene: Scene, request_: object, message: str) -> None:
     with pytest.raises(RequestError, match=message.replace("(", r"\(").replace("[", r"\[")):
         serve_item(scene, request_)
 
 
-@pytest.mark.parametrize(("data", "message"), [
-    ({"bounds": [0, 0, -1, 1], "obstacles": [], "people": [], "robot": None}, "scene.bounds: expected xmin < xmax"),
-    ({"bounds": [0, 0, 1, 1], "obstacles": [{"name": "a", "kind": "ball", "height": 1,
-                                             "shape": {"type": "star", "x": 0, "y": 0}}], "people": []},
-     "scene.obstacles[0].shape.type"),
-    ({"bounds": [0, 0, 1, 1], "obstacles": [], "people": [{"name": "p"}]}, "scene.people[0].x: is required"),
-    ({"bounds": [0, 0, 1, 1], "obstacles": [], "people": [], "robot": {"name": "r"}}, "scene.robot.x: is required"),
-])
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        ({"bounds": [0, 0, -1, 1], "obstacles": [], "people": [], "robot": None}, "scene.bounds: expected xmin < xmax"),
+        (
+            {
+                "bounds": [0, 0, 1, 1],
+                "obstacles": [{"name": "a", "kind": "ball", "height": 1, "shape": {"type": "star", "x": 0, "y": 0}}],
+                "people": [],
+            },
+            "scene.obstacles[0].shape.type",
+        ),
+        ({"bounds": [0, 0, 1, 1], "obstacles": [], "people": [{"name": "p"}]}, "scene.people[0].x: is required"),
+        ({"bounds": [0, 0, 1, 1], "obstacles": [], "people": [], "robot": {"name": "r"}}, "scene.robot.x: is required"),
+    ],
+)
 def test_malformed_scenes_raise_request_error(data: dict, message: str) -> None:
     with pytest.raises(RequestError, match=message.replace("[", r"\[")):
         Scene.from_wire(data)

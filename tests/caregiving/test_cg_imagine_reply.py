@@ -20,8 +20,12 @@ def reply() -> ImagineReply:
     scene = load_scenario("paper_experiment1").scene()
     walk = {"person": "person", "target": "couch", "gaze": GAZE}
     move = standoff_moves(scene, "ball")[0].to_wire()
-    items = [{"kind": "person", **walk, "uncertainty": UNCERTAINTY}, {"kind": "person", **walk},
-             {"kind": "joint", "walks": [walk], "move": move, "uncertainty": UNCERTAINTY}, {"kind": "fly"}]
+    items = [
+        {"kind": "person", **walk, "uncertainty": UNCERTAINTY},
+        {"kind": "person", **walk},
+        {"kind": "joint", "walks": [walk], "move": move, "uncertainty": UNCERTAINTY},
+        {"kind": "fly"},
+    ]
     return ImagineReply(3, scene.time, 1700000000.5, 12.5, tuple(serve_one(scene, i) for i in items))
 
 
@@ -39,17 +43,23 @@ def test_a_reply_survives_the_wire() -> None:
     assert round_trip(r) == r
 
 
-@pytest.mark.parametrize(("change", "message"), [
-    (lambda w: w.pop("stamp"), "reply.stamp: is required"),
-    (lambda w: w.update(episode=1.5), "reply.episode: expected a whole number"),
-    (lambda w: w.update(extra=1), "reply.extra: unknown key"),
-    (lambda w: w.update(results="none"), "reply.results: expected a list"),
-    (lambda w: w["results"][0].update(kind="fly"), r"reply.results\[0\].kind: expected one of"),
-    (lambda w: w["results"][0].pop("kind"), r"reply.results\[0\].kind: is required"),
-    (lambda w: w["results"][0]["result"].update(path="here"), r"reply.results\[0\].result.path: expected a list"),
-    (lambda w: w["results"][0]["risk"].update(probability=2.0), r"reply.results\[0\].risk.probability: expected at most"),
-    (lambda w: w["results"][3].pop("error"), r"reply.results\[3\].error: is required"),
-])
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda w: w.pop("stamp"), "reply.stamp: is required"),
+        (lambda w: w.update(episode=1.5), "reply.episode: expected a whole number"),
+        (lambda w: w.update(extra=1), "reply.extra: unknown key"),
+        (lambda w: w.update(results="none"), "reply.results: expected a list"),
+        (lambda w: w["results"][0].update(kind="fly"), r"reply.results\[0\].kind: expected one of"),
+        (lambda w: w["results"][0].pop("kind"), r"reply.results\[0\].kind: is required"),
+        (lambda w: w["results"][0]["result"].update(path="here"), r"reply.results\[0\].result.path: expected a list"),
+        (
+            lambda w: w["results"][0]["risk"].update(probability=2.0),
+            r"reply.results\[0\].risk.probability: expected at most",
+        ),
+        (lambda w: w["results"][3].pop("error"), r"reply.results\[3\].error: is required"),
+    ],
+)
 def test_decoding_is_strict(change, message: str) -> None:
     wire = msgpack.unpackb(msgpack.packb(imagine_reply.encode(reply())))
     change(wire)

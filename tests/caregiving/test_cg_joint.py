@@ -101,7 +101,6 @@ def test_wire_round_trip_and_errors(paper: Scenario) -> None:
         imagine_joint(scene, [Walk("person", "fridge", GAZE)], None)
 
 
-
 def test_a_move_under_way_goes_on_along_the_route_the_robot_reports(paper: Scenario) -> None:
     """A person who stepped onto the robot's route since its command does not re-route it: it drives on."""
     world = World.from_scenario(paper)

@@ -60,6 +60,7 @@ def test_candidates_of_several_dangers_interleave_without_repeats(scene: Scene) 
     merged = list(candidates(scene, (twin, d)))
     first, second = list(ordered_moves(scene, d)), list(ordered_moves(scene, twin))
     assert merged[0] == first[0] and len(second) > len(first)  # the more urgent danger leads
+
     def key(m: RobotMove) -> tuple[float, float, float]:
         return round(m.x, 3), round(m.y, 3), round(m.heading, 3)
 
@@ -69,8 +70,7 @@ def test_candidates_of_several_dangers_interleave_without_repeats(scene: Scene) 
 def test_walk_sets_cover_every_gaze_class_of_every_endangered_person() -> None:
     a = Danger("a", "couch", ((0, 0), (1, 0)), (0.5, 0.0), "ball", 2.0)
     b = Danger("b", "door", ((0, 1), (1, 1)), (0.5, 1.0), "shoe", 3.0)
-    spec = SearchSpec((a, b), {"a": (0.1, 0.2), "b": (0.1, 0.2, 0.3)}, {"a": ("plant",)},
-                      (Walk("c", "door", 0.1),))
+    spec = SearchSpec((a, b), {"a": (0.1, 0.2), "b": (0.1, 0.2, 0.3)}, {"a": ("plant",)}, (Walk("c", "door", 0.1),))
     sets = spec.walk_sets()
     assert len(sets) == 1 + 1 + 2
     assert all([w.person for w in s] == ["a", "b", "c"] for s in sets)

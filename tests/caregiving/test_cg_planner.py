@@ -34,7 +34,7 @@ def test_path_avoids_known_obstacles_with_clearance() -> None:
     planner = GridPlanner(BOUNDS)
     plan = planner.plan_to_object((-2.5, 0.0), COUCH, [*walls(), BALL], 0.25)
     assert plan.reachable and len(plan.path) >= 3
-    fine = np.concatenate([np.linspace(a, b, 200) for a, b in zip(plan.path[:-1], plan.path[1:])])
+    fine = np.concatenate([np.linspace(a, b, 200) for a, b in zip(plan.path[:-1], plan.path[1:], strict=False)])
     assert signed_distance(BALL.shape, fine).min() > 0.25
     # Close to optimal: the detour around the inflated ball is short.
     assert plan.length < math.hypot(5.3, 0.0) + 0.2
@@ -78,9 +78,9 @@ def test_inflated_masks_are_cached_per_obstacle_and_radius() -> None:
     assert planner.cache_misses == misses and planner.cache_hits >= len(obstacles)
     planner.plan_to_object((-2.5, 0.0), COUCH, obstacles, 0.3)
     assert planner.cache_misses > misses
-    assert len(planner._cache) <= 8  # noqa: SLF001 - bounded LRU
+    assert len(planner._cache) <= 8
     planner.clear_cache()
-    assert not planner._cache  # noqa: SLF001
+    assert not planner._cache
 
 
 def test_blocked_grid_and_cells() -> None:

@@ -61,8 +61,9 @@ def random_case(rng: np.random.Generator) -> tuple[np.ndarray, float, list[Obsta
         if rng.uniform() < 0.5:
             obstacles.append(Obstacle(f"o{i}", "ball", Circle(x, y, rng.uniform(0.05, 0.5)), rng.uniform(0.1, 2)))
         else:
-            obstacles.append(Obstacle(f"o{i}", "box", Box(x, y, *rng.uniform(0.05, 0.8, 2), rng.uniform(-3, 3)),
-                                      rng.uniform(0.1, 2)))
+            obstacles.append(
+                Obstacle(f"o{i}", "box", Box(x, y, *rng.uniform(0.05, 0.8, 2), rng.uniform(-3, 3)), rng.uniform(0.1, 2))
+            )
     path = rng.uniform(-3.5, 3.5, (int(rng.integers(2, 5)), 2))
     return path, float(rng.uniform(0.1, 0.4)), obstacles
 
@@ -85,8 +86,10 @@ def test_cross_check_walk_results(bullet: BulletRollout) -> None:
     rng = np.random.default_rng(7)
     numpy_rollout = NumpyRollout()
     collided = 0
-    fixed = [([[-2.0, 0.0], [2.0, 0.0]], 0.25, [BALL, COUCH, WALL]),
-             ([[0.0, -2.0], [3.0, -0.5], [3.0, 2.8]], 0.3, [COUCH, WALL])]
+    fixed = [
+        ([[-2.0, 0.0], [2.0, 0.0]], 0.25, [BALL, COUCH, WALL]),
+        ([[0.0, -2.0], [3.0, -0.5], [3.0, 2.8]], 0.3, [COUCH, WALL]),
+    ]
     cases = fixed + [random_case(rng) for _ in range(40)]
     for path, radius, obstacles in cases:
         a = numpy_rollout.walk(path, radius, 0.5, obstacles)
@@ -109,9 +112,10 @@ def test_frozen_context_is_restored(bullet: BulletRollout) -> None:
         moved_ball = Obstacle("ball", "ball", Circle(0.0, 1.0, 0.11), 0.22)
         assert not bullet.walk([[-2.0, 0.0], [2.0, 0.0]], 0.25, 0.5, [moved_ball, COUCH]).collided
     # After the context is thawed, the ball is back where the context had it.
-    ball_body = bullet._placed["ball"][1]  # noqa: SLF001 - inspecting the PyBullet scene
+    ball_body = bullet._placed["ball"][1]
     import pybullet as pb
-    pos, _ = pb.getBasePositionAndOrientation(ball_body, physicsClientId=bullet._client)  # noqa: SLF001
+
+    pos, _ = pb.getBasePositionAndOrientation(ball_body, physicsClientId=bullet._client)
     assert pos[0] == pytest.approx(0.0) and pos[1] == pytest.approx(0.0)
     assert bullet.walk([[-2.0, 0.0], [2.0, 0.0]], 0.25, 0.5, context).collided
 
@@ -119,8 +123,9 @@ def test_frozen_context_is_restored(bullet: BulletRollout) -> None:
 def test_bodies_are_reused_not_recreated(bullet: BulletRollout) -> None:
     bullet.walk([[-2.0, 0.0], [2.0, 0.0]], 0.25, 0.5, [BALL, COUCH])
     import pybullet as pb
-    count = pb.getNumBodies(physicsClientId=bullet._client)  # noqa: SLF001
+
+    count = pb.getNumBodies(physicsClientId=bullet._client)
     for dx in np.linspace(-1, 1, 10):
         moved = Obstacle("ball", "ball", Circle(float(dx), 0.3, 0.11), 0.22)
         bullet.walk([[-2.0, 0.0], [2.0, 0.0]], 0.25, 0.5, [moved, COUCH])
-    assert pb.getNumBodies(physicsClientId=bullet._client) == count  # noqa: SLF001
+    assert pb.getNumBodies(physicsClientId=bullet._client) == count

@@ -27,7 +27,9 @@ def raw(name: str = "paper_experiment1") -> dict:
 
 
 def test_all_required_scenarios_are_shipped() -> None:
-    assert {"paper_experiment1", "safe_walk", "person_sees_obstacle", "two_people", "cluttered_room"} <= set(SHIPPED_NAMES)
+    assert {"paper_experiment1", "safe_walk", "person_sees_obstacle", "two_people", "cluttered_room"} <= set(
+        SHIPPED_NAMES
+    )
 
 
 @pytest.mark.parametrize("name", SHIPPED_NAMES)
@@ -46,8 +48,13 @@ def test_paper_experiment1_matches_the_paper_setup() -> None:
     assert set(s.randomisation.entities) == {"robot", "ball", "person"}
     assert s.randomisation.radius == 1.5 and s.randomisation.trials == 180
     sens = s.sensors
-    assert sens.enabled and (sens.position_sigma, sens.size_error, sens.dropout, sens.latency, sens.rate_hz) == \
-        (0.05, 0.2, 0.05, 0.05, 15.0)
+    assert sens.enabled and (sens.position_sigma, sens.size_error, sens.dropout, sens.latency, sens.rate_hz) == (
+        0.05,
+        0.2,
+        0.05,
+        0.05,
+        15.0,
+    )
 
 
 def test_interior_walls_become_obstacles() -> None:
@@ -57,37 +64,40 @@ def test_interior_walls_become_obstacles() -> None:
     assert walls[4].shape.hx == pytest.approx(0.9)
 
 
-@pytest.mark.parametrize(("edit", "message"), [
-    (lambda d: d["people"][0].update(speed="fast"), "people[0].speed: expected a positive number, got 'fast'"),
-    (lambda d: d["people"][0].update(speed=-1), "people[0].speed: expected a positive number"),
-    (lambda d: d["people"][0].update(target="fridge"), "people[0].target: 'fridge' is not an object"),
-    (lambda d: d["people"][0].update(target="ball"), "people[0].target: 'ball' is not an object"),
-    (lambda d: d["people"][0].update(gaze_range_deg=[10, 5]), "people[0].gaze_range_deg: expected -90 < min"),
-    (lambda d: d["people"][0].update(gaze_deg=30), "people[0].gaze_deg: expected a value within"),
-    (lambda d: d["people"][0].pop("radius"), "people[0].radius: is required"),
-    (lambda d: d["objects"][1].update(kind="spaceship"), "objects[1].kind: expected one of"),
-    (lambda d: d["objects"][0]["shape"].update(type="blob"), "objects[0].shape.type: expected one of"),
-    (lambda d: d["objects"][0]["shape"].update(size=[1, -1]), "objects[0].shape.size: expected two positive"),
-    (lambda d: d["objects"][2]["shape"].update(size=[1, 1]), "objects[2].shape.size: unknown key"),
-    (lambda d: d["objects"][0].update(pose=[1, 2]), "objects[0].pose: expected a list of 3 numbers"),
-    (lambda d: d["objects"][0].update(pose=[9, 0, 0]), "objects[0].pose: footprint leaves the room"),
-    (lambda d: d["objects"][0].update(target="yes"), "objects[0].target: expected true or false, got 'yes'"),
-    (lambda d: d["objects"][2].update(name="couch"), "objects[2].name: name 'couch' is already used"),
-    (lambda d: d["objects"][2].update(name="wall7"), "objects[2].name: names starting with 'wall' are reserved"),
-    (lambda d: d["room"].update(size=[0, 3]), "room.size: expected two positive numbers"),
-    (lambda d: d["room"].update(walls=[{"start": [0, 0], "end": [0, 0]}]), "room.walls[0].end: must differ"),
-    (lambda d: d["room"].update(colour="blue"), "room.colour: unknown key"),
-    (lambda d: d["robot"].update(footprint=[0.5, 0]), "robot.footprint: expected two positive numbers"),
-    (lambda d: d["robot"].update(max_accel=True), "robot.max_accel: expected a positive number, got True"),
-    (lambda d: d["sensors"].update(dropout=1.5), "sensors.dropout: expected at most 0.99"),
-    (lambda d: d["sensors"].update(position_sigma=float("nan")), "sensors.position_sigma: expected a non-negative"),
-    (lambda d: d["randomisation"].update(entities=["ghost"]), "randomisation.entities[0]: unknown entity 'ghost'"),
-    (lambda d: d["randomisation"].update(entities="robot"), "randomisation.entities: expected a list of names"),
-    (lambda d: d["randomisation"].update(trials=2.5), "randomisation.trials: expected a whole number"),
-    (lambda d: d.update(objects={}), "objects: expected a list"),
-    (lambda d: d.update(people=[3]), "people[0]: expected a mapping, got 3"),
-    (lambda d: d.update(extra=1), "extra: unknown key"),
-])
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda d: d["people"][0].update(speed="fast"), "people[0].speed: expected a positive number, got 'fast'"),
+        (lambda d: d["people"][0].update(speed=-1), "people[0].speed: expected a positive number"),
+        (lambda d: d["people"][0].update(target="fridge"), "people[0].target: 'fridge' is not an object"),
+        (lambda d: d["people"][0].update(target="ball"), "people[0].target: 'ball' is not an object"),
+        (lambda d: d["people"][0].update(gaze_range_deg=[10, 5]), "people[0].gaze_range_deg: expected -90 < min"),
+        (lambda d: d["people"][0].update(gaze_deg=30), "people[0].gaze_deg: expected a value within"),
+        (lambda d: d["people"][0].pop("radius"), "people[0].radius: is required"),
+        (lambda d: d["objects"][1].update(kind="spaceship"), "objects[1].kind: expected one of"),
+        (lambda d: d["objects"][0]["shape"].update(type="blob"), "objects[0].shape.type: expected one of"),
+        (lambda d: d["objects"][0]["shape"].update(size=[1, -1]), "objects[0].shape.size: expected two positive"),
+        (lambda d: d["objects"][2]["shape"].update(size=[1, 1]), "objects[2].shape.size: unknown key"),
+        (lambda d: d["objects"][0].update(pose=[1, 2]), "objects[0].pose: expected a list of 3 numbers"),
+        (lambda d: d["objects"][0].update(pose=[9, 0, 0]), "objects[0].pose: footprint leaves the room"),
+        (lambda d: d["objects"][0].update(target="yes"), "objects[0].target: expected true or false, got 'yes'"),
+        (lambda d: d["objects"][2].update(name="couch"), "objects[2].name: name 'couch' is already used"),
+        (lambda d: d["objects"][2].update(name="wall7"), "objects[2].name: names starting with 'wall' are reserved"),
+        (lambda d: d["room"].update(size=[0, 3]), "room.size: expected two positive numbers"),
+        (lambda d: d["room"].update(walls=[{"start": [0, 0], "end": [0, 0]}]), "room.walls[0].end: must differ"),
+        (lambda d: d["room"].update(colour="blue"), "room.colour: unknown key"),
+        (lambda d: d["robot"].update(footprint=[0.5, 0]), "robot.footprint: expected two positive numbers"),
+        (lambda d: d["robot"].update(max_accel=True), "robot.max_accel: expected a positive number, got True"),
+        (lambda d: d["sensors"].update(dropout=1.5), "sensors.dropout: expected at most 0.99"),
+        (lambda d: d["sensors"].update(position_sigma=float("nan")), "sensors.position_sigma: expected a non-negative"),
+        (lambda d: d["randomisation"].update(entities=["ghost"]), "randomisation.entities[0]: unknown entity 'ghost'"),
+        (lambda d: d["randomisation"].update(entities="robot"), "randomisation.entities: expected a list of names"),
+        (lambda d: d["randomisation"].update(trials=2.5), "randomisation.trials: expected a whole number"),
+        (lambda d: d.update(objects={}), "objects: expected a list"),
+        (lambda d: d.update(people=[3]), "people[0]: expected a mapping, got 3"),
+        (lambda d: d.update(extra=1), "extra: unknown key"),
+    ],
+)
 def test_broken_scenarios_name_the_key_path(edit, message: str) -> None:
     data = copy.deepcopy(raw())
     edit(data)

@@ -18,8 +18,15 @@ def test_vectorised_box_clearances_match_signed_distance() -> None:
     box = Box(0.3, -0.2, 0.4, 0.15, 0.7)
     walkers = rng.uniform(-1, 1, (6, 40, 2))
     offset, scale = rng.normal(0, 0.05, (6, 2)), rng.uniform(0.8, 1.2, 6)
-    expected = np.stack([signed_distance(Box(box.x + offset[i, 0], box.y + offset[i, 1], box.hx * scale[i],
-                                             box.hy * scale[i], box.theta), walkers[i]) for i in range(6)])
+    expected = np.stack(
+        [
+            signed_distance(
+                Box(box.x + offset[i, 0], box.y + offset[i, 1], box.hx * scale[i], box.hy * scale[i], box.theta),
+                walkers[i],
+            )
+            for i in range(6)
+        ]
+    )
     assert np.allclose(_clearances(box, walkers, offset, scale), expected)
 
 

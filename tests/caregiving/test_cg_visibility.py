@@ -18,8 +18,9 @@ from agents.caregiving.model.visibility import (
     visible,
 )
 
-PERSON = PersonState("p", 0.0, 0.0, 0.0, 0.5, 0.25, 1.6, math.radians(120), math.radians(40),
-                     math.radians(6), math.radians(10))
+PERSON = PersonState(
+    "p", 0.0, 0.0, 0.0, 0.5, 0.25, 1.6, math.radians(120), math.radians(40), math.radians(6), math.radians(10)
+)
 BALL = Obstacle("ball", "ball", Circle(2.5, 0.0, 0.11), 0.22)
 TALL = Obstacle("plant", "plant", Circle(2.5, 0.0, 0.25), 1.7)
 
@@ -68,7 +69,7 @@ def test_gaze_classes_partition_the_gaze_range_exactly() -> None:
     person = replace(PERSON, gaze_min=math.radians(-40), gaze_max=math.radians(10))
     classes = gaze_classes(person, [BALL, TALL])
     assert classes[0].low == person.gaze_min and classes[-1].high == person.gaze_max
-    for a, b in zip(classes, classes[1:]):
+    for a, b in zip(classes, classes[1:], strict=False):
         assert a.high == b.low and a.visible != b.visible
     ball_lo, ball_hi = gaze_interval(person, BALL)
     for c in classes:

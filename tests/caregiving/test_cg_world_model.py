@@ -75,7 +75,7 @@ def test_robot_respects_speed_and_acceleration() -> None:
     r = s.robot
     assert v.max() <= r.max_speed + 1e-9
     moving = np.flatnonzero(v > 0)
-    dv = np.abs(np.diff(v[:moving[-1] + 1]))
+    dv = np.abs(np.diff(v[: moving[-1] + 1]))
     assert dv.max() / world.dt <= r.max_accel + 1e-6
     assert v[moving[-1]] <= 2 * r.max_accel * world.dt  # the stopping step is gentle too
     assert arrived_at == pytest.approx(travel_time(3.0, r.max_speed, r.max_accel), abs=0.15)
@@ -99,14 +99,14 @@ def test_person_replans_when_the_robot_comes_into_view() -> None:
     s = load_scenario("paper_experiment1")
     idle = World.from_scenario(s)
     idle.step()
-    path_before = idle._walkers[0].route.points.copy()  # noqa: SLF001 - inspecting the walker's plan
+    path_before = idle._walkers[0].route.points.copy()
     world = World.from_scenario(s)
     move = next(m for m in standoff_moves(s.scene(), "ball") if m.x < -0.4 and abs(m.y) < 1e-6)
     world.command_robot(move)
     for _ in range(60):
         world.step()
-    assert not np.array_equal(world._walkers[0].route.points, path_before)  # noqa: SLF001
-    assert "robot" in world._walkers[0].known  # noqa: SLF001
+    assert not np.array_equal(world._walkers[0].route.points, path_before)
+    assert "robot" in world._walkers[0].known
 
 
 def test_sampled_trials_mix_risky_and_safe() -> None:

@@ -13,10 +13,13 @@ from bridges.world.bridge import trial_for
 SEED, AT = 48611, 0.5
 
 
-@pytest.mark.parametrize(("index", "saveable", "by_standoff"), [
-    (37, True, False),   # only a free pose on the lattice saves the person
-    (21, False, False),  # the person starts too close to the ball for any move
-])
+@pytest.mark.parametrize(
+    ("index", "saveable", "by_standoff"),
+    [
+        (37, True, False),  # only a free pose on the lattice saves the person
+        (21, False, False),  # the person starts too close to the ball for any move
+    ],
+)
 def test_oracle_agrees_with_the_exhaustive_search(index: int, saveable: bool, by_standoff: bool) -> None:
     scenario = load_scenario("paper_experiment1")
     trial = trial_for(scenario, SEED, index)

@@ -7,10 +7,10 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from procs import PYTHON, REPO, WM, Proc, endpoint, free_port
 
 from agents.caregiving import keys
 from agents.messaging import Messaging, RemoteError
+from procs import PYTHON, REPO, WM, Proc, endpoint, free_port
 from wm.connection import close_session, open_session
 
 BROKEN = """name: broken
@@ -29,22 +29,46 @@ randomisation: {}
 def test_experiment_with_a_bad_scenario_file_fails_clearly(tmp_path: Path) -> None:
     bad = tmp_path / "broken.yaml"
     bad.write_text(BROKEN)
-    result = subprocess.run([*WM, "experiment", str(bad), "--trials", "1"], check=False, capture_output=True, text=True,
-                            timeout=60, cwd=REPO)
+    result = subprocess.run(
+        [*WM, "experiment", str(bad), "--trials", "1"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=REPO,
+    )
     assert result.returncode == 1
     assert "wm experiment: error: people[0].speed" in result.stderr
 
 
 def test_world_bridge_refuses_a_bad_scenario(tmp_path: Path) -> None:
-    result = subprocess.run([PYTHON, "-m", "bridges.world", "--scenario", str(tmp_path / "missing.yaml")],
-                            check=False, capture_output=True, text=True, timeout=60, cwd=REPO)
+    result = subprocess.run(
+        [PYTHON, "-m", "bridges.world", "--scenario", str(tmp_path / "missing.yaml")],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=REPO,
+    )
     assert result.returncode == 1 and "world: error: <file>: cannot read" in result.stderr
 
 
 def test_world_bridge_answers_malformed_requests_with_errors_and_keeps_running() -> None:
     port = free_port()
-    world = Proc([PYTHON, "-m", "bridges.world", "--graph", "errs", "--scenario", "paper_experiment1",
-                  "--listen", endpoint(port)], "world")
+    world = Proc(
+        [
+            PYTHON,
+            "-m",
+            "bridges.world",
+            "--graph",
+            "errs",
+            "--scenario",
+            "paper_experiment1",
+            "--listen",
+            endpoint(port),
+        ],
+        "world",
+    )
     try:
         world.wait_line("world: ready", 30)
 

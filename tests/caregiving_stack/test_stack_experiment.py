@@ -8,17 +8,56 @@ from pathlib import Path
 
 from procs import REPO, WM
 
-KEYS = {"trials", "discarded", "accuracy", "precision", "recall", "f1", "f2", "fp_rate", "fn_rate",
-        "reaction_ms_mean", "reaction_ms_sd", "e2e_ms_p50", "e2e_ms_p99", "action_rate", "prevention_rate",
-        "action_in_time_rate", "oracle_saveable", "oracle_standoff_saveable", "prevention_rate_of_saveable",
-        "robot_caused_collisions"}
+KEYS = {
+    "trials",
+    "discarded",
+    "accuracy",
+    "precision",
+    "recall",
+    "f1",
+    "f2",
+    "fp_rate",
+    "fn_rate",
+    "reaction_ms_mean",
+    "reaction_ms_sd",
+    "e2e_ms_p50",
+    "e2e_ms_p99",
+    "action_rate",
+    "prevention_rate",
+    "action_in_time_rate",
+    "oracle_saveable",
+    "oracle_standoff_saveable",
+    "prevention_rate_of_saveable",
+    "robot_caused_collisions",
+}
 
 
 def test_short_experiment_writes_table_json_and_figures(tmp_path: Path) -> None:
     out, figures = tmp_path / "exp.json", tmp_path / "figures"
-    result = subprocess.run([*WM, "experiment", "paper_experiment1", "--trials", "2", "--seed", "7", "--rate", "2",
-                             "--json", str(out), "--figures", str(figures), "--logs", str(tmp_path / "logs")],
-                            check=False, capture_output=True, text=True, timeout=240, cwd=REPO)
+    result = subprocess.run(
+        [
+            *WM,
+            "experiment",
+            "paper_experiment1",
+            "--trials",
+            "2",
+            "--seed",
+            "7",
+            "--rate",
+            "2",
+            "--json",
+            str(out),
+            "--figures",
+            str(figures),
+            "--logs",
+            str(tmp_path / "logs"),
+        ],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=240,
+        cwd=REPO,
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     assert "Experiment 1 (Table I)" in result.stdout and "747.0 ms" in result.stdout
     data = json.loads(out.read_text())

@@ -6,7 +6,6 @@ import asyncio
 import math
 
 import pytest
-from procs import PYTHON, Proc, endpoint, free_port
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
@@ -18,6 +17,7 @@ from agents.caregiving.model.rollout import BulletRollout
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.world_model import Walk
 from agents.messaging import Messaging, NoReply, RemoteError
+from procs import PYTHON, Proc, endpoint, free_port
 from wm.connection import close_session, open_session
 
 GRAPH = "simtest"
@@ -27,8 +27,20 @@ GAZES = [math.radians(8), math.radians(-30)]
 @pytest.fixture(scope="module")
 def sim_endpoint():
     port = free_port()
-    proc = Proc([PYTHON, "-m", "agents.caregiving.simulation", "--graph", GRAPH, "--listen", endpoint(port), "--rollout", "bullet"],
-                "simulation")
+    proc = Proc(
+        [
+            PYTHON,
+            "-m",
+            "agents.caregiving.simulation",
+            "--graph",
+            GRAPH,
+            "--listen",
+            endpoint(port),
+            "--rollout",
+            "bullet",
+        ],
+        "simulation",
+    )
     try:
         yield endpoint(port), proc
     finally:
@@ -41,8 +53,9 @@ def ask(ep: str, request: object) -> ImagineReply:
         try:
             for _ in range(100):  # until the agent's queryable is declared
                 try:
-                    return await Messaging(session).ask(keys.imagine(GRAPH), request, decode=imagine_reply.decode,
-                                                        timeout=2.0)
+                    return await Messaging(session).ask(
+                        keys.imagine(GRAPH), request, decode=imagine_reply.decode, timeout=2.0
+                    )
                 except NoReply:
                     await asyncio.sleep(0.1)
             raise AssertionError("the simulation agent never answered")
@@ -68,7 +81,9 @@ def test_replies_match_pybullet_on_fixed_cases(sim_endpoint) -> None:
         truth = imagine_person(scene, "person", item["target"], item["gaze"], rollout=bullet)
         got = r.imagination
         assert got is not None and (got.collided, got.collision_object) == (truth.collided, truth.collision_object)
-        assert got.collision_time == pytest.approx(truth.collision_time) if truth.collided else got.collision_time is None
+        assert (
+            got.collision_time == pytest.approx(truth.collision_time) if truth.collided else got.collision_time is None
+        )
     first = results[0].imagination
     assert first is not None and first.collided and first.collision_object == "ball"
     for m, r in zip(moves, results[4:], strict=True):
@@ -79,8 +94,13 @@ def test_replies_match_pybullet_on_fixed_cases(sim_endpoint) -> None:
 def test_uncertainty_gives_a_collision_probability(sim_endpoint) -> None:
     ep, _ = sim_endpoint
     scene = load_scenario("paper_experiment1").scene()
-    item = {"kind": "person", "person": "person", "target": "couch", "gaze": GAZES[0],
-            "uncertainty": {"size_error": 0.2, "sigma": {"ball": 0.02, "person": 0.03}, "samples": 128}}
+    item = {
+        "kind": "person",
+        "person": "person",
+        "target": "couch",
+        "gaze": GAZES[0],
+        "uncertainty": {"size_error": 0.2, "sigma": {"ball": 0.02, "person": 0.03}, "samples": 128},
+    }
     risk = ask(ep, {"items": [item], "scene": scene.to_wire()}).results[0].risk
     assert risk is not None and risk.probability == pytest.approx(1.0) and risk.obstacle == "ball"
 
@@ -95,14 +115,21 @@ def test_malformed_requests_get_errors_and_the_service_carries_on(sim_endpoint) 
     with pytest.raises(RemoteError, match="no context"):
         ask(ep, {"items": [{"kind": "person"}]})
     walk = {"person": "person", "target": "couch", "gaze": 0.1}
-    reply = ask(ep, {"items": [{"kind": "fly", "person": "person"},
-                               {"kind": "person", "person": "nobody", "target": "couch", "gaze": 0.1},
-                               {"kind": "joint", "walks": "everyone", "move": None},
-                               {"kind": "joint", "walks": [walk], "move": {"target": "ball", "x": 1.0}},
-                               {"kind": "joint", "walks": [walk], "move": None, "delay": 1e9},
-                               {"kind": "person", "person": "person", "target": "couch", "gaze": 0.1},
-                               {"kind": "joint", "walks": [walk], "move": None}],
-                     "scene": scene})
+    reply = ask(
+        ep,
+        {
+            "items": [
+                {"kind": "fly", "person": "person"},
+                {"kind": "person", "person": "nobody", "target": "couch", "gaze": 0.1},
+                {"kind": "joint", "walks": "everyone", "move": None},
+                {"kind": "joint", "walks": [walk], "move": {"target": "ball", "x": 1.0}},
+                {"kind": "joint", "walks": [walk], "move": None, "delay": 1e9},
+                {"kind": "person", "person": "person", "target": "couch", "gaze": 0.1},
+                {"kind": "joint", "walks": [walk], "move": None},
+            ],
+            "scene": scene,
+        },
+    )
     bad_kind, unknown, bad_walks, bad_move, bad_delay, good, braking = reply.results
     assert "kind" in (bad_kind.error or "")
     assert "unknown person 'nobody'" in (unknown.error or "")

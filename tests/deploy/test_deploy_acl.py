@@ -12,13 +12,11 @@ from pathlib import Path
 
 import pytest
 import zenoh
-
 from deploy_helpers import GRACE_S, ZENOH_DIR, Collector, free_port, wait_matching, wait_until
 
 ACL_ROUTER = ZENOH_DIR / "acl/router.json5"
 TLS_CLIENT = ZENOH_DIR / "tls/client.json5"
 KEY = "wm/g/delta/x"
-
 
 
 @pytest.fixture
@@ -84,7 +82,10 @@ def test_monitor_can_query_but_not_serve(client) -> None:
 def test_monitor_liveliness_token_is_not_propagated(client) -> None:
     writer, monitor = client("perception"), client("monitor")
     observer = client("intention")
-    tokens = [writer.liveliness().declare_token("wm/g/alive/perception"), monitor.liveliness().declare_token("wm/g/alive/monitor")]
+    tokens = [
+        writer.liveliness().declare_token("wm/g/alive/perception"),
+        monitor.liveliness().declare_token("wm/g/alive/monitor"),
+    ]
 
     def alive(session: zenoh.Session) -> list[str]:
         return sorted(str(r.ok.key_expr) for r in session.liveliness().get("wm/g/alive/**", timeout=2.0) if r.ok)
@@ -120,7 +121,13 @@ def test_acl_by_username(sessions, tmp_path: Path) -> None:
     port = free_port()
     rules = [
         {"id": "rw", "permission": "allow", "messages": ["put", "declare_subscriber"], "key_exprs": ["wm/**"]},
-        {"id": "sub-in", "permission": "allow", "flows": ["ingress"], "messages": ["declare_subscriber"], "key_exprs": ["wm/**"]},
+        {
+            "id": "sub-in",
+            "permission": "allow",
+            "flows": ["ingress"],
+            "messages": ["declare_subscriber"],
+            "key_exprs": ["wm/**"],
+        },
         {"id": "put-out", "permission": "allow", "flows": ["egress"], "messages": ["put"], "key_exprs": ["wm/**"]},
     ]
     acl = {
@@ -148,7 +155,11 @@ def test_acl_by_username(sessions, tmp_path: Path) -> None:
 
     with pytest.raises(zenoh.ZError, match="Unable to connect"):
         user("perception", "wrong password")
-    writer, monitor, observer = user("perception", "writer-secret"), user("monitor", "monitor-secret"), user("perception", "writer-secret")
+    writer, monitor, observer = (
+        user("perception", "writer-secret"),
+        user("monitor", "monitor-secret"),
+        user("perception", "writer-secret"),
+    )
     at_observer, at_monitor = Collector(), Collector()
     observer.declare_subscriber("wm/**", at_observer, allowed_origin=zenoh.Locality.REMOTE)
     monitor.declare_subscriber("wm/**", at_monitor, allowed_origin=zenoh.Locality.REMOTE)

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import zenoh
-
-from deploy_helpers import DEPLOY, PYTHON, ZENOH_DIR, Collector, free_port, wait_matching, wait_until
-from wm.zenoh_config import build_config
 import zenohctl  # deploy/, put on sys.path by deploy_helpers
+from deploy_helpers import DEPLOY, PYTHON, ZENOH_DIR, Collector, free_port, wait_matching, wait_until
+
+from wm.zenoh_config import build_config
 
 PEER = ZENOH_DIR / "peer-loopback.json5"
 ROUTER = ZENOH_DIR / "router.json5"
@@ -99,7 +99,12 @@ def test_zenohctl_run_sub_put(spawn) -> None:
 
 def test_zenohctl_render_and_check(tmp_path, capsys) -> None:
     out = tmp_path / "client.json5"
-    assert zenohctl.main(["render", str(ZENOH_DIR / "tls/client.json5"), "-o", str(out), "CERT_DIR=/certs", "AGENT=perception"]) == 0
+    assert (
+        zenohctl.main(
+            ["render", str(ZENOH_DIR / "tls/client.json5"), "-o", str(out), "CERT_DIR=/certs", "AGENT=perception"]
+        )
+        == 0
+    )
     assert '"/certs/perception.pem"' in out.read_text()
     assert zenohctl.main(["check", str(out)]) == 0
     assert 'connect/endpoints: ["tls/localhost:7447"]' in capsys.readouterr().out

@@ -8,8 +8,8 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
-
 from deploy_helpers import GRACE_S, PYTHON, ZENOH_DIR, ZPROC, Proc, make_certs
+
 from netns import NetnsLab, netns_unavailable
 
 _WHY_NOT = netns_unavailable()
@@ -43,7 +43,11 @@ def test_put_crosses_three_hosts_via_their_routers(spawn, lab_factory) -> None:
     for i in range(3):
         # host i connects to the routers of the hosts before it (one link per pair is enough)
         connect = [arg for j in range(i) for arg in ("--connect", f"tcp/{lab.addr(j)}:{PORT}")]
-        routers.append(zproc(spawn, lab, i, "router", router, "LISTEN_HOST=0.0.0.0", f"ROUTER_PORT={PORT}", *connect, name="router"))
+        routers.append(
+            zproc(
+                spawn, lab, i, "router", router, "LISTEN_HOST=0.0.0.0", f"ROUTER_PORT={PORT}", *connect, name="router"
+            )
+        )
     for r in routers:
         r.wait_line("READY", 15)
     subs = [
@@ -52,7 +56,19 @@ def test_put_crosses_three_hosts_via_their_routers(spawn, lab_factory) -> None:
     ]
     for s in subs:
         s.wait_line("READY", 15)
-    zproc(spawn, lab, 0, "pub", client, "wm/g/delta/h0", "from-host-0", f"ROUTER_PORT={PORT}", "--timeout", "20", name="pub")
+    zproc(
+        spawn,
+        lab,
+        0,
+        "pub",
+        client,
+        "wm/g/delta/h0",
+        "from-host-0",
+        f"ROUTER_PORT={PORT}",
+        "--timeout",
+        "20",
+        name="pub",
+    )
     for s in subs:
         line = s.wait_line("SAMPLE", 20)
         assert line.startswith("SAMPLE wm/g/delta/h0 from-host-0 "), line
@@ -74,8 +90,16 @@ def test_mtls_and_acl_across_two_hosts(spawn, lab_factory, tmp_path: Path) -> No
     ]
     r0 = zproc(spawn, lab, 0, "router", acl_router, "ROUTER_NAME=router-h0", *acl_vars, name="router")
     r1 = zproc(
-        spawn, lab, 1, "router", acl_router, "ROUTER_NAME=router-h1", *acl_vars,
-        "--connect", f"tls/{lab.addr(0)}:{PORT}", name="router",
+        spawn,
+        lab,
+        1,
+        "router",
+        acl_router,
+        "ROUTER_NAME=router-h1",
+        *acl_vars,
+        "--connect",
+        f"tls/{lab.addr(0)}:{PORT}",
+        name="router",
     )
     r0.wait_line("READY", 15)
     r1.wait_line("READY", 15)
@@ -83,13 +107,48 @@ def test_mtls_and_acl_across_two_hosts(spawn, lab_factory, tmp_path: Path) -> No
     def client_args(agent: str) -> list[str]:
         return [f"CERT_DIR={certs}", f"AGENT={agent}", f"ROUTER_PORT={PORT}", "--timeout", "25"]
 
-    at_h0 = zproc(spawn, lab, 0, "sub", tls_client, "wm/g/delta/**", *client_args("intention"), "--count", "1000", name="intention")
-    at_h1 = zproc(spawn, lab, 1, "sub", tls_client, "wm/g/delta/**", *client_args("monitor"), "--count", "1000", name="monitor")
+    at_h0 = zproc(
+        spawn,
+        lab,
+        0,
+        "sub",
+        tls_client,
+        "wm/g/delta/**",
+        *client_args("intention"),
+        "--count",
+        "1000",
+        name="intention",
+    )
+    at_h1 = zproc(
+        spawn, lab, 1, "sub", tls_client, "wm/g/delta/**", *client_args("monitor"), "--count", "1000", name="monitor"
+    )
     at_h0.wait_line("READY", 15)
     at_h1.wait_line("READY", 15)
-    zproc(spawn, lab, 1, "pub", tls_client, "wm/g/delta/monitor", "from-monitor", *client_args("monitor"), name="monitor-pub")
-    zproc(spawn, lab, 0, "pub", tls_client, "wm/g/delta/perception", "from-perception", *client_args("perception"), name="perception")
-    zproc(spawn, lab, 1, "pub", tls_client, "wm/g/delta/planner", "from-planner", *client_args("planner"), name="planner")
+    zproc(
+        spawn,
+        lab,
+        1,
+        "pub",
+        tls_client,
+        "wm/g/delta/monitor",
+        "from-monitor",
+        *client_args("monitor"),
+        name="monitor-pub",
+    )
+    zproc(
+        spawn,
+        lab,
+        0,
+        "pub",
+        tls_client,
+        "wm/g/delta/perception",
+        "from-perception",
+        *client_args("perception"),
+        name="perception",
+    )
+    zproc(
+        spawn, lab, 1, "pub", tls_client, "wm/g/delta/planner", "from-planner", *client_args("planner"), name="planner"
+    )
 
     # host 0 -> host 1, through both routers over mTLS, delivered to a monitor
     at_h1.wait_line("SAMPLE", 20, contains="from-perception")

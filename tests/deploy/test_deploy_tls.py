@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 import zenoh
-
 from deploy_helpers import ZENOH_DIR, Collector, free_port, wait_matching
+
 from wm.zenoh_config import build_config
 
 TLS_ROUTER = ZENOH_DIR / "tls/router.json5"

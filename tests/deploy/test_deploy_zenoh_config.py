@@ -8,12 +8,12 @@ from pathlib import Path
 
 import pytest
 import zenoh
+from deploy_helpers import ZENOH_DIR
+from zenohctl import main as zenohctl
+from zenohctl import parse_variables
 
 from wm.errors import WMError
 from wm.zenoh_config import ZenohConfigError, build_config, environment_variables, load_with_environment, read_config
-
-from deploy_helpers import ZENOH_DIR
-from zenohctl import main as zenohctl, parse_variables
 
 TEMPLATES = sorted(p.relative_to(ZENOH_DIR).as_posix() for p in ZENOH_DIR.rglob("*.json5"))
 ALL_VARS = {
@@ -115,7 +115,9 @@ def test_endpoints_and_mode_override_file() -> None:
         connect=["tcp/10.213.77.2:7500"],
     )
     assert get(config, "mode") == "router"
-    assert get(config, "listen/endpoints") == ["tcp/127.0.0.1:7500"], "the plain TCP router listens on loopback unless told otherwise"
+    assert get(config, "listen/endpoints") == ["tcp/127.0.0.1:7500"], (
+        "the plain TCP router listens on loopback unless told otherwise"
+    )
     assert get(config, "connect/endpoints") == ["tcp/10.213.77.2:7500"]
     config = build_config(mode="client", connect="tcp/127.0.0.1:7447")
     assert get(config, "mode") == "client"
@@ -191,5 +193,11 @@ def test_environment_is_read_only_when_asked(monkeypatch: pytest.MonkeyPatch) ->
 
 
 def test_environment_variables() -> None:
-    environ = {"WM_ZENOH_PORT": "7447", "WM_ZENOH_L": '["a"]', "WM_ZENOH_H": "localhost", "WM_ZENOH_": "x", "HOME": "/root"}
+    environ = {
+        "WM_ZENOH_PORT": "7447",
+        "WM_ZENOH_L": '["a"]',
+        "WM_ZENOH_H": "localhost",
+        "WM_ZENOH_": "x",
+        "HOME": "/root",
+    }
     assert environment_variables(environ) == {"PORT": 7447, "L": ["a"], "H": "localhost"}

@@ -24,8 +24,9 @@ import zenoh
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "deploy"))
 
-from wm.zenoh_config import ZenohConfigError, build_config  # noqa: E402
-from zenohctl import parse_variables  # noqa: E402
+from zenohctl import parse_variables
+
+from wm.zenoh_config import ZenohConfigError, build_config
 
 
 def main() -> int:

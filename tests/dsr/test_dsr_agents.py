@@ -10,9 +10,9 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from procs import REPO, WM, endpoint, free_port
 
 import wm
+from procs import REPO, WM, endpoint, free_port
 
 GRAPH = "dsragents"
 SCENE = REPO / "tests" / "data" / "dsr" / "autonomyLab_objects.simscene.json"
@@ -46,12 +46,19 @@ def target_at(g: wm.Graph, x: float, y: float) -> bool:
 
 async def test_a_pydsr_agent_and_a_native_agent_see_each_others_writes_and_signals(spawner, tmp_path: Path) -> None:
     port = free_port()
-    serve = spawner([*WM, "serve", "--data", str(tmp_path / "data"), "--graph", GRAPH, "--listen", endpoint(port)], name="serve")
+    serve = spawner(
+        [*WM, "serve", "--data", str(tmp_path / "data"), "--graph", GRAPH, "--listen", endpoint(port)], name="serve"
+    )
     await asyncio.to_thread(serve.wait_line, "wm serve: ready", 20)
-    loaded = await asyncio.create_subprocess_exec(*WM, "load", str(SCENE), "--graph", GRAPH, "--connect", endpoint(port), cwd=REPO)
+    loaded = await asyncio.create_subprocess_exec(
+        *WM, "load", str(SCENE), "--graph", GRAPH, "--connect", endpoint(port), cwd=REPO
+    )
     assert await loaded.wait() == 0
-    follower = spawner([sys.executable, str(FOLLOWER), "--agent-id", "7", "--robot", "viriato"], name="follower",
-                       env={"WM_CONNECT": endpoint(port), "WM_GRAPH": GRAPH})
+    follower = spawner(
+        [sys.executable, str(FOLLOWER), "--agent-id", "7", "--robot", "viriato"],
+        name="follower",
+        env={"WM_CONNECT": endpoint(port), "WM_GRAPH": GRAPH},
+    )
     await asyncio.to_thread(follower.wait_line, "follower 7: joined", 30)
 
     async with wm.connect(GRAPH, connect=[endpoint(port)], name="native") as g:
@@ -64,9 +71,13 @@ async def test_a_pydsr_agent_and_a_native_agent_see_each_others_writes_and_signa
         await asyncio.to_thread(follower.wait_line, "follower: person alice moved", WAIT)
         # ... and the native agent sees the pydsr agent's writes: a target node placed by rt_api, the robot's speeds
         await until(lambda: target_at(g, 2000.0, 1000.0), "the follower's target at alice")
-        await until(lambda: g.get_node("viriato").get("robot_ref_adv_speed", 0.0) > 0.0, "the follower's speed on the robot")
+        await until(
+            lambda: g.get_node("viriato").get("robot_ref_adv_speed", 0.0) > 0.0, "the follower's speed on the robot"
+        )
         assert g.get_node("follow_target").attrs["person_name"] == "alice"
-        await asyncio.wait_for(remote_writes(seen, {("node_added", "follow_target"), ("node_updated", "viriato")}), WAIT)
+        await asyncio.wait_for(
+            remote_writes(seen, {("node_added", "follow_target"), ("node_updated", "viriato")}), WAIT
+        )
         seen.close()
 
         g.update_node(alice, {"person_role": "visitor"})

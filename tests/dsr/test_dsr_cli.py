@@ -18,8 +18,21 @@ def wm(*args: str) -> subprocess.CompletedProcess[str]:
 
 def test_a_real_dsr_scene_loads_dumps_as_dsr_and_a_wrong_type_is_one_line(spawner, tmp_path: Path) -> None:
     port = free_port()
-    spawner([*WM, "serve", "--data", str(tmp_path / "data"), "--graph", GRAPH, "--listen", endpoint(port), "--ontology", "dsr"],
-            name="serve").wait_line("wm serve: ready", 20)
+    spawner(
+        [
+            *WM,
+            "serve",
+            "--data",
+            str(tmp_path / "data"),
+            "--graph",
+            GRAPH,
+            "--listen",
+            endpoint(port),
+            "--ontology",
+            "dsr",
+        ],
+        name="serve",
+    ).wait_line("wm serve: ready", 20)
 
     bad = json.loads((DATA / "autonomyLab_objects.simscene.json").read_text())
     bad["DSRModel"]["symbols"]["1"]["type"] = "world"
@@ -28,7 +41,9 @@ def test_a_real_dsr_scene_loads_dumps_as_dsr_and_a_wrong_type_is_one_line(spawne
     assert refused.returncode == 1 and refused.stderr.count("\n") == 1, refused.stderr
     assert "'world'" in refused.stderr and "--ontology default" in refused.stderr
 
-    loaded = wm("load", str(DATA / "autonomyLab_objects.simscene.json"), "--ontology", "dsr", "--connect", endpoint(port))
+    loaded = wm(
+        "load", str(DATA / "autonomyLab_objects.simscene.json"), "--ontology", "dsr", "--connect", endpoint(port)
+    )
     assert loaded.returncode == 0, loaded.stderr
     assert "loaded 41 nodes and 43 edges" in loaded.stdout
 
@@ -36,7 +51,10 @@ def test_a_real_dsr_scene_loads_dumps_as_dsr_and_a_wrong_type_is_one_line(spawne
     assert dumped.returncode == 0, dumped.stderr
     symbols = json.loads(dumped.stdout)["DSRModel"]["symbols"]
     assert len(symbols) == 41 and sum(len(s["links"]) for s in symbols.values()) == 43
-    assert symbols["201"]["attribute"]["path"] == {"type": 0, "value": "../../etc/viriato_base_concept_3/viriato_mesh.ive"}
+    assert symbols["201"]["attribute"]["path"] == {
+        "type": 0,
+        "value": "../../etc/viriato_base_concept_3/viriato_mesh.ive",
+    }
     assert symbols["201"]["attribute"]["parent"] == {"type": 7, "value": "500"}
     original = json.loads((DATA / "autonomyLab_objects.simscene.json").read_text())["DSRModel"]["symbols"]
     assert symbols["1"]["links"][0]["linkAttribute"] == original["1"]["links"][0]["linkAttribute"]

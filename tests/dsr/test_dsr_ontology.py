@@ -9,9 +9,9 @@ from typing import Any
 
 import numpy as np
 import pytest
-from graph_helpers import Recorder, assert_refused
 
 import wm
+from graph_helpers import Recorder, assert_refused
 from wm import dsr_json
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "dsr"
@@ -19,10 +19,20 @@ TYPES_MD = (DATA / "types.md").read_text(encoding="utf-8")
 AUTONOMY_LAB = DATA / "autonomyLab_objects.simscene.json"
 # DSR's value type -> (our value type, fixed vector length)
 HELD_AS = {
-    "string": ("str", None), "int": ("int", None), "float": ("float", None), "float vector": ("vec", None),
-    "bool": ("bool", None), "byte vector": ("bytes", None), "uint32": ("int", None), "uint64": ("u64", None),
-    "double": ("float", None), "uint64 vector": ("u64vec", None), "float[2]": ("vec", 2), "float[3]": ("vec", 3),
-    "float[4]": ("vec", 4), "float[6]": ("vec", 6),
+    "string": ("str", None),
+    "int": ("int", None),
+    "float": ("float", None),
+    "float vector": ("vec", None),
+    "bool": ("bool", None),
+    "byte vector": ("bytes", None),
+    "uint32": ("int", None),
+    "uint64": ("u64", None),
+    "double": ("float", None),
+    "uint64 vector": ("u64vec", None),
+    "float[2]": ("vec", 2),
+    "float[3]": ("vec", 3),
+    "float[4]": ("vec", 4),
+    "float[6]": ("vec", 6),
 }
 
 
@@ -54,7 +64,11 @@ def test_every_dsr_type_and_attribute_is_declared_with_its_value_type(name: str)
             assert spec.dsr == dsr_type, attr
             assert spec.volatile == stream, attr
     dsr = wm.Ontology.named("dsr")
-    assert (len(dsr.node_types), len(dsr.edge_types), len(dsr.attributes)) == (len(node_types), len(edge_types), len(rows))
+    assert (len(dsr.node_types), len(dsr.edge_types), len(dsr.attributes)) == (
+        len(node_types),
+        len(edge_types),
+        len(rows),
+    )
     for type_name in node_types:
         assert dsr.node_type(type_name).attributes == {attr for attr, _, _ in rows}
 
@@ -64,7 +78,9 @@ def test_ontologies_are_selected_by_name_and_by_path(tmp_path: Path) -> None:
     with pytest.raises(wm.OntologyError, match="known: base, caregiving, default, dsr"):
         wm.Ontology.named("dragon")
     mine = tmp_path / "mine.yaml"
-    mine.write_text("include: [dsr]\nattributes:\n  wheel_radius: float\nnodes:\n  omnirobot: {attributes: [wheel_radius]}\n")
+    mine.write_text(
+        "include: [dsr]\nattributes:\n  wheel_radius: float\nnodes:\n  omnirobot: {attributes: [wheel_radius]}\n"
+    )
     ontology = wm.Ontology.load(mine)
     assert {"wheel_radius", "robot_ref_adv_speed"} <= ontology.node_type("omnirobot").attributes
     assert "person" in ontology.node_types
@@ -105,14 +121,30 @@ def _every_value_type() -> dict[str, dict[str, Any]]:
 
 
 def _scene() -> dict[str, Any]:
-    link = {"dst": "9007199254740000", "label": "RT", "src": "1", "linkAttribute": {
-        **_every_value_type(), "rt_translation": {"type": 3, "value": [1.0, 2.0, 0.0]},
-        "rt_rotation_euler_xyz": {"type": 3, "value": [0.0, 0.0, 1.5]}}}
-    return {"DSRModel": {"symbols": {
-        "1": {"attribute": _every_value_type(), "id": "1", "links": [link], "name": "root", "type": "root"},
-        "9007199254740000": {"attribute": {"parent": {"type": 7, "value": "1"}}, "id": "9007199254740000", "links": [],
-                             "name": "robot", "type": "omnirobot"},
-    }}}
+    link = {
+        "dst": "9007199254740000",
+        "label": "RT",
+        "src": "1",
+        "linkAttribute": {
+            **_every_value_type(),
+            "rt_translation": {"type": 3, "value": [1.0, 2.0, 0.0]},
+            "rt_rotation_euler_xyz": {"type": 3, "value": [0.0, 0.0, 1.5]},
+        },
+    }
+    return {
+        "DSRModel": {
+            "symbols": {
+                "1": {"attribute": _every_value_type(), "id": "1", "links": [link], "name": "root", "type": "root"},
+                "9007199254740000": {
+                    "attribute": {"parent": {"type": 7, "value": "1"}},
+                    "id": "9007199254740000",
+                    "links": [],
+                    "name": "robot",
+                    "type": "omnirobot",
+                },
+            }
+        }
+    }
 
 
 @pytest.mark.parametrize("name", ["dsr", "default"])
@@ -125,7 +157,11 @@ def test_every_dsr_value_type_loads_and_is_written_back_the_same(name: str, tmp_
     assert root["agent_id"] == 2**32 - 1
     assert root["test_uint64_vec_type"] == (2**64 - 1, 0, 2**53 + 1)
     assert root["cam_rgb"] == bytes([0, 7, 255])
-    assert root["level"] == -(2**31) and root["active"] is True and root["test_vec6_type"] == (1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
+    assert (
+        root["level"] == -(2**31)
+        and root["active"] is True
+        and root["test_vec6_type"] == (1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
+    )
     assert g.get_edge("root", "robot", "RT").attrs["timestamp_creation"] == 2**64 - 1
     assert dsr_json.graph_to_dsr(g) == _scene()
 
@@ -152,8 +188,19 @@ def test_the_real_autonomy_lab_scene_loads_with_either_ontology() -> None:
         g = wm.Graph(wm.Ontology.named(name))
         report = g.load_json(AUTONOMY_LAB)
         assert (report.nodes, report.edges) == (41, 43)
-        assert {n.type for n in g.nodes()} == {"root", "transform", "plane", "mesh", "omnirobot", "laser", "rgbd",
-                                              "pan_tilt", "left_hand", "room", "object"}
+        assert {n.type for n in g.nodes()} == {
+            "root",
+            "transform",
+            "plane",
+            "mesh",
+            "omnirobot",
+            "laser",
+            "rgbd",
+            "pan_tilt",
+            "left_hand",
+            "room",
+            "object",
+        }
         assert g.get_node("viriato_mesh").attrs["path"] == "../../etc/viriato_base_concept_3/viriato_mesh.ive"
         assert g.get_node("viriato_head_camera_sensor").attrs["cam_depth_focalx"] == 554
         assert g.get_node("fridge").attrs["obj_interaction_shape"] == "trapezoid"
@@ -179,9 +226,24 @@ def test_a_file_dsr_wrote_with_node_id_0_loads_with_fresh_ids() -> None:
 @pytest.mark.parametrize(
     ("ontology", "node_type", "edge_type", "expected"),
     [
-        ("dsr", "world", "RT", "node type 'world', which ontology 'dsr' does not declare; use the ontology that declares it: --ontology default"),
-        ("default", "dragon", "RT", "node type 'dragon', which ontology 'default' does not declare; no packaged ontology declares it"),
-        ("dsr", "root", "risky_to", "edge type 'risky_to', which ontology 'dsr' does not declare; no packaged ontology"),
+        (
+            "dsr",
+            "world",
+            "RT",
+            "node type 'world', which ontology 'dsr' does not declare; use the ontology that declares it: --ontology default",
+        ),
+        (
+            "default",
+            "dragon",
+            "RT",
+            "node type 'dragon', which ontology 'default' does not declare; no packaged ontology declares it",
+        ),
+        (
+            "dsr",
+            "root",
+            "risky_to",
+            "edge type 'risky_to', which ontology 'dsr' does not declare; no packaged ontology",
+        ),
         ("dsr", "root", "collision", None),
     ],
 )

@@ -10,9 +10,9 @@ from typing import Any
 
 import numpy as np
 import pytest
-from procs import endpoint, free_port, wait_until
 
 import wm
+from procs import endpoint, free_port, wait_until
 from wm.dsr import Attribute, DSRGraph, Edge, Node, inner_api, rt_api, signals
 
 SCENE = Path(__file__).resolve().parents[1] / "data" / "dsr" / "autonomyLab_objects.simscene.json"
@@ -150,8 +150,15 @@ def test_inserting_updating_and_deleting(agents: tuple[DSRGraph, DSRGraph]) -> N
     seen.attrs["timestamp_creation"] = Attribute(2**64 - 1, 1)  # a uint64, exact
     del seen.attrs["person_name"]
     assert first.update_node(seen) is True
-    eventually(lambda: (n := second.get_node("carol")) and "person_name" not in n.attrs and n.attrs["person_age"].value == 41
-               and n.attrs["timestamp_creation"].value == 2**64 - 1, "the update and the removal reach the other agent")
+    eventually(
+        lambda: (
+            (n := second.get_node("carol"))
+            and "person_name" not in n.attrs
+            and n.attrs["person_age"].value == 41
+            and n.attrs["timestamp_creation"].value == 2**64 - 1
+        ),
+        "the update and the removal reach the other agent",
+    )
 
     edge = Edge(new_id, 200, "looking_at", 2)
     edge.attrs["distance_to_robot"] = Attribute(1.5, 2)
@@ -171,7 +178,9 @@ def test_inserting_updating_and_deleting(agents: tuple[DSRGraph, DSRGraph]) -> N
         second.insert_node({"type": "person"})  # type: ignore[arg-type]
 
 
-def test_two_agents_updating_different_attributes_of_one_node_at_once_lose_nothing(agents: tuple[DSRGraph, DSRGraph]) -> None:
+def test_two_agents_updating_different_attributes_of_one_node_at_once_lose_nothing(
+    agents: tuple[DSRGraph, DSRGraph],
+) -> None:
     first, second = agents
     node = Node(1, "person", "dana")
     assert first.insert_node(node)
@@ -181,7 +190,10 @@ def test_two_agents_updating_different_attributes_of_one_node_at_once_lose_nothi
         mine.attrs["person_age"] = Attribute(round_number, 1)
         theirs.attrs["person_name"] = Attribute(f"Dana {round_number}", 2)
         results: list[bool] = []
-        writers = [threading.Thread(target=lambda g=g, n=n: results.append(g.update_node(n))) for g, n in ((first, mine), (second, theirs))]
+        writers = [
+            threading.Thread(target=lambda g=g, n=n, results=results: results.append(g.update_node(n)))
+            for g, n in ((first, mine), (second, theirs))
+        ]
         for writer in writers:
             writer.start()
         for writer in writers:
@@ -189,8 +201,10 @@ def test_two_agents_updating_different_attributes_of_one_node_at_once_lose_nothi
         assert results == [True, True]
         expected = {"person_age": round_number, "person_name": f"Dana {round_number}"}
         for g in (first, second):
-            eventually(lambda g=g: {k: a.value for k, a in g.get_node("dana").attrs.items()} == expected,
-                       f"both attributes of round {round_number} on agent {g.agent_id}")
+            eventually(
+                lambda g=g, expected=expected: {k: a.value for k, a in g.get_node("dana").attrs.items()} == expected,
+                f"both attributes of round {round_number} on agent {g.agent_id}",
+            )
 
 
 def test_signals_fire_for_local_and_remote_changes_on_their_own_thread(agents: tuple[DSRGraph, DSRGraph]) -> None:
@@ -202,7 +216,11 @@ def test_signals_fire_for_local_and_remote_changes_on_their_own_thread(agents: t
 
     for signal in signals.SignalType:
         signals.connect(first, signal, recorder(signal.name))
-    signals.connect2(first, signals.UPDATE_EDGE_ATTR, lambda frm, to, names: received.append(("older UPDATE_EDGE_ATTR", (frm, to, names), "")))
+    signals.connect2(
+        first,
+        signals.UPDATE_EDGE_ATTR,
+        lambda frm, to, names: received.append(("older UPDATE_EDGE_ATTR", (frm, to, names), "")),
+    )
     with pytest.raises(TypeError):
         signals.connect(first, "UPDATE_NODE", recorder("x"))  # type: ignore[arg-type]
 
@@ -212,7 +230,11 @@ def test_signals_fire_for_local_and_remote_changes_on_their_own_thread(agents: t
             for name, args, _ in received:
                 if name.endswith("_OBJ"):  # the deleted node or edge itself
                     item = args[0]
-                    args = (item.id, item.type, item.name) if isinstance(item, Node) else (item.origin, item.destination, item.type)
+                    args = (
+                        (item.id, item.type, item.name)
+                        if isinstance(item, Node)
+                        else (item.origin, item.destination, item.type)
+                    )
                 if erin in args:
                     found.append((name, args))
             return found
@@ -247,7 +269,9 @@ def test_signals_fire_for_local_and_remote_changes_on_their_own_thread(agents: t
 def test_a_callback_may_call_the_graph(agents: tuple[DSRGraph, DSRGraph]) -> None:
     first, second = agents
     names: list[str | None] = []
-    signals.connect(first, signals.UPDATE_NODE, lambda node_id, node_type: names.append(first.get_name_from_id(node_id)))
+    signals.connect(
+        first, signals.UPDATE_NODE, lambda node_id, node_type: names.append(first.get_name_from_id(node_id))
+    )
     second.insert_node(Node(2, "person", "frank"))
     eventually(lambda: "frank" in names, "the callback read the new node's name")
 
@@ -269,7 +293,10 @@ def test_rt_api(agents: tuple[DSRGraph, DSRGraph]) -> None:
     assert rt.get_translation(1, 999999) is None
     # moving the cup onto the robot's body replaces its RT parent, as in DSR
     assert rt.insert_or_assign_edge_RT(body, cup_id, [0.0, 0.0, 500.0], [0.0, 0.0, 0.0]) is True
-    eventually(lambda: first.get_edge("body", "cup", "RT") and first.get_edge("root", "cup", "RT") is None, "the cup moved to the body")
+    eventually(
+        lambda: first.get_edge("body", "cup", "RT") and first.get_edge("root", "cup", "RT") is None,
+        "the cup moved to the body",
+    )
     assert rt.insert_or_assign_edge_RT(root, 999999, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]) is False
     with pytest.raises(TypeError):
         rt.insert_or_assign_edge_RT(root, cup_id, [0.0, 0.0], [0.0, 0.0, 0.0])
@@ -283,7 +310,9 @@ def test_inner_api(agents: tuple[DSRGraph, DSRGraph]) -> None:
     expected = native.rt.transform("root", "laser")
     assert np.allclose(inner.transform("root", "laser"), expected)
     assert np.allclose(inner.transform("root", "laser", 0), expected)
-    assert np.allclose(inner.transform("root", [10.0, 0.0, 0.0], "laser"), native.rt.transform("root", "laser", [10.0, 0.0, 0.0]))
+    assert np.allclose(
+        inner.transform("root", [10.0, 0.0, 0.0], "laser"), native.rt.transform("root", "laser", [10.0, 0.0, 0.0])
+    )
     assert np.allclose(inner.transform_axis("root", "laser", 0), native.rt.transform("root", "laser", [0.0] * 6))
     pose6 = [1.0, 2.0, 3.0, 0.1, 0.2, 0.3]
     assert np.allclose(inner.transform_axis("root", pose6, "laser", 0), native.rt.transform("root", "laser", pose6))
@@ -304,7 +333,11 @@ def test_write_to_json_file_writes_what_dsr_reads(agents: tuple[DSRGraph, DSRGra
     symbols = written["DSRModel"]["symbols"]
     original = json.loads(SCENE.read_text())["DSRModel"]["symbols"]
     for key, symbol in original.items():  # the scene as loaded comes back in DSR's layout and type codes
-        assert symbols[key]["id"] == key and symbols[key]["type"] == symbol["type"] and symbols[key]["name"] == symbol["name"]
+        assert (
+            symbols[key]["id"] == key
+            and symbols[key]["type"] == symbol["type"]
+            and symbols[key]["name"] == symbol["name"]
+        )
         kept = {k: v for k, v in symbol["attribute"].items() if k in symbols[key]["attribute"]}
         assert kept == {k: symbols[key]["attribute"][k] for k in kept}, key
     camera = symbols["210"]["attribute"]
@@ -322,9 +355,13 @@ def test_pydsr_keywords_and_whole_graph_reads() -> None:
         assert Attribute("red").agent_id == 5  # pydsr stamps a bare Attribute with the last graph's agent id
         inner, rt = inner_api(g), rt_api(g)
         assert np.allclose(inner.transform(orig="root", dest="laser"), inner.transform("root", "laser"))
-        assert np.allclose(inner.transform(orig="root", vector=[1.0, 0.0, 0.0], dest="laser", timestamp=0),
-                           inner.transform("root", [1.0, 0.0, 0.0], "laser"))
-        assert np.allclose(inner.get_transformation_matrix(orig="root", dest="laser"), inner.get_transformation_matrix("root", "laser"))
+        assert np.allclose(
+            inner.transform(orig="root", vector=[1.0, 0.0, 0.0], dest="laser", timestamp=0),
+            inner.transform("root", [1.0, 0.0, 0.0], "laser"),
+        )
+        assert np.allclose(
+            inner.get_transformation_matrix(orig="root", dest="laser"), inner.get_transformation_matrix("root", "laser")
+        )
         root = g.get_node("root")
         assert rt.insert_or_assign_edge_RT(node=root, to=203, trans=[0.0, 1.2, 0.0], rot_euler=[1.1, 0.0, 2.2])
         assert g.get_node("root").edges[(203, "RT")] is not None and g.get_edge("laser_pose", "laser", "RT") is None

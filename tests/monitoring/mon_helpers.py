@@ -26,9 +26,9 @@ def served_scene(spawner, data: Path, *also: str) -> str:
     """Start ``wm serve`` (graph GRAPH plus ``also``), load the risky scene; returns its endpoint."""
     port = free_port()
     extra = [arg for graph in also for arg in ("--also", graph)]
-    spawner([*WM, "serve", "--data", str(data), "--graph", GRAPH, "--listen", endpoint(port), *extra], name="serve").wait_line(
-        "wm serve: ready", 20
-    )
+    spawner(
+        [*WM, "serve", "--data", str(data), "--graph", GRAPH, "--listen", endpoint(port), *extra], name="serve"
+    ).wait_line("wm serve: ready", 20)
     run_wm("load", str(RISKY_SCENE), "--connect", endpoint(port))
     return endpoint(port)
 

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 from mon_helpers import SCENE_NAMES, run_wm, served_scene, start_view
-from procs import REPO
 
+from procs import REPO
 from wm.monitoring.chromium import CHROMIUM, available, chromium
 
 ARTIFACTS = REPO / "artifacts"
@@ -23,7 +23,9 @@ def js_names(names: set[str]) -> str:
 
 def test_page_shows_the_live_graph_and_follows_changes(spawner, tmp_path: Path) -> None:
     if not available():
-        pytest.skip(f"{CHROMIUM} is missing: `make system-deps` installs Debian's chromium and chromium-driver (needs root)")
+        pytest.skip(
+            f"{CHROMIUM} is missing: `make system-deps` installs Debian's chromium and chromium-driver (needs root)"
+        )
     where = served_scene(spawner, tmp_path / "data")
     _, url = start_view(spawner, where)
     with chromium(url) as page:
@@ -36,11 +38,15 @@ def test_page_shows_the_live_graph_and_follows_changes(spawner, tmp_path: Path) 
         assert page.eval("document.querySelectorAll('#scene .collision').length") == 2
 
         page.eval("document.querySelector('#graph .gnode[data-name=\"alice\"]').dispatchEvent(new MouseEvent('click'))")
-        page.wait_for("document.getElementById('inspector').textContent.includes('fov')", 10, "the inspector to show alice")
+        page.wait_for(
+            "document.getElementById('inspector').textContent.includes('fov')", 10, "the inspector to show alice"
+        )
         page.screenshot(ARTIFACTS / "wm-view.png")
 
         run_wm("set", "alice", "speed=0.9", "--connect", where)
-        page.wait_for("document.getElementById('inspector').textContent.includes('0.9')", 20, "the inspector to follow the change")
+        page.wait_for(
+            "document.getElementById('inspector').textContent.includes('0.9')", 20, "the inspector to follow the change"
+        )
         run_wm("rm", "ball", "--connect", where)
         page.wait_for(f"{GRAPH_NAMES} === {js_names(SCENE_NAMES - {'ball'})}", 20, "the removed node to leave the page")
         assert "ball" not in json.loads(page.eval(SCENE_BODIES))

@@ -12,8 +12,9 @@ from pathlib import Path
 from typing import Any
 
 import websockets
-from foxglove_helpers import message_class
 from mon_helpers import GRAPH, dump_json, served_scene
+
+from foxglove_helpers import message_class
 from procs import REPO, WM, free_port
 
 PROTOCOL = "foxglove.sdk.v1"
@@ -50,7 +51,7 @@ async def transform_of(ws: Any, decode: Any, child: str, translation: tuple[floa
         data = await ws.recv()
         if not isinstance(data, bytes) or data[0] != MESSAGE_DATA:
             continue
-        transforms = decode.FromString(data[1 + 4 + 8:]).transforms
+        transforms = decode.FromString(data[1 + 4 + 8 :]).transforms
         for t in transforms:
             if t.child_frame_id == child and (t.translation.x, t.translation.y, t.translation.z) == translation:
                 return t
@@ -61,17 +62,22 @@ async def log_of(ws: Any, decode: Any) -> Any:
     while True:
         data = await ws.recv()
         if isinstance(data, bytes) and data[0] == MESSAGE_DATA and struct.unpack("<I", data[1:5])[0] == 8:
-            return decode.FromString(data[1 + 4 + 8:])
+            return decode.FromString(data[1 + 4 + 8 :])
 
 
-async def test_a_foxglove_client_receives_the_pose_another_process_writes_and_cannot_write(spawner, tmp_path: Path) -> None:
+async def test_a_foxglove_client_receives_the_pose_another_process_writes_and_cannot_write(
+    spawner, tmp_path: Path
+) -> None:
     where = served_scene(spawner, tmp_path / "data")
     port = free_port()
     logs = tmp_path / "logs"
     logs.mkdir()
     agent_log = logs / "intention.log"
     agent_log.write_text("2026-01-01T00:00:00.000Z INFO agent=intention written before the view started\n")
-    server = spawner([*WM, "foxglove", "--port", str(port), "--graph", GRAPH, "--connect", where, "--logs", str(logs)], name="foxglove")
+    server = spawner(
+        [*WM, "foxglove", "--port", str(port), "--graph", GRAPH, "--connect", where, "--logs", str(logs)],
+        name="foxglove",
+    )
     await asyncio.to_thread(server.wait_line, "wm foxglove: serving", 30)
     before = dump_json(where)
 
@@ -82,12 +88,19 @@ async def test_a_foxglove_client_receives_the_pose_another_process_writes_and_ca
         assert channels["/wm/scene"]["schemaName"] == "foxglove.SceneUpdate"
         decode = message_class("foxglove.FrameTransforms", base64.b64decode(tf["schema"]))
         await ws.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": 7, "channelId": tf["id"]}]}))
-        await ws.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": 8, "channelId": channels["/wm/log"]["id"]}]}))
+        await ws.send(
+            json.dumps({"op": "subscribe", "subscriptions": [{"id": 8, "channelId": channels["/wm/log"]["id"]}]})
+        )
         with agent_log.open("a") as log:
             log.write("2026-11-23T14:25:02.276Z WARNING agent=intention risky path person=alice\n")
-        logged = await asyncio.wait_for(log_of(ws, message_class("foxglove.Log", base64.b64decode(channels["/wm/log"]["schema"]))), WAIT)
+        logged = await asyncio.wait_for(
+            log_of(ws, message_class("foxglove.Log", base64.b64decode(channels["/wm/log"]["schema"]))), WAIT
+        )
         assert (logged.name, logged.message, logged.timestamp.ToNanoseconds()) == (
-            "intention", "agent=intention risky path person=alice", 1795443902276000000)
+            "intention",
+            "agent=intention risky path person=alice",
+            1795443902276000000,
+        )
         assert logged.level == 3  # WARNING
 
         await asyncio.to_thread(write_pose, where, 1.25, -0.5, 0.0)
@@ -97,11 +110,23 @@ async def test_a_foxglove_client_receives_the_pose_another_process_writes_and_ca
         # a client that sends garbage, or tries to publish, changes nothing and stops nobody
         async with websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=[PROTOCOL]) as rogue:
             await asyncio.wait_for(advertised(rogue), WAIT)
-            for garbage in ("not json", "{}", json.dumps({"op": "subscribe", "subscriptions": "all"}),
-                            json.dumps({"op": "advertise", "channels": [{"id": 1, "topic": "/wm/changes", "encoding": "json",
-                                                                          "schemaName": "wm.GraphChange"}]})):
+            for garbage in (
+                "not json",
+                "{}",
+                json.dumps({"op": "subscribe", "subscriptions": "all"}),
+                json.dumps(
+                    {
+                        "op": "advertise",
+                        "channels": [
+                            {"id": 1, "topic": "/wm/changes", "encoding": "json", "schemaName": "wm.GraphChange"}
+                        ],
+                    }
+                ),
+            ):
                 await rogue.send(garbage)
-            await rogue.send(bytes([0x01]) + struct.pack("<I", 1) + json.dumps({"kind": "node_removed", "name": "alice"}).encode())
+            await rogue.send(
+                bytes([0x01]) + struct.pack("<I", 1) + json.dumps({"kind": "node_removed", "name": "alice"}).encode()
+            )
             await rogue.send(b"\xff\x00\x13")
 
         await asyncio.to_thread(write_pose, where, -2.0, 0.75, 0.0)

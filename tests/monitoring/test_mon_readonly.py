@@ -13,9 +13,9 @@ import threading
 from pathlib import Path
 
 import zenoh
+from mon_helpers import GRAPH, SCENE_NAMES, dump_json, run_wm, served_scene, start_view
 from websockets.sync.client import connect as ws_connect
 
-from mon_helpers import GRAPH, SCENE_NAMES, dump_json, run_wm, served_scene, start_view
 from procs import WM, wait_until
 from wm.monitoring.recording_file import graph_at
 from wm.zenoh_config import build_config
@@ -60,13 +60,23 @@ def test_viewer_recorder_and_monitor_never_write(spawner, tmp_path: Path) -> Non
     try:
         before = dump_json(where)
         _, url = start_view(spawner, where)
-        recorder = spawner([*WM, "record", str(tmp_path / "run.mcap"), "--graph", GRAPH, "--connect", where], name="record")
+        recorder = spawner(
+            [*WM, "record", str(tmp_path / "run.mcap"), "--graph", GRAPH, "--connect", where], name="record"
+        )
         recorder.wait_line("wm record: recording", 20)
-        monitor = spawner([*WM, "monitor", "--graph", GRAPH, "--connect", where], name="monitor", env={"COLUMNS": "160"})
-        wait_until(lambda: {n["name"] for n in view_state(url)["graph"]["nodes"]} == SCENE_NAMES, 20, "the viewer to show the scene")
+        monitor = spawner(
+            [*WM, "monitor", "--graph", GRAPH, "--connect", where], name="monitor", env={"COLUMNS": "160"}
+        )
+        wait_until(
+            lambda: {n["name"] for n in view_state(url)["graph"]["nodes"]} == SCENE_NAMES,
+            20,
+            "the viewer to show the scene",
+        )
 
         run_wm("set", "alice", "speed=0.9", "--connect", where)
-        wait_until(lambda: _alice(view_state(url)["graph"])["attrs"]["speed"] == 0.9, 20, "the viewer to follow the change")
+        wait_until(
+            lambda: _alice(view_state(url)["graph"])["attrs"]["speed"] == 0.9, 20, "the viewer to follow the change"
+        )
         after = dump_json(where)
         assert _alice(after)["attrs"]["speed"] == 0.9 and _alice(before)["attrs"]["speed"] == 0.5
         assert view_state(url)["graph"] == after

@@ -8,10 +8,10 @@ import time
 from pathlib import Path
 
 from mcap.reader import make_reader
-
 from mon_helpers import GRAPH, RISKY_SCENE, SCENE_NAMES, dump_json, node_names, run_wm, served_scene
-from procs import PYTHON, REPO, WM, wait_until
+
 from foxglove_helpers import message_class
+from procs import PYTHON, REPO, WM, wait_until
 from wm.monitoring.recording_file import CHANGES, LOG, SCENE, TF, UPDATES, graph_at, iter_messages
 
 REPLICA = str(REPO / "tests" / "replica_proc.py")
@@ -22,7 +22,9 @@ def test_record_replay_and_dump_at_time_round_trip(spawner, tmp_path: Path) -> N
     recording = tmp_path / "run.mcap"
     logs = tmp_path / "logs"
     logs.mkdir()
-    recorder = spawner([*WM, "record", str(recording), "--graph", GRAPH, "--connect", where, "--logs", str(logs)], name="record")
+    recorder = spawner(
+        [*WM, "record", str(recording), "--graph", GRAPH, "--connect", where, "--logs", str(logs)], name="record"
+    )
     recorder.wait_line("wm record: recording", 20)
     (logs / "perception.log").write_text("2026-11-23T14:25:02.276Z INFO agent=perception alice seen\n")
     run_wm("set", "alice", "speed=0.9", "--connect", where)
@@ -39,7 +41,9 @@ def test_record_replay_and_dump_at_time_round_trip(spawner, tmp_path: Path) -> N
     removed_at = next(t for t, c in changes if c["kind"] == "node_removed" and c["name"] == "ball")
 
     def dump_at(t_ns: int) -> dict:
-        return json.loads(run_wm("dump", "--from", str(recording), "--at", f"{(t_ns - start) / 1e9:.9f}", "--format", "json"))
+        return json.loads(
+            run_wm("dump", "--from", str(recording), "--at", f"{(t_ns - start) / 1e9:.9f}", "--format", "json")
+        )
 
     before, after_set, after_rm = dump_at(speed_at - 1000), dump_at(speed_at + 1000), dump_at(removed_at + 1000)
     assert node_names(before) == node_names(after_set) == SCENE_NAMES
@@ -52,7 +56,12 @@ def test_record_replay_and_dump_at_time_round_trip(spawner, tmp_path: Path) -> N
         summary = make_reader(f).get_summary()
     schemas = {c.topic: summary.schemas[c.schema_id] for c in summary.channels.values() if c.schema_id}
     assert {topic: schema.name for topic, schema in schemas.items()} == {
-        SCENE: "foxglove.SceneUpdate", TF: "foxglove.FrameTransforms", CHANGES: "wm.GraphChange", UPDATES: "wm.Update", LOG: "foxglove.Log"}
+        SCENE: "foxglove.SceneUpdate",
+        TF: "foxglove.FrameTransforms",
+        CHANGES: "wm.GraphChange",
+        UPDATES: "wm.Update",
+        LOG: "foxglove.Log",
+    }
     scene_update = message_class("foxglove.SceneUpdate", schemas[SCENE].data)
     scenes = [scene_update.FromString(data) for _, _, data in iter_messages(recording, [SCENE])]
     assert any(e.id.startswith("path/") and e.lines[0].color.r > 0.8 for e in scenes[-1].entities)
@@ -61,7 +70,8 @@ def test_record_replay_and_dump_at_time_round_trip(spawner, tmp_path: Path) -> N
     assert {(t.parent_frame_id, t.child_frame_id) for t in last_tf.transforms} >= {("world", "alice")}
     log = message_class("foxglove.Log", schemas[LOG].data)
     assert [(m.name, m.message) for m in map(log.FromString, (d for _, _, d in iter_messages(recording, [LOG])))] == [
-        ("perception", "agent=perception alice seen")]
+        ("perception", "agent=perception alice seen")
+    ]
 
     # wm replay into another graph gives the same graph there
     out = run_wm("replay", str(recording), "--as", "copy", "--speed", "50", "--connect", where)
@@ -106,12 +116,15 @@ def test_reaction_times_pair_each_risky_intention_with_the_next_action(tmp_path:
     writer.close()
     found = reactions(tmp_path / "trial.mcap")
     assert [(r.person, r.target, r.action) for r in found] == [
-        ("alice", "couch", "robot_move_again"), ("bob", "table", "robot_move_again"), ("carol", "ball", None)
+        ("alice", "couch", "robot_move_again"),
+        ("bob", "table", "robot_move_again"),
+        ("carol", "ball", None),
     ]
     assert found[0].reaction_ms >= 0 and summary(found)["missed"] == 1
     assert plot_svg(found).startswith("<svg") and "missed 1" in plot_svg(found)
-    out = subprocess.run([*WM, "reactions", str(tmp_path / "trial.mcap"), "--json"], capture_output=True, text=True,
-                         timeout=60)
+    out = subprocess.run(
+        [*WM, "reactions", str(tmp_path / "trial.mcap"), "--json"], capture_output=True, text=True, timeout=60
+    )
     assert out.returncode == 0 and json.loads(out.stdout)["missed"] == 1
 
 

@@ -8,17 +8,17 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from mon_helpers import GRAPH, RISKY_SCENE, SCENE_NAMES, run_wm
 from rich.console import Console
 
 import wm
-from mon_helpers import GRAPH, RISKY_SCENE, SCENE_NAMES, run_wm
 from procs import REPO, WM, endpoint, free_port, wait_until
 from wm.events import Event, EventKind
 from wm.monitoring.monitor import MonitorState, render
 
 
 def screen(g: wm.Graph, state: MonitorState) -> str:
-    console = Console(record=True, width=160, file=open(os.devnull, "w"))  # noqa: SIM115
+    console = Console(record=True, width=160, file=open(os.devnull, "w"))
     console.print(render(g, state, "demo"))
     return console.export_text()
 
@@ -49,7 +49,9 @@ def tmux(tmp_path: Path):
     socket = str(tmp_path / "tmux.sock")
 
     def run(*args: str) -> str:
-        return subprocess.run(["tmux", "-S", socket, *args], capture_output=True, text=True, timeout=10, check=True).stdout
+        return subprocess.run(
+            ["tmux", "-S", socket, *args], capture_output=True, text=True, timeout=10, check=True
+        ).stdout
 
     yield run
     subprocess.run(["tmux", "-S", socket, "kill-server"], capture_output=True, timeout=10)
@@ -57,13 +59,29 @@ def tmux(tmp_path: Path):
 
 def test_monitor_under_tmux_waits_for_the_network_then_shows_the_graph(tmux, spawner, tmp_path: Path) -> None:
     port = free_port()
-    command = " ".join(["env", "-u", "COLUMNS", "-u", "LINES", *WM, "monitor", "--graph", GRAPH, "--connect", endpoint(port), "--type", "person"])
+    command = " ".join(
+        [
+            "env",
+            "-u",
+            "COLUMNS",
+            "-u",
+            "LINES",
+            *WM,
+            "monitor",
+            "--graph",
+            GRAPH,
+            "--connect",
+            endpoint(port),
+            "--type",
+            "person",
+        ]
+    )
     tmux("new-session", "-d", "-s", "mon", "-x", "200", "-y", "100", "-c", str(REPO), command)
     pane = lambda: tmux("capture-pane", "-p", "-t", "mon")  # noqa: E731
     wait_until(lambda: "nothing heard" in pane(), 30, "the monitor to say it hears nothing")
-    spawner([*WM, "serve", "--data", str(tmp_path / "data"), "--graph", GRAPH, "--listen", endpoint(port)], name="serve").wait_line(
-        "wm serve: ready", 20
-    )
+    spawner(
+        [*WM, "serve", "--data", str(tmp_path / "data"), "--graph", GRAPH, "--listen", endpoint(port)], name="serve"
+    ).wait_line("wm serve: ready", 20)
     run_wm("load", str(RISKY_SCENE), "--connect", endpoint(port))
     wait_until(lambda: all(name in pane() for name in SCENE_NAMES), 30, "the monitor to show the scene")
     run_wm("set", "alice", "speed=0.9", "--connect", endpoint(port))

@@ -28,9 +28,15 @@ def garbage_messages(victim: str) -> list[tuple[str, bytes]]:
         ("wm/g/delta/evil", b""),
         ("wm/g/sv/evil", os.urandom(7)),
         ("wm/g/delta/evil", msgpack.packb({"not": "a message"})),
-        ("wm/g/delta/evil", msgpack.packb([proto.VERSION, 1, "evil", 1, b"\x00\x01garbage", []])),  # undecodable CRDT update
+        (
+            "wm/g/delta/evil",
+            msgpack.packb([proto.VERSION, 1, "evil", 1, b"\x00\x01garbage", []]),
+        ),  # undecodable CRDT update
         ("wm/g/delta/evil", msgpack.packb([proto.VERSION, 1, "mallory", 1, None, []])),  # sender does not match the key
-        ("wm/g/delta/evil", msgpack.packb([proto.VERSION, 1, "evil", 2, None, [["x:1", "a", 1, 1, "evil"]]])),  # bad owner
+        (
+            "wm/g/delta/evil",
+            msgpack.packb([proto.VERSION, 1, "evil", 2, None, [["x:1", "a", 1, 1, "evil"]]]),
+        ),  # bad owner
         ("wm/g/sv/evil", proto.encode(proto.Heartbeat("evil", 3, b"\xff\xff\xff"))),  # truncated state vector
         ("wm/g/delta/evil", msgpack.packb([99, 1, "evil", 1, None, []])),  # unknown version
         (f"wm/g/delta/{victim}", proto.encode(proto.Delta("evil", 1, None, []))),  # impersonation
@@ -42,7 +48,9 @@ async def scenario(port: int) -> None:
     async with wm.connect("g", name="victim", listen=[endpoint(port)], heartbeat_period=0.2) as victim:
         victim.insert_node("world", "world", {"description": "intact"})
         before = victim.to_dict()
-        attacker = await asyncio.to_thread(zenoh.open, build_config(mode="peer", connect=[endpoint(port)], listen=["tcp/127.0.0.1:0"]))
+        attacker = await asyncio.to_thread(
+            zenoh.open, build_config(mode="peer", connect=[endpoint(port)], listen=["tcp/127.0.0.1:0"])
+        )
         try:
             for key, payload in garbage_messages(victim.replica_id):
                 attacker.put(key, payload)
@@ -51,7 +59,10 @@ async def scenario(port: int) -> None:
             )
             assert replies and all(r.ok is None for r in replies), "a garbage sync request must get an error reply"
             stats = victim.network.stats  # type: ignore[union-attr]
-            await wait_for(lambda: stats.rejected >= len(garbage_messages(victim.replica_id)) + 1, "every bad message to be rejected")
+            await wait_for(
+                lambda: stats.rejected >= len(garbage_messages(victim.replica_id)) + 1,
+                "every bad message to be rejected",
+            )
             assert victim.to_dict() == before
             async with wm.connect("g", name="honest", connect=[endpoint(port)], heartbeat_period=0.2) as honest:
                 assert honest.get_node("world").attrs["description"] == "intact"

@@ -19,13 +19,24 @@ def wm(*args: str) -> subprocess.CompletedProcess[str]:
 
 def test_load_set_watch_members_rm_and_dump(spawner, tmp_path: Path) -> None:
     port = free_port()
-    serve = spawner([*WM, "serve", "--data", str(tmp_path / "data"), "--graph", GRAPH, "--listen", endpoint(port)], name="serve")
+    serve = spawner(
+        [*WM, "serve", "--data", str(tmp_path / "data"), "--graph", GRAPH, "--listen", endpoint(port)], name="serve"
+    )
     serve.wait_line("wm serve: ready", 20)
     scene = tmp_path / "scene.json"
-    scene.write_text(json.dumps({"format": "cortex-wm", "version": 1, "edges": [], "nodes": [
-        {"id": 1, "type": "world", "name": "world", "attrs": {}},
-        {"id": 2, "type": "person", "name": "alice", "attrs": {"radius": 0.3}},
-    ]}))
+    scene.write_text(
+        json.dumps(
+            {
+                "format": "cortex-wm",
+                "version": 1,
+                "edges": [],
+                "nodes": [
+                    {"id": 1, "type": "world", "name": "world", "attrs": {}},
+                    {"id": 2, "type": "person", "name": "alice", "attrs": {"radius": 0.3}},
+                ],
+            }
+        )
+    )
     assert "loaded 2 nodes" in wm("load", str(scene), "--connect", endpoint(port)).stdout
 
     watch = spawner([*WM, "watch", "--graph", GRAPH, "--connect", endpoint(port), "--type", "person"], name="watch")
@@ -45,11 +56,14 @@ def test_load_set_watch_members_rm_and_dump(spawner, tmp_path: Path) -> None:
 
 def test_set_refuses_a_value_of_the_wrong_type_in_one_line(spawner, tmp_path: Path) -> None:
     port = free_port()
-    spawner([*WM, "serve", "--data", str(tmp_path / "data"), "--graph", GRAPH, "--listen", endpoint(port)], name="serve").wait_line(
-        "wm serve: ready", 20
-    )
+    spawner(
+        [*WM, "serve", "--data", str(tmp_path / "data"), "--graph", GRAPH, "--listen", endpoint(port)], name="serve"
+    ).wait_line("wm serve: ready", 20)
     result = subprocess.run(
         [*WM, "set", "world", "radius=wide", "--graph", GRAPH, "--connect", endpoint(port)],
-        capture_output=True, text=True, timeout=60, cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=REPO,
     )
     assert result.returncode == 1 and result.stderr.count("\n") == 1 and "radius" in result.stderr

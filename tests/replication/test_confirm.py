@@ -30,7 +30,9 @@ async def members_named(g: wm.Graph, count: int) -> dict[str, str]:
 
 def test_durable_confirmation_names_wm_serve_and_a_stalled_replica_delays_nobody(spawner, tmp_path: Path) -> None:
     port = free_port()
-    serve = spawner([*WM, "serve", "--data", str(tmp_path / "data"), "--graph", GRAPH, "--listen", endpoint(port)], name="serve")
+    serve = spawner(
+        [*WM, "serve", "--data", str(tmp_path / "data"), "--graph", GRAPH, "--listen", endpoint(port)], name="serve"
+    )
     serve.wait_line("wm serve: ready", 20)
     quick, quick_id = start_replica(spawner, port, "quick")
     stalled, stalled_id = start_replica(spawner, port, "stalled")
@@ -68,7 +70,9 @@ def test_without_a_durable_member_a_durable_confirmation_fails_but_names_who_ack
         async with wm.connect(GRAPH, name="writer", connect=[endpoint(port)]) as g:
             await members_named(g, 1)
             nothing_yet = await g.network.confirm(1.0, durable=True)  # type: ignore[union-attr]
-            assert not nothing_yet and nothing_yet.acked == {peer_id}, "a replica without a disk never counts as durable"
+            assert not nothing_yet and nothing_yet.acked == {peer_id}, (
+                "a replica without a disk never counts as durable"
+            )
             g.insert_node("world", "world")
             plain = await g.network.confirm(10.0)  # type: ignore[union-attr]
             assert plain and plain.acked == {peer_id}

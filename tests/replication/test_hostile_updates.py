@@ -80,7 +80,9 @@ class Attacker:
 
     def put(self, update: bytes | None, volatile: list[Any] | None = None) -> None:
         self.seq += 1
-        self.session.put(proto_key(f"delta/{ATTACKER}"), proto.encode(proto.Delta(ATTACKER, self.seq, update, volatile or [])))
+        self.session.put(
+            proto_key(f"delta/{ATTACKER}"), proto.encode(proto.Delta(ATTACKER, self.seq, update, volatile or []))
+        )
 
     def put_raw(self, payload: bytes) -> None:
         self.session.put(proto_key(f"delta/{ATTACKER}"), payload)
@@ -147,16 +149,41 @@ def network(spawner, tmp_path: Path):
     data = tmp_path / "data"
     serve = start_serve(spawner, data, port, "serve")
     scene = tmp_path / "world.json"
-    scene.write_text('{"format": "cortex-wm", "version": 1, "nodes": [{"id": 1, "type": "world", "name": "world", "attrs": {}}], "edges": []}')
+    scene.write_text(
+        '{"format": "cortex-wm", "version": 1, "nodes": [{"id": 1, "type": "world", "name": "world", "attrs": {}}], "edges": []}'
+    )
     run_wm("load", str(scene), "--connect", endpoint(port))
     dump = tmp_path / "replica.json"
-    replica = spawner([PYTHON, REPLICA, "--graph", GRAPH, "--name", "honest", "--dump", str(dump), "--connect", endpoint(port),
-                       "--nodes", "2"], name="replica")
+    replica = spawner(
+        [
+            PYTHON,
+            REPLICA,
+            "--graph",
+            GRAPH,
+            "--name",
+            "honest",
+            "--dump",
+            str(dump),
+            "--connect",
+            endpoint(port),
+            "--nodes",
+            "2",
+        ],
+        name="replica",
+    )
     assert replica.wait_line("wrote", 30) == "wrote True"
     wait_until(lambda: {"world", "n0", "n1"} <= names(view(dump)), 20, "the replica's first dump")
     attacker = Attacker(port)
     try:
-        yield {"port": port, "data": data, "serve": serve, "replica": replica, "dump": dump, "attacker": attacker, "spawner": spawner}
+        yield {
+            "port": port,
+            "data": data,
+            "serve": serve,
+            "replica": replica,
+            "dump": dump,
+            "attacker": attacker,
+            "spawner": spawner,
+        }
     finally:
         attacker.close()
 
@@ -188,8 +215,13 @@ def survive_and_restart(net: dict[str, Any], expected: dict[str, Any], left_out:
     time.sleep(0.3)  # wm serve's promise covers what it applied more than 100 ms before a kill
     replica.stop()
     serve.kill9()
-    report = subprocess.run([*WM, "check", "--data", str(net["data"]), "--graph", GRAPH], capture_output=True, text=True,
-                            timeout=60, cwd=REPO)
+    report = subprocess.run(
+        [*WM, "check", "--data", str(net["data"]), "--graph", GRAPH],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=REPO,
+    )
     assert report.returncode == (2 if left_out else 0), report.stdout + report.stderr
     if left_out:
         assert f"sent by disk:{ATTACKER}" in report.stdout, report.stdout
@@ -210,12 +242,15 @@ def test_volatile_records_of_the_wrong_shape_are_refused(network: dict[str, Any]
     before = view(network["dump"])
     assert before is not None
     ball = next(n["id"] for n in before["nodes"] if n["name"] == "n0")
-    network["attacker"].put(None, [
-        ["n:not-an-id", "last_seen", 1.0, 10**6, ATTACKER],
-        [f"n:{ball}", "last_seen", "str", 10**6, ATTACKER],
-        [f"n:{ball}", "bogus", 1.0, 10**6, ATTACKER],
-        [f"n:{ball}", "stamp", math.nan, 10**6, ATTACKER],
-    ])
+    network["attacker"].put(
+        None,
+        [
+            ["n:not-an-id", "last_seen", 1.0, 10**6, ATTACKER],
+            [f"n:{ball}", "last_seen", "str", 10**6, ATTACKER],
+            [f"n:{ball}", "bogus", 1.0, 10**6, ATTACKER],
+            [f"n:{ball}", "stamp", math.nan, 10**6, ATTACKER],
+        ],
+    )
     network["serve"].wait_line("", 10, contains=f"refused 4 volatile record(s) from {ATTACKER}")
     survive_and_restart(network, with_color(before, "red"), left_out=False)
 
@@ -235,11 +270,17 @@ def test_a_name_takeover_is_logged_with_its_writer_and_both_nodes_stay_reachable
     before = view(network["dump"])
     assert before is not None
     ball = next(n for n in before["nodes"] if n["name"] == "n0")
-    network["attacker"].put(crafted_update(network["attacker"].document(), new_node("5", Map({"@type": "object", "@name": "n0"}))))
-    network["serve"].wait_line("", 10, contains=f"node {ball['id']} is renamed 'n0~{ball['id']}' (conflict shown by a change from {ATTACKER})")
+    network["attacker"].put(
+        crafted_update(network["attacker"].document(), new_node("5", Map({"@type": "object", "@name": "n0"})))
+    )
+    network["serve"].wait_line(
+        "", 10, contains=f"node {ball['id']} is renamed 'n0~{ball['id']}' (conflict shown by a change from {ATTACKER})"
+    )
     expected = with_color(before, "red")
     for node in expected["nodes"]:
         if node["id"] == ball["id"]:
             node["name"] = f"n0~{ball['id']}"
-    expected["nodes"] = sorted([*expected["nodes"], {"id": 5, "type": "object", "name": "n0", "attrs": {}}], key=lambda n: n["id"])
+    expected["nodes"] = sorted(
+        [*expected["nodes"], {"id": 5, "type": "object", "name": "n0", "attrs": {}}], key=lambda n: n["id"]
+    )
     survive_and_restart(network, expected, left_out=False)

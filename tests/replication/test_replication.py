@@ -36,11 +36,16 @@ def wait_converged(*dumps: Path, names: set[str], timeout: float = 30.0) -> dict
 
     def converged() -> bool:
         current = graphs(*dumps)
-        return all(g is not None for g in current) and all(g == current[0] for g in current) and names <= node_names(current[0])
+        return (
+            all(g is not None for g in current)
+            and all(g == current[0] for g in current)
+            and names <= node_names(current[0])
+        )
 
     def state() -> str:
         return "; ".join(
-            f"{d.name}: {len(node_names(g))} nodes, stats {(read_dump(d) or {}).get('stats')}" for d, g in zip(dumps, graphs(*dumps))
+            f"{d.name}: {len(node_names(g))} nodes, stats {(read_dump(d) or {}).get('stats')}"
+            for d, g in zip(dumps, graphs(*dumps), strict=False)
         )
 
     try:
@@ -52,7 +57,9 @@ def wait_converged(*dumps: Path, names: set[str], timeout: float = 30.0) -> dict
 
 def load_world(tmp: Path, port: int) -> None:
     scene = tmp / "world.json"
-    scene.write_text('{"format": "cortex-wm", "version": 1, "nodes": [{"id": 1, "type": "world", "name": "world", "attrs": {}}], "edges": []}')
+    scene.write_text(
+        '{"format": "cortex-wm", "version": 1, "nodes": [{"id": 1, "type": "world", "name": "world", "attrs": {}}], "edges": []}'
+    )
     run_wm("load", str(scene), "--connect", endpoint(port))
 
 
@@ -70,7 +77,19 @@ def test_three_writers_converge_to_identical_graphs(spawner, tmp_path: Path) -> 
     start_serve(spawner, tmp_path / "data", port)
     load_world(tmp_path, port)
     writers = [
-        start_replica(spawner, tmp_path, f"w{i}", "--connect", endpoint(port), "--prefix", f"w{i}-", "--nodes", "60", "--updates", "20")
+        start_replica(
+            spawner,
+            tmp_path,
+            f"w{i}",
+            "--connect",
+            endpoint(port),
+            "--prefix",
+            f"w{i}-",
+            "--nodes",
+            "60",
+            "--updates",
+            "20",
+        )
         for i in range(3)
     ]
     expected = {"world"} | {f"w{i}-{k}" for i in range(3) for k in range(60)}
@@ -96,20 +115,38 @@ def test_late_joiner_catches_up_after_the_first_replica_exits(spawner, tmp_path:
     assert wait_converged(dump_b, dump_c, names=node_names(reference)) == reference
     first = next(n for n in reference["nodes"] if n["name"] == "n0")
     assert first["attrs"]["last_seen"] == 4.0
-    wait_until(lambda: (read_dump(dump_c) or {}).get("stats", {}).get("caught_up_from") == read_dump(dump_b)["replica"], 10, "c to report b as its catch-up source")
+    wait_until(
+        lambda: (read_dump(dump_c) or {}).get("stats", {}).get("caught_up_from") == read_dump(dump_b)["replica"],
+        10,
+        "c to report b as its catch-up source",
+    )
 
 
 def test_killed_writer_loses_nothing_of_the_others_and_rejoins(spawner, tmp_path: Path) -> None:
     port = free_port()
     start_serve(spawner, tmp_path / "data", port)
-    victim, _ = start_replica(spawner, tmp_path, "victim", "--connect", endpoint(port), "--prefix", "v", "--nodes", "400", "--pace", "0.01")
-    survivor, dump_s = start_replica(spawner, tmp_path, "survivor", "--connect", endpoint(port), "--prefix", "s", "--nodes", "150", "--pace", "0.01")
-    wait_until(lambda: len(node_names(graphs(dump_s)[0]) & {f"v{i}" for i in range(400)}) > 20, 20, "the victim's writes to flow")
+    victim, _ = start_replica(
+        spawner, tmp_path, "victim", "--connect", endpoint(port), "--prefix", "v", "--nodes", "400", "--pace", "0.01"
+    )
+    survivor, dump_s = start_replica(
+        spawner, tmp_path, "survivor", "--connect", endpoint(port), "--prefix", "s", "--nodes", "150", "--pace", "0.01"
+    )
+    wait_until(
+        lambda: len(node_names(graphs(dump_s)[0]) & {f"v{i}" for i in range(400)}) > 20,
+        20,
+        "the victim's writes to flow",
+    )
     victim_replica = victim.lines[0].split()[1]
     victim.kill9()
     survivor.wait_line("wrote", 30)
-    wait_until(lambda: victim_replica not in (read_dump(dump_s) or {}).get("members", {}), 20, "the killed replica to leave the membership")
-    reborn, dump_r = start_replica(spawner, tmp_path, "reborn", "--connect", endpoint(port), "--prefix", "r", "--nodes", "10")
+    wait_until(
+        lambda: victim_replica not in (read_dump(dump_s) or {}).get("members", {}),
+        20,
+        "the killed replica to leave the membership",
+    )
+    reborn, dump_r = start_replica(
+        spawner, tmp_path, "reborn", "--connect", endpoint(port), "--prefix", "r", "--nodes", "10"
+    )
     final = wait_converged(dump_s, dump_r, names={f"s{i}" for i in range(150)} | {f"r{i}" for i in range(10)})
     survivors_view = graphs(dump_s)[0]
     assert final == survivors_view
@@ -119,7 +156,9 @@ def test_killed_writer_loses_nothing_of_the_others_and_rejoins(spawner, tmp_path
 def test_deltas_dropped_on_purpose_are_repaired(spawner, tmp_path: Path) -> None:
     port = free_port()
     _, dump_r = start_replica(spawner, tmp_path, "receiver", "--listen", endpoint(port))
-    lossy, dump_l = start_replica(spawner, tmp_path, "lossy", "--connect", endpoint(port), "--nodes", "30", "--pace", "0.02", "--drop", "5")
+    lossy, dump_l = start_replica(
+        spawner, tmp_path, "lossy", "--connect", endpoint(port), "--nodes", "30", "--pace", "0.02", "--drop", "5"
+    )
     wait_converged(dump_l, dump_r, names={f"n{i}" for i in range(30)})
     stats = read_dump(dump_r)["stats"]
     assert stats["gaps"] + stats["repairs"] >= 1, stats
@@ -133,7 +172,19 @@ def test_serve_restarts_from_disk_after_kill_9(spawner, tmp_path: Path) -> None:
     data = tmp_path / "data"
     serve = start_serve(spawner, data, port)
     load_world(tmp_path, port)
-    writer, dump_w = start_replica(spawner, tmp_path, "writer", "--connect", endpoint(port), "--nodes", "200", "--updates", "10", "--volatile", "30")
+    writer, dump_w = start_replica(
+        spawner,
+        tmp_path,
+        "writer",
+        "--connect",
+        endpoint(port),
+        "--nodes",
+        "200",
+        "--updates",
+        "10",
+        "--volatile",
+        "30",
+    )
     assert writer.wait_line("wrote", 30) == "wrote True"
     time.sleep(0.3)  # the promise covers writes applied more than 100 ms before the kill
     reference = graphs(dump_w)[0]
@@ -167,14 +218,56 @@ def test_partition_with_writes_on_both_sides_heals_with_nothing_lost(spawner, tm
     relay = TcpRelay(port_1)
     try:
         start_serve(spawner, tmp_path / "r2", port_2, "--connect", endpoint(relay.port), name="router-2")
-        left, dump_l = start_replica(spawner, tmp_path, "left", "--connect", endpoint(port_1), "--mode", "client", "--prefix", "before-")
-        right, dump_r = start_replica(spawner, tmp_path, "right", "--connect", endpoint(port_2), "--mode", "client", "--prefix", "r", "--nodes", "5")
+        left, dump_l = start_replica(
+            spawner, tmp_path, "left", "--connect", endpoint(port_1), "--mode", "client", "--prefix", "before-"
+        )
+        right, dump_r = start_replica(
+            spawner,
+            tmp_path,
+            "right",
+            "--connect",
+            endpoint(port_2),
+            "--mode",
+            "client",
+            "--prefix",
+            "r",
+            "--nodes",
+            "5",
+        )
         wait_converged(dump_l, dump_r, names={f"r{i}" for i in range(5)})
 
         relay.cut()
-        wait_until(lambda: len((read_dump(dump_l) or {}).get("members", {})) <= 2, 30, "the partition to show in the membership")
-        left_during, dump_ld = start_replica(spawner, tmp_path, "left-during", "--connect", endpoint(port_1), "--mode", "client", "--prefix", "L", "--nodes", "20")
-        right_during, dump_rd = start_replica(spawner, tmp_path, "right-during", "--connect", endpoint(port_2), "--mode", "client", "--prefix", "R", "--nodes", "20")
+        wait_until(
+            lambda: len((read_dump(dump_l) or {}).get("members", {})) <= 2,
+            30,
+            "the partition to show in the membership",
+        )
+        left_during, dump_ld = start_replica(
+            spawner,
+            tmp_path,
+            "left-during",
+            "--connect",
+            endpoint(port_1),
+            "--mode",
+            "client",
+            "--prefix",
+            "L",
+            "--nodes",
+            "20",
+        )
+        right_during, dump_rd = start_replica(
+            spawner,
+            tmp_path,
+            "right-during",
+            "--connect",
+            endpoint(port_2),
+            "--mode",
+            "client",
+            "--prefix",
+            "R",
+            "--nodes",
+            "20",
+        )
         left_during.wait_line("wrote", 30)
         right_during.wait_line("wrote", 30)
         assert not node_names(graphs(dump_l)[0]) & {f"R{i}" for i in range(20)}, "the partition leaked"

@@ -33,10 +33,10 @@ from itertools import count, islice
 from typing import Any
 
 from agents.caregiving import keys
-from agents.caregiving.model.move_search import Danger, SearchSpec, Verdict, judge, search_move
-from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.imagine_reply import Answer
+from agents.caregiving.model.move_search import Danger, SearchSpec, Verdict, judge, search_move
+from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.visibility import GazeClass, gaze_classes
 from agents.caregiving.model.world_model import Walk
 from wm import Edge, Event, Node
@@ -54,9 +54,11 @@ JUDGING = 0.05
 def risky_first(classes: tuple[GazeClass, ...], risky: float) -> tuple[float, ...]:
     """The classes' gazes, the class holding the ``risky`` gaze first."""
     gazes = [c.gaze for c in classes]
-    first = min(range(len(classes)), key=lambda k: 0.0 if classes[k].low <= risky <= classes[k].high
-                else abs(classes[k].gaze - risky))
-    return (gazes[first], *gazes[:first], *gazes[first + 1:])
+    first = min(
+        range(len(classes)),
+        key=lambda k: 0.0 if classes[k].low <= risky <= classes[k].high else abs(classes[k].gaze - risky),
+    )
+    return (gazes[first], *gazes[:first], *gazes[first + 1 :])
 
 
 class Action(Agent):
@@ -69,11 +71,18 @@ class Action(Agent):
         add_risk_arguments(parser)
         parser.add_argument("--batch", type=int, default=3, help="moves imagined per request after the first")
         parser.add_argument("--max-moves", type=int, default=24, help="moves tried per search at most")
-        parser.add_argument("--retry", type=float, default=1.0,
-                            help="simulated seconds before a danger no move removed is searched again")
-        parser.add_argument("--dispatch", type=float, default=0.1,
-                            help="simulated seconds from writing a move to the world acting on it (executor, command, "
-                            "a world step)")
+        parser.add_argument(
+            "--retry",
+            type=float,
+            default=1.0,
+            help="simulated seconds before a danger no move removed is searched again",
+        )
+        parser.add_argument(
+            "--dispatch",
+            type=float,
+            default=0.1,
+            help="simulated seconds from writing a move to the world acting on it (executor, command, a world step)",
+        )
 
     async def setup(self) -> None:
         self.size_error = size_error(self.args)
@@ -112,7 +121,9 @@ class Action(Agent):
         current = self._current()
         spec = self._spec(ctx, dangers, current)
         keep = replace(spec, delay=self._delay(ctx, 1))
-        if current is not None and (await self._judge(keep, [self._move_of(current)]))[0].safe(self.args.risk_threshold):
+        if current is not None and (await self._judge(keep, [self._move_of(current)]))[0].safe(
+            self.args.risk_threshold
+        ):
             return  # the move under way still keeps everyone safe
         idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
         self.tried = []
@@ -127,8 +138,13 @@ class Action(Agent):
         if chosen is None:
             for person in dangers:
                 self.failed[ctx.ids[person]] = ctx.scene.time
-            self.log.warning("no move removes the danger", people=sorted(dangers), search_ms=self._ms(started),
-                             tried=len(self.tried), why=sorted({v.reason for v in self.tried})[:4])
+            self.log.warning(
+                "no move removes the danger",
+                people=sorted(dangers),
+                search_ms=self._ms(started),
+                tried=len(self.tried),
+                why=sorted({v.reason for v in self.tried})[:4],
+            )
             return
         self._write(ctx, chosen, dangers, current, unsaved, started)
 
@@ -153,26 +169,41 @@ class Action(Agent):
                 continue
             flat = edge.get("path", ())
             p = ctx.scene.person(person)
-            danger = Danger(person, target, tuple(zip(flat[0::2], flat[1::2], strict=True)),
-                            tuple(edge.get("collision_point", (p.x, p.y))), obstacle, ttc)
+            danger = Danger(
+                person,
+                target,
+                tuple(zip(flat[0::2], flat[1::2], strict=True)),
+                tuple(edge.get("collision_point", (p.x, p.y))),
+                obstacle,
+                ttc,
+            )
             if person not in out or ttc < out[person][1].time_to_collision:
                 out[person] = (edge, danger)
         return out
 
     def _spec(self, ctx: Context, dangers: dict[str, tuple[Edge, Danger]], current: Node | None) -> SearchSpec:
         scene, names = ctx.scene, {v: k for k, v in ctx.ids.items()}
-        known = {p: tuple(sorted(names[e.dst] for e in self.g.edges(type=KNOWS, src=ctx.ids[p]) if e.dst in names))
-                 for p in dangers}
-        gazes = {p: risky_first(gaze_classes(scene.person(p), scene.bodies_around(p)), edge.get("gaze", 0.0))
-                 for p, (edge, _) in dangers.items()}
+        known = {
+            p: tuple(sorted(names[e.dst] for e in self.g.edges(type=KNOWS, src=ctx.ids[p]) if e.dst in names))
+            for p in dangers
+        }
+        gazes = {
+            p: risky_first(gaze_classes(scene.person(p), scene.bodies_around(p)), edge.get("gaze", 0.0))
+            for p, (edge, _) in dangers.items()
+        }
         bystanders = []
         for p in scene.people:
             walks = [e for e in self.g.edges(type=HAS_INTENTION, src=ctx.ids[p.name]) if e.dst in names]
             if p.name not in dangers and walks:
                 e = max(walks, key=lambda e: e.get("updated_at", 0.0))  # their likeliest walk: the latest guessed
                 bystanders.append(Walk(p.name, names[e.dst], e.get("gaze", 0.0)))
-        return SearchSpec(tuple(d for _, d in dangers.values()), gazes, known, tuple(bystanders),
-                          self._move_of(current) if current is not None else None)
+        return SearchSpec(
+            tuple(d for _, d in dangers.values()),
+            gazes,
+            known,
+            tuple(bystanders),
+            self._move_of(current) if current is not None else None,
+        )
 
     def _current(self) -> Node | None:
         """The robot's move under way (or about to be), if any."""
@@ -204,8 +235,9 @@ class Action(Agent):
     async def _imagine(self, groups: list[list[dict[str, Any]]]) -> list[list[Answer]]:
         """One request to the simulator for every group of items; the answers, grouped the same way."""
         sent = time.perf_counter()
-        reply = await self.ask(keys.imagine(self.args.graph), {"items": [i for g in groups for i in g]},
-                               decode=imagine_reply.decode)
+        reply = await self.ask(
+            keys.imagine(self.args.graph), {"items": [i for g in groups for i in g]}, decode=imagine_reply.decode
+        )
         self.rpc_ms += (time.perf_counter() - sent) * 1e3
         self.sim_ms += reply.compute_ms
         answers = iter(reply.results)
@@ -221,14 +253,22 @@ class Action(Agent):
             return await self._judge(replace(spec, delay=self._delay(ctx, len(moves))), moves)
 
         a = self.args
-        chosen, verdicts = await search_move(ctx.scene, spec, judge_moves, a.risk_threshold, a.max_moves, idle_risk,
-                                             a.batch)
+        chosen, verdicts = await search_move(
+            ctx.scene, spec, judge_moves, a.risk_threshold, a.max_moves, idle_risk, a.batch
+        )
         self.tried += verdicts
         return chosen
 
     # -- writing W -----------------------------------------------------------------------------
-    def _write(self, ctx: Context, chosen: Verdict, dangers: dict[str, tuple[Edge, Danger]], current: Node | None,
-               unsaved: str, started: float) -> None:
+    def _write(
+        self,
+        ctx: Context,
+        chosen: Verdict,
+        dangers: dict[str, tuple[Edge, Danger]],
+        current: Node | None,
+        unsaved: str,
+        started: float,
+    ) -> None:
         g, move = self.g, chosen.move
         robot = ctx.scene.robot
         assert robot is not None and move is not None
@@ -241,19 +281,41 @@ class Action(Agent):
         with g.batch():
             if current is not None and g.find_node(current.id) is not None:
                 g.update_node(current.id, {"status": "superseded"})
-            node = g.insert_node(INTENTION, f"move_to_{ctx.episode}_{next(self.names)}", {
-                "action": "move_to", "target": ctx.ids.get(move.target, 0), "final_pose": [move.x, move.y, move.heading],
-                "status": "proposed", "created_at": time.time(), "person": edge.src,
-                "observed_at": edge.get("observed_at", 0.0), "risk_at": edge.get("updated_at", 0.0),
-                "at_time": ctx.scene.time, "time_to_collision": danger.time_to_collision,
-                "in_time": chosen.in_time(danger), "reason": reason})
+            node = g.insert_node(
+                INTENTION,
+                f"move_to_{ctx.episode}_{next(self.names)}",
+                {
+                    "action": "move_to",
+                    "target": ctx.ids.get(move.target, 0),
+                    "final_pose": [move.x, move.y, move.heading],
+                    "status": "proposed",
+                    "created_at": time.time(),
+                    "person": edge.src,
+                    "observed_at": edge.get("observed_at", 0.0),
+                    "risk_at": edge.get("updated_at", 0.0),
+                    "at_time": ctx.scene.time,
+                    "time_to_collision": danger.time_to_collision,
+                    "in_time": chosen.in_time(danger),
+                    "reason": reason,
+                },
+            )
             g.insert_or_assign_edge(ctx.ids[robot.name], node, HAS, {"status": "proposed", "updated_at": time.time()})
-        self.log.info("move chosen", target=move.target, x=round(move.x, 2), y=round(move.y, 2),
-                      in_time=chosen.in_time(danger), risk=round(chosen.risk, 2), people=len(dangers),
-                      tried=len(self.tried), refused=sorted({v.reason for v in self.tried if not v.clear})[:4],
-                      replaces=current.name if current is not None else None, search_ms=self._ms(started),
-                      rpc_ms=round(self.rpc_ms, 1), sim_ms=round(self.sim_ms, 1),
-                      since_risk_ms=round((time.time() - edge.get("updated_at", time.time())) * 1e3, 1))
+        self.log.info(
+            "move chosen",
+            target=move.target,
+            x=round(move.x, 2),
+            y=round(move.y, 2),
+            in_time=chosen.in_time(danger),
+            risk=round(chosen.risk, 2),
+            people=len(dangers),
+            tried=len(self.tried),
+            refused=sorted({v.reason for v in self.tried if not v.clear})[:4],
+            replaces=current.name if current is not None else None,
+            search_ms=self._ms(started),
+            rpc_ms=round(self.rpc_ms, 1),
+            sim_ms=round(self.sim_ms, 1),
+            since_risk_ms=round((time.time() - edge.get("updated_at", time.time())) * 1e3, 1),
+        )
 
     def _delay(self, ctx: Context, moves: int) -> float:
         """When a move judged now would reach the world, in seconds after the context.

@@ -66,8 +66,15 @@ def read_context(g: Graph) -> Context | None:
         if pose is None:
             continue
         height = node.get("size", (0.0, 0.0, 0.2))[2]
-        obstacles.append(Obstacle(node.name, node.get("kind", "object"), node_shape(node, *pose), max(height, 1e-3),
-                                  bool(node.get("is_target", False))))
+        obstacles.append(
+            Obstacle(
+                node.name,
+                node.get("kind", "object"),
+                node_shape(node, *pose),
+                max(height, 1e-3),
+                bool(node.get("is_target", False)),
+            )
+        )
         ids[node.name] = node.id
         sigma[node.name] = node.get("position_sigma", 0.0)
         written = max(written, node.get("written_at", 0.0))
@@ -78,9 +85,21 @@ def read_context(g: Graph) -> Context | None:
             continue
         gaze = node.get("gaze_range", (0.0, 0.0))
         vx, vy = node.get("velocity", (0.0, 0.0))
-        people.append(PersonState(node.name, pose[0], pose[1], pose[2], max(node.get("speed", 0.5), 0.05),
-                                  node.get("radius", 0.25), node.get("eye_height", 1.6), node.get("fov", math.pi),
-                                  node.get("vfov", math.radians(40)), gaze[0], gaze[1]))
+        people.append(
+            PersonState(
+                node.name,
+                pose[0],
+                pose[1],
+                pose[2],
+                max(node.get("speed", 0.5), 0.05),
+                node.get("radius", 0.25),
+                node.get("eye_height", 1.6),
+                node.get("fov", math.pi),
+                node.get("vfov", math.radians(40)),
+                gaze[0],
+                gaze[1],
+            )
+        )
         ids[node.name] = node.id
         sigma[node.name] = node.get("position_sigma", 0.0)
         velocity[node.name] = (vx, vy)
@@ -89,9 +108,19 @@ def read_context(g: Graph) -> Context | None:
     pose = _pose(g, r) or (0.0, 0.0, 0.0)
     length, width_r, height = r.get("size", (0.5, 0.4, 1.5))
     route = r.get("route", ())
-    robot = RobotState(r.name, pose[0], pose[1], pose[2], length, width_r, height, r.get("max_speed", 0.5),
-                       r.get("max_accel", 0.5), max(float(r.get("speed", 0.0)), 0.0),
-                       tuple(zip(route[0::2], route[1::2], strict=True)))
+    robot = RobotState(
+        r.name,
+        pose[0],
+        pose[1],
+        pose[2],
+        length,
+        width_r,
+        height,
+        r.get("max_speed", 0.5),
+        r.get("max_accel", 0.5),
+        max(float(r.get("speed", 0.0)), 0.0),
+        tuple(zip(route[0::2], route[1::2], strict=True)),
+    )
     ids[r.name] = r.id
     stamp = max([world.get("sim_time", 0.0)] + [n.get("stamp", 0.0) for n in g.nodes(PERSON)])
     scene = Scene(room.bounds, tuple(obstacles), tuple(people), robot, stamp)
@@ -105,4 +134,3 @@ def _pose(g: Graph, node: Node) -> tuple[float, float, float] | None:
     t = edge.get("rt_translation")
     rot = edge.get("rt_rotation_euler_xyz", (0.0, 0.0, 0.0))
     return float(t[0]), float(t[1]), float(rot[2])
-

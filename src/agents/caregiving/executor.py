@@ -55,8 +55,10 @@ class Executor(Agent):
             if node.get("status") != "proposed" or node.get("action") != "move_to":
                 continue
             x, y, heading = node.get("final_pose")
-            request: dict[str, Any] = {"trial": episode,
-                                       "move": {"target": str(node.get("target")), "x": x, "y": y, "heading": heading}}
+            request: dict[str, Any] = {
+                "trial": episode,
+                "move": {"target": str(node.get("target")), "x": x, "y": y, "heading": heading},
+            }
             try:
                 reply: dict[str, Any] = await self.ask(keys.robot_cmd(self.args.graph), request, timeout=2.0)
             except MessageError as exc:
@@ -66,8 +68,11 @@ class Executor(Agent):
             self.commands += 1
             now = self.g.find_node(node.id)
             if now is not None and now.get("status") == "proposed":  # not superseded meanwhile
-                self._status(node, "active" if reply["accepted"] else "failed",
-                             None if reply["accepted"] else "no path to the final pose")
+                self._status(
+                    node,
+                    "active" if reply["accepted"] else "failed",
+                    None if reply["accepted"] else "no path to the final pose",
+                )
             self.log.info("command sent", intention=node.name, accepted=reply["accepted"])
 
     @every(0.1)

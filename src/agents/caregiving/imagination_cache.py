@@ -88,8 +88,9 @@ def footing(scene: Scene, person: str, sigma: dict[str, float]) -> Footing:
     """What ``person``'s imaginations in ``scene`` depend on."""
     p = scene.person(person)
     me = Body(p.x, p.y, (p.speed, p.radius), p.radius, sigma.get(person, 0.0))
-    bodies = {o.name: body_of(o.shape, sigma.get(o.name, 0.0))
-              for o in scene.bodies_around(person) if o.kind != WALL_KIND}
+    bodies = {
+        o.name: body_of(o.shape, sigma.get(o.name, 0.0)) for o in scene.bodies_around(person) if o.kind != WALL_KIND
+    }
     return Footing(scene.time, p.heading, me, bodies)
 
 
@@ -104,8 +105,15 @@ def remaining(path: Sequence[Sequence[float]], walked: float) -> list[list[float
 class ImaginationCache:
     """Answers of the simulator, reused while their inputs stay within tolerance (see the module docs)."""
 
-    def __init__(self, move_tol: float = 0.1, size_tol: float = 0.02, reach: float = 0.6, max_age: float = 3.0,
-                 aside_tol: float = 0.5, turn_tol: float = math.radians(15)) -> None:
+    def __init__(
+        self,
+        move_tol: float = 0.1,
+        size_tol: float = 0.02,
+        reach: float = 0.6,
+        max_age: float = 3.0,
+        aside_tol: float = 0.5,
+        turn_tol: float = math.radians(15),
+    ) -> None:
         self.move_tol, self.size_tol, self.reach, self.max_age = move_tol, size_tol, reach, max_age
         self.aside_tol, self.turn_tol = aside_tol, turn_tol
         self._entries: dict[Key, _Entry] = {}
@@ -118,8 +126,13 @@ class ImaginationCache:
         self._used.add(key)
         e = self._entries.get(key)
         advance = None if e is None else self._advance(e, now)
-        if e is None or advance is None or not 0.0 <= now.time - e.footing.time <= self.max_age or \
-                self._differs(e.footing.person, now.person, math.inf) or self._bodies_changed(e, now, key[1]):
+        if (
+            e is None
+            or advance is None
+            or not 0.0 <= now.time - e.footing.time <= self.max_age
+            or self._differs(e.footing.person, now.person, math.inf)
+            or self._bodies_changed(e, now, key[1])
+        ):
             self.misses += 1
             return None
         self.hits += 1
@@ -159,9 +172,12 @@ class ImaginationCache:
 
     def _differs(self, a: Body, b: Body, move_tol: float | None = None) -> bool:
         tol = self.move_tol if move_tol is None else move_tol
-        return (math.hypot(a.x - b.x, a.y - b.y) > tol or len(a.params) != len(b.params)
-                or any(abs(u - v) > self.size_tol for u, v in zip(a.params, b.params, strict=True))
-                or abs(a.sigma - b.sigma) > self.size_tol)
+        return (
+            math.hypot(a.x - b.x, a.y - b.y) > tol
+            or len(a.params) != len(b.params)
+            or any(abs(u - v) > self.size_tol for u, v in zip(a.params, b.params, strict=True))
+            or abs(a.sigma - b.sigma) > self.size_tol
+        )
 
     def _near(self, path: np.ndarray, body: Body | None) -> bool:
         if body is None:
@@ -177,4 +193,3 @@ class ImaginationCache:
             if old is None or new is None or self._differs(old, new):
                 return True
         return False
-

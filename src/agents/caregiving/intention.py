@@ -118,17 +118,30 @@ class Intention(Agent):
     @classmethod
     def add_arguments(cls, parser: argparse.ArgumentParser) -> None:
         add_risk_arguments(parser)
-        parser.add_argument("--heading-gate-deg", type=float, default=20.0,
-                            help="a walking person's heading must match the path's start within this")
+        parser.add_argument(
+            "--heading-gate-deg",
+            type=float,
+            default=20.0,
+            help="a walking person's heading must match the path's start within this",
+        )
         parser.add_argument("--moving-speed", type=float, default=0.2, help="m/s above which a person walks")
         parser.add_argument("--min-track", type=float, default=0.3, help="seconds a person is tracked before guessing")
         parser.add_argument("--refresh", type=float, default=0.5, help="simulated seconds between unchanged rewrites")
-        parser.add_argument("--period", type=float, default=0.1,
-                            help="simulated seconds between evaluations at most (default: %(default)s)")
-        parser.add_argument("--move-tol", type=float, default=0.1,
-                            help="metres a person or nearby body moves before its imaginations are redone")
-        parser.add_argument("--max-age", type=float, default=3.0,
-                            help="simulated seconds an unchanged imagination is reused at most")
+        parser.add_argument(
+            "--period",
+            type=float,
+            default=0.1,
+            help="simulated seconds between evaluations at most (default: %(default)s)",
+        )
+        parser.add_argument(
+            "--move-tol",
+            type=float,
+            default=0.1,
+            help="metres a person or nearby body moves before its imaginations are redone",
+        )
+        parser.add_argument(
+            "--max-age", type=float, default=3.0, help="simulated seconds an unchanged imagination is reused at most"
+        )
 
     async def setup(self) -> None:
         a = self.args
@@ -180,14 +193,23 @@ class Intention(Agent):
                 cached = self.cache.lookup(key, now)
                 if cached is None:
                     pending.append((len(items), key))
-                items.append({"kind": "person", "person": person, "target": t.name, "gaze": c.gaze,
-                              "known": known, "uncertainty": uncertainty})
+                items.append(
+                    {
+                        "kind": "person",
+                        "person": person,
+                        "target": t.name,
+                        "gaze": c.gaze,
+                        "known": known,
+                        "uncertainty": uncertainty,
+                    }
+                )
                 answers.append(cached)
 
         async def finish() -> None:
             if pending:
-                reply = await self.ask(keys.imagine(a.graph), {"items": [items[i] for i, _ in pending]},
-                                       decode=imagine_reply.decode)
+                reply = await self.ask(
+                    keys.imagine(a.graph), {"items": [items[i] for i, _ in pending]}, decode=imagine_reply.decode
+                )
                 walking = ctx.speed(person) > a.moving_speed
                 for (i, key), res in zip(pending, reply.results, strict=True):
                     self.cache.store(key, now, res, aside=walking and self._aside(res, p.heading))
@@ -210,8 +232,15 @@ class Intention(Agent):
         pid = ctx.ids[person]
         sure = frozenset.intersection(*(c.visible for c in classes)) if classes else frozenset()
         known = {self.g.get_node(e.dst).name for e in self.g.edges(type=KNOWS, src=pid)}
-        fresh = [n for n in sure if n in ctx.ids and n not in known and ctx.ids[n] != pid
-                 and self.g.find_node(ctx.ids[n]) is not None and self.g.get_node(ctx.ids[n]).type == OBJECT]
+        fresh = [
+            n
+            for n in sure
+            if n in ctx.ids
+            and n not in known
+            and ctx.ids[n] != pid
+            and self.g.find_node(ctx.ids[n]) is not None
+            and self.g.get_node(ctx.ids[n]).type == OBJECT
+        ]
         if fresh:
             with self.g.batch():
                 for name in fresh:
@@ -232,9 +261,16 @@ class Intention(Agent):
             if answers:
                 guess = summarise(person, target, answers, self.args.risk_threshold)
                 guesses.append(guess)
-                self.log.debug("guess", episode=ctx.episode, at=round(ctx.scene.time, 2), person=person, target=target,
-                               risky=guess.risky, probability=round(guess.probability, 3),
-                               nominal=any(walk_of(x).collided for x, _ in answers))
+                self.log.debug(
+                    "guess",
+                    episode=ctx.episode,
+                    at=round(ctx.scene.time, 2),
+                    person=person,
+                    target=target,
+                    risky=guess.risky,
+                    probability=round(guess.probability, 3),
+                    nominal=any(walk_of(x).collided for x, _ in answers),
+                )
         return guesses
 
     def _write(self, ctx: Context, people: list[str], guesses: list[Guess]) -> None:
@@ -247,18 +283,31 @@ class Intention(Agent):
                 if g.find_node(src) is None or g.find_node(dst) is None:
                     continue  # perception dropped it meanwhile
                 last = self.written.get((src, dst))
-                stale = last is None or last[0] != x.risky or last[1] != x.obstacle or \
-                    ctx.scene.time - last[2] >= self.args.refresh
+                stale = (
+                    last is None
+                    or last[0] != x.risky
+                    or last[1] != x.obstacle
+                    or ctx.scene.time - last[2] >= self.args.refresh
+                )
                 if not stale:
                     continue
                 self.written[(src, dst)] = (x.risky, x.obstacle, ctx.scene.time)
                 attrs: dict[str, Any] = {
-                    "risky": x.risky, "path": [c for pt in x.path for c in pt], "gaze": x.gaze, "action": "walk_to",
-                    "probability": x.probability, "updated_at": now, "at_time": ctx.scene.time,
-                    "observed_at": ctx.written_at}
+                    "risky": x.risky,
+                    "path": [c for pt in x.path for c in pt],
+                    "gaze": x.gaze,
+                    "action": "walk_to",
+                    "probability": x.probability,
+                    "updated_at": now,
+                    "at_time": ctx.scene.time,
+                    "observed_at": ctx.written_at,
+                }
                 if x.risky and x.obstacle in ctx.ids:
-                    attrs.update(collision_point=list(x.point or (0.0, 0.0)), collision_object=ctx.ids[x.obstacle],
-                                 time_to_collision=x.ttc if x.ttc is not None else 0.0)
+                    attrs.update(
+                        collision_point=list(x.point or (0.0, 0.0)),
+                        collision_object=ctx.ids[x.obstacle],
+                        time_to_collision=x.ttc if x.ttc is not None else 0.0,
+                    )
                 g.insert_or_assign_edge(src, dst, HAS_INTENTION, attrs)
             self._prune(ctx, people, keep, guesses)
 
@@ -277,11 +326,21 @@ class Intention(Agent):
         for x in guesses:
             if x.risky and x.obstacle in ctx.ids:
                 src, dst = ctx.ids[x.person], ctx.ids[x.obstacle]
-                if g.find_node(src) is not None and g.find_node(dst) is not None and \
-                        g.find_edge(src, dst, COLLISION) is None:
-                    g.insert_or_assign_edge(src, dst, COLLISION, {
-                        "collision_point": list(x.point or (0.0, 0.0)),
-                        "time_to_collision": x.ttc if x.ttc is not None else 0.0, "updated_at": time.time()})
+                if (
+                    g.find_node(src) is not None
+                    and g.find_node(dst) is not None
+                    and g.find_edge(src, dst, COLLISION) is None
+                ):
+                    g.insert_or_assign_edge(
+                        src,
+                        dst,
+                        COLLISION,
+                        {
+                            "collision_point": list(x.point or (0.0, 0.0)),
+                            "time_to_collision": x.ttc if x.ttc is not None else 0.0,
+                            "updated_at": time.time(),
+                        },
+                    )
 
 
 if __name__ == "__main__":

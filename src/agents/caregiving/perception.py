@@ -49,8 +49,12 @@ class Perception(Agent):
         parser.add_argument("--gaze-deg", type=float, nargs=2, help="people's vertical gaze range (default 6 10)")
         parser.add_argument("--walk-speed", type=float, help="assumed walking speed, m/s (default 0.5)")
         parser.add_argument("--forget", type=float, default=1.0, help="seconds before an unseen track is dropped")
-        parser.add_argument("--object-step", type=float, default=0.01,
-                            help="metres an object's position or size estimate must change before it is rewritten")
+        parser.add_argument(
+            "--object-step",
+            type=float,
+            default=0.01,
+            help="metres an object's position or size estimate must change before it is rewritten",
+        )
 
     async def setup(self) -> None:
         a = self.args
@@ -98,21 +102,37 @@ class Perception(Agent):
         now = time.time()
         with g.batch():
             if g.find_node(m["name"]) is None:
-                g.insert_node(ROBOT, m["name"], {"size": [m["length"], m["width"], m["height"]],
-                                                   "footprint": [m["width"], m["length"]],
-                                                   "max_speed": m["max_speed"], "max_accel": m["max_accel"]})
+                g.insert_node(
+                    ROBOT,
+                    m["name"],
+                    {
+                        "size": [m["length"], m["width"], m["height"]],
+                        "footprint": [m["width"], m["length"]],
+                        "max_speed": m["max_speed"],
+                        "max_accel": m["max_accel"],
+                    },
+                )
             world = g.get_node(WORLD)
             if world.get("room_size") is None:
                 x0, y0, x1, y1 = m["bounds"]
                 g.update_node(WORLD, {"room_size": [x1 - x0, y1 - y0]})
             if not any(n.get("kind") == "wall" for n in g.nodes(OBJECT)):
                 for i, w in enumerate(m.get("walls", [])):
-                    node = g.insert_node(OBJECT, f"wall_{self.episode}_{i}", {
-                        "kind": "wall", "shape": "box", "size": [2 * w["hx"], 2 * w["hy"], m["wall_height"]],
-                        "is_obstacle": True, "is_target": False})
+                    node = g.insert_node(
+                        OBJECT,
+                        f"wall_{self.episode}_{i}",
+                        {
+                            "kind": "wall",
+                            "shape": "box",
+                            "size": [2 * w["hx"], 2 * w["hy"], m["wall_height"]],
+                            "is_obstacle": True,
+                            "is_target": False,
+                        },
+                    )
                     g.rt.set_pose2d(WORLD, node, w["x"], w["y"], w["theta"])
-            g.update_node(m["name"], {"speed": m["speed"], "route": m.get("route", []), "stamp": m["time"],
-                                      "written_at": now})
+            g.update_node(
+                m["name"], {"speed": m["speed"], "route": m.get("route", []), "stamp": m["time"], "written_at": now}
+            )
             g.update_node(WORLD, {"sim_time": m["time"]})
             g.rt.set_pose2d(WORLD, m["name"], m["x"], m["y"], m["heading"])
 
@@ -143,19 +163,41 @@ class Perception(Agent):
         if t.kind == PERSON_TRACK:
             volatile.update(velocity=[t.vx, t.vy])
             if node is None:
-                node = self.nodes[t.id] = g.insert_node(PERSON, f"person_{t.id}", {
-                    "radius": sx / 2, "eye_height": height, "track_id": t.id, "speed": self.walk_speed,
-                    **self.person_model, **volatile})
+                node = self.nodes[t.id] = g.insert_node(
+                    PERSON,
+                    f"person_{t.id}",
+                    {
+                        "radius": sx / 2,
+                        "eye_height": height,
+                        "track_id": t.id,
+                        "speed": self.walk_speed,
+                        **self.person_model,
+                        **volatile,
+                    },
+                )
             else:
                 g.update_node(node, volatile)
         elif node is None:
-            node = self.nodes[t.id] = g.insert_node(OBJECT, f"{t.kind}_{t.id}", {
-                "kind": t.kind, "shape": t.shape, "size": [sx, sy, height], "is_obstacle": True,
-                "is_target": t.target, "track_id": t.id, **volatile})
+            node = self.nodes[t.id] = g.insert_node(
+                OBJECT,
+                f"{t.kind}_{t.id}",
+                {
+                    "kind": t.kind,
+                    "shape": t.shape,
+                    "size": [sx, sy, height],
+                    "is_obstacle": True,
+                    "is_target": t.target,
+                    "track_id": t.id,
+                    **volatile,
+                },
+            )
         else:
             g.update_node(node, volatile)
             old = g.get_node(node).get("size")
-            if old is None or max(abs(a - b) for a, b in zip(old, (sx, sy, height), strict=True)) > self.args.object_step:
+            if (
+                old is None
+                or max(abs(a - b) for a, b in zip(old, (sx, sy, height), strict=True)) > self.args.object_step
+            ):
                 g.update_node(node, {"size": [sx, sy, height]})
             x, y, yaw = g.rt.pose2d(WORLD, node)
             if math.hypot(t.x - x, t.y - y) <= self.args.object_step and abs(t.heading - yaw) <= 0.02:

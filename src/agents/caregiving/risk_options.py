@@ -11,10 +11,16 @@ DEFAULT_SIZE_ERROR = 0.2
 
 def add_risk_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenario", help="take the sensors' size error from this scenario")
-    parser.add_argument("--size-error", type=float, help=f"bound of the object size bias (default {DEFAULT_SIZE_ERROR})")
+    parser.add_argument(
+        "--size-error", type=float, help=f"bound of the object size bias (default {DEFAULT_SIZE_ERROR})"
+    )
     parser.add_argument("--samples", type=int, default=64, help="sampled worlds per imagined walk")
-    parser.add_argument("--risk-threshold", type=float, default=0.2,
-                        help="collision probability deemed risky (see docs/caregiving.md, precision)")
+    parser.add_argument(
+        "--risk-threshold",
+        type=float,
+        default=0.2,
+        help="collision probability deemed risky (see docs/caregiving.md, precision)",
+    )
 
 
 def size_error(args: argparse.Namespace) -> float:

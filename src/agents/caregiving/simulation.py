@@ -61,8 +61,12 @@ class Simulation(Agent):
 
     @classmethod
     def add_arguments(cls, parser: argparse.ArgumentParser) -> None:
-        parser.add_argument("--rollout", choices=["numpy", "bullet"], default="numpy",
-                            help="walk rollouts with the vectorised numpy path or with PyBullet (default: %(default)s)")
+        parser.add_argument(
+            "--rollout",
+            choices=["numpy", "bullet"],
+            default="numpy",
+            help="walk rollouts with the vectorised numpy path or with PyBullet (default: %(default)s)",
+        )
 
     async def setup(self) -> None:
         self.bullet = BulletRollout.shared() if self.args.rollout == "bullet" else None
@@ -102,9 +106,15 @@ class Simulation(Agent):
             await self._serve_until(job)
         self.served += len(job.results)
         context = ctx if ctx is not None and scene is ctx.scene else None  # None: the request pinned its scene
-        return imagine_reply.encode(ImagineReply(
-            context.episode if context else None, scene.time, context.written_at if context else None,
-            (time.perf_counter() - start) * 1e3, tuple(job.results)))
+        return imagine_reply.encode(
+            ImagineReply(
+                context.episode if context else None,
+                scene.time,
+                context.written_at if context else None,
+                (time.perf_counter() - start) * 1e3,
+                tuple(job.results),
+            )
+        )
 
     async def _serve_until(self, mine: _Job) -> None:
         """Serve queued items one at a time, robot-move batches (Algorithm 2) first, until ``mine`` is done.

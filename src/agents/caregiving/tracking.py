@@ -57,8 +57,9 @@ class Track:
 class Tracker:
     """Associates frames of detections to tracks."""
 
-    def __init__(self, sensor_sigma: float, gate: float = 0.6, confirm: int = 3, forget: float = 1.0,
-                 window: float = 1.0) -> None:
+    def __init__(
+        self, sensor_sigma: float, gate: float = 0.6, confirm: int = 3, forget: float = 1.0, window: float = 1.0
+    ) -> None:
         self.sensor_sigma = sensor_sigma
         self.gate = gate
         self.confirm = confirm

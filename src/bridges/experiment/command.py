@@ -17,13 +17,20 @@ def add_command(commands: Any) -> None:
     p.add_argument("scenario", help="scenario file or shipped scenario name, e.g. paper_experiment1")
     p.add_argument("--trials", type=int, default=180, help="randomised trials (default: %(default)s)")
     p.add_argument("--seed", type=int, default=2024, help="seed of the trial sampler (default: %(default)s)")
-    p.add_argument("--rate", type=float, default=2.0,
-                   help="simulated seconds per wall second in the world bridge (default: %(default)s)")
+    p.add_argument(
+        "--rate",
+        type=float,
+        default=2.0,
+        help="simulated seconds per wall second in the world bridge (default: %(default)s)",
+    )
     p.add_argument("--json", type=Path, help="write the results here")
     p.add_argument("--figures", type=Path, help="write the Fig. 3 style trial figure and the reaction histogram here")
     p.add_argument("--logs", type=Path, help="directory for the processes' logs (default: a temporary one)")
-    p.add_argument("--compare", type=Path,
-                   help="an earlier run's JSON: the trial figure then shows a trial saved now that collided there")
+    p.add_argument(
+        "--compare",
+        type=Path,
+        help="an earlier run's JSON: the trial figure then shows a trial saved now that collided there",
+    )
 
 
 def main(args: argparse.Namespace) -> int:
@@ -35,16 +42,26 @@ def main(args: argparse.Namespace) -> int:
         from .launch import LaunchError
         from .trials import TrialError
     except ModuleNotFoundError as exc:
-        print(f"wm experiment: error: {exc}; the experiment needs the caregiving extra: pip install 'cortex-wm[caregiving]'",
-              file=sys.stderr)
+        print(
+            f"wm experiment: error: {exc}; the experiment needs the caregiving extra: pip install 'cortex-wm[caregiving]'",
+            file=sys.stderr,
+        )
         return 1
 
     if args.trials < 1:
         print("wm experiment: error: --trials must be at least 1", file=sys.stderr)
         return 1
     try:
-        experiment(args.scenario, args.trials, args.seed, rate=args.rate, json_out=args.json, figures=args.figures,
-                   logdir=args.logs, compare=args.compare)
+        experiment(
+            args.scenario,
+            args.trials,
+            args.seed,
+            rate=args.rate,
+            json_out=args.json,
+            figures=args.figures,
+            logdir=args.logs,
+            compare=args.compare,
+        )
     except (ScenarioError, LaunchError, TrialError) as exc:
         print(f"wm experiment: error: {exc}", file=sys.stderr)
         return 1

@@ -38,27 +38,35 @@ def risky_trial(stack: Stack, console: Console) -> Scored:
 def narrate(s: Scored, console: Console) -> None:
     """A few lines on what W showed and what really happened."""
     r = s.record
-    console.print(f"[bold]Trial {r.index} of seed {RISKY[0]}[/bold]: ground truth with the robot idle: "
-                  f"{'the person trips' if s.truly_risky else 'safe'}.")
+    console.print(
+        f"[bold]Trial {r.index} of seed {RISKY[0]}[/bold]: ground truth with the robot idle: "
+        f"{'the person trips' if s.truly_risky else 'safe'}."
+    )
     if r.risky is None:
         console.print("No risky intention arose.")
         return
-    console.print(f"intention agent: has_intention marked risky, collision predicted in "
-                  f"{r.risky.get('time_to_collision', 0):.2f} s (probability {r.risky.get('probability', 0):.2f}).")
+    console.print(
+        f"intention agent: has_intention marked risky, collision predicted in "
+        f"{r.risky.get('time_to_collision', 0):.2f} s (probability {r.risky.get('probability', 0):.2f})."
+    )
     if r.action is None:
         console.print("action agent: no move could remove the danger in time.")
     else:
         x, y, _ = r.action["final_pose"]
-        console.print(f"action agent: robot intention move_to at ({x:.2f}, {y:.2f}) written "
-                      f"{r.reaction_ms:.1f} ms after the risky intention ({r.e2e_ms:.1f} ms after the perception "
-                      f"write that showed the danger).")
+        console.print(
+            f"action agent: robot intention move_to at ({x:.2f}, {y:.2f}) written "
+            f"{r.reaction_ms:.1f} ms after the risky intention ({r.e2e_ms:.1f} ms after the perception "
+            f"write that showed the danger)."
+        )
     if r.collided:
         c = r.outcome["collisions"][0]
         console.print(f"world: the person touched {c['obstacle']} at t={c['time']:.2f} s.")
     else:
         clearance = min(v for v in r.outcome.get("min_clearance", {}).values() if v is not None)
-        console.print(f"world: the person saw the robot, walked around, and reached the couch "
-                      f"(closest approach {100 * clearance:.0f} cm).")
+        console.print(
+            f"world: the person saw the robot, walked around, and reached the couch "
+            f"(closest approach {100 * clearance:.0f} cm)."
+        )
 
 
 def main() -> None:

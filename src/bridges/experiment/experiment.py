@@ -61,9 +61,21 @@ from .trials import TrialRecord, finite, open_harness
 
 #: When no risky intention arose, the oracle acts at the time the pipeline typically does (simulated seconds).
 ORACLE_AT = 0.5
-PAPER = {"trials": 180, "discarded": 13, "valid": 167, "accuracy": 0.7964, "fp_rate": 0.2035, "fn_rate": 0.0,
-         "precision": 0.61, "recall": 1.0, "f1": 0.76, "f2": 0.89, "reaction_ms_mean": 747.0,
-         "reaction_ms_sd": 310.0, "action_rate": 0.8518}
+PAPER = {
+    "trials": 180,
+    "discarded": 13,
+    "valid": 167,
+    "accuracy": 0.7964,
+    "fp_rate": 0.2035,
+    "fn_rate": 0.0,
+    "precision": 0.61,
+    "recall": 1.0,
+    "f1": 0.76,
+    "f2": 0.89,
+    "reaction_ms_mean": 747.0,
+    "reaction_ms_sd": 310.0,
+    "action_rate": 0.8518,
+}
 
 
 @dataclass(frozen=True)
@@ -110,28 +122,42 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
     detected = [s for s in scored if s.predicted]
     risky = [s for s in scored if s.truly_risky]
     return {
-        "trials": len(scored), "discarded": len(scored) - len(valid), "valid": len(valid),
-        "tp": tp, "fp": fp, "tn": tn, "fn": fn,
-        "accuracy": _ratio(tp + tn, len(valid)), "precision": precision, "recall": recall, "f1": f1, "f2": f2,
-        "fp_rate": _ratio(fp, len(valid)), "fn_rate": _ratio(fn, len(valid)),
+        "trials": len(scored),
+        "discarded": len(scored) - len(valid),
+        "valid": len(valid),
+        "tp": tp,
+        "fp": fp,
+        "tn": tn,
+        "fn": fn,
+        "accuracy": _ratio(tp + tn, len(valid)),
+        "precision": precision,
+        "recall": recall,
+        "f1": f1,
+        "f2": f2,
+        "fp_rate": _ratio(fp, len(valid)),
+        "fn_rate": _ratio(fn, len(valid)),
         "reaction_ms_mean": statistics.fmean(reactions) if reactions else None,
         "reaction_ms_sd": statistics.stdev(reactions) if len(reactions) > 1 else None,
-        "reaction_ms_p50": percentile(reactions, 50), "reaction_ms_p99": percentile(reactions, 99),
-        "e2e_ms_p50": percentile(e2e, 50), "e2e_ms_p99": percentile(e2e, 99),
+        "reaction_ms_p50": percentile(reactions, 50),
+        "reaction_ms_p99": percentile(reactions, 99),
+        "e2e_ms_p50": percentile(e2e, 50),
+        "e2e_ms_p99": percentile(e2e, 99),
         "e2e_ms_mean": statistics.fmean(e2e) if e2e else None,
         "action_rate": _ratio(sum(s.record.action is not None for s in detected), len(detected)),
-        "action_in_time_rate": _ratio(sum(s.record.action is not None and s.record.action.get("in_time", True)
-                                          for s in detected), len(detected)),
+        "action_in_time_rate": _ratio(
+            sum(s.record.action is not None and s.record.action.get("in_time", True) for s in detected), len(detected)
+        ),
         "prevention_rate": _ratio(sum(not s.record.collided for s in risky), len(risky)),
         "prevented": sum(not s.record.collided for s in risky),
         "prevented_saveable": sum(not s.record.collided for s in risky if s.saveable),
-        "oracle_saveable": sum(bool(s.saveable) for s in risky) if any(s.saveable is not None for s in risky)
-        else None,
+        "oracle_saveable": sum(bool(s.saveable) for s in risky) if any(s.saveable is not None for s in risky) else None,
         "oracle_standoff_saveable": sum(bool(s.standoff_saveable) for s in risky),
-        "prevention_rate_of_saveable": _ratio(sum(not s.record.collided for s in risky if s.saveable),
-                                              sum(bool(s.saveable) for s in risky)),
+        "prevention_rate_of_saveable": _ratio(
+            sum(not s.record.collided for s in risky if s.saveable), sum(bool(s.saveable) for s in risky)
+        ),
         "robot_caused_collisions": sum(s.record.collided and not s.truly_risky for s in scored),
-        "truly_risky": len(risky), "closed_loop_collisions": sum(s.record.collided for s in scored),
+        "truly_risky": len(risky),
+        "closed_loop_collisions": sum(s.record.collided for s in scored),
     }
 
 
@@ -140,33 +166,54 @@ def _fmt(key: str, value: Any) -> str:
         return "-"
     if "_ms_" in key:
         return f"{value:.1f} ms"
-    if key in ("accuracy", "fp_rate", "fn_rate", "action_rate", "action_in_time_rate", "prevention_rate",
-               "prevention_rate_of_saveable"):
+    if key in (
+        "accuracy",
+        "fp_rate",
+        "fn_rate",
+        "action_rate",
+        "action_in_time_rate",
+        "prevention_rate",
+        "prevention_rate_of_saveable",
+    ):
         return f"{100 * value:.2f} %"
     if isinstance(value, float):
         return f"{value:.3f}"
     return str(value)
 
 
-ROWS = [("Total experiments", "trials"), ("Experiments discarded", "discarded"), ("Valid experiments", "valid"),
-        ("Accuracy rate", "accuracy"), ("False positives", "fp_rate"), ("False negatives", "fn_rate"),
-        ("Precision", "precision"), ("Recall", "recall"), ("F-1 score", "f1"), ("F-2 score", "f2"),
-        ("Reaction time (mean)", "reaction_ms_mean"), ("Reaction time (deviation)", "reaction_ms_sd"),
-        ("Detected collision and action generated", "action_rate"),
-        ("... with a move imagined in place in time", "action_in_time_rate"),
-        ("Truly risky trials", "truly_risky"), ("Prevented (truly risky trials)", "prevention_rate"),
-        ("Truly risky trials some move could save (oracle)", "oracle_saveable"),
-        ("... with stand-off moves only", "oracle_standoff_saveable"),
-        ("Prevented (of those some move could save)", "prevention_rate_of_saveable"),
-        ("Collisions the robot caused", "robot_caused_collisions"),
-        ("End to end p50", "e2e_ms_p50"), ("End to end p99", "e2e_ms_p99")]
+ROWS = [
+    ("Total experiments", "trials"),
+    ("Experiments discarded", "discarded"),
+    ("Valid experiments", "valid"),
+    ("Accuracy rate", "accuracy"),
+    ("False positives", "fp_rate"),
+    ("False negatives", "fn_rate"),
+    ("Precision", "precision"),
+    ("Recall", "recall"),
+    ("F-1 score", "f1"),
+    ("F-2 score", "f2"),
+    ("Reaction time (mean)", "reaction_ms_mean"),
+    ("Reaction time (deviation)", "reaction_ms_sd"),
+    ("Detected collision and action generated", "action_rate"),
+    ("... with a move imagined in place in time", "action_in_time_rate"),
+    ("Truly risky trials", "truly_risky"),
+    ("Prevented (truly risky trials)", "prevention_rate"),
+    ("Truly risky trials some move could save (oracle)", "oracle_saveable"),
+    ("... with stand-off moves only", "oracle_standoff_saveable"),
+    ("Prevented (of those some move could save)", "prevention_rate_of_saveable"),
+    ("Collisions the robot caused", "robot_caused_collisions"),
+    ("End to end p50", "e2e_ms_p50"),
+    ("End to end p99", "e2e_ms_p99"),
+]
 
 
 def prevention_line(result: dict[str, Any]) -> str:
     """One line: the truly risky trials prevented, out of those some move could save and out of all."""
-    return (f"prevented {result['prevented_saveable']} of the {result['oracle_saveable'] or 0} truly risky trials "
-            f"some move could save, {result['prevented']} of {result['truly_risky']} truly risky in all; "
-            f"the robot caused {result['robot_caused_collisions']} collision(s)")
+    return (
+        f"prevented {result['prevented_saveable']} of the {result['oracle_saveable'] or 0} truly risky trials "
+        f"some move could save, {result['prevented']} of {result['truly_risky']} truly risky in all; "
+        f"the robot caused {result['robot_caused_collisions']} collision(s)"
+    )
 
 
 def table(result: dict[str, Any]) -> Table:
@@ -180,8 +227,15 @@ def table(result: dict[str, Any]) -> Table:
     return t
 
 
-async def run_trials(scenario: Scenario, stack: Stack, seed: int, indices: list[int | None],
-                     console: Console, graph: str, scenario_file: str | None = None) -> list[Scored]:
+async def run_trials(
+    scenario: Scenario,
+    stack: Stack,
+    seed: int,
+    indices: list[int | None],
+    console: Console,
+    graph: str,
+    scenario_file: str | None = None,
+) -> list[Scored]:
     """Run the trials on a started stack, with a progress bar; returns them scored.
 
     ``scenario_file`` switches the world bridge to that file (``scenario`` is its loaded form).
@@ -198,7 +252,9 @@ async def run_trials(scenario: Scenario, stack: Stack, seed: int, indices: list[
                 record = await harness.run(seed, index, timeout, scenario_file)
                 truth = run_idle(trial_for(scenario, seed, index), planner=planner)
                 scored.append(Scored(record, truth.collided, min(truth.min_clearance.values(), default=float("inf"))))
-                progress.update(task, advance=1, description=f"trials ({sum(s.record.collided for s in scored)} collided)")
+                progress.update(
+                    task, advance=1, description=f"trials ({sum(s.record.collided for s in scored)} collided)"
+                )
     return scored
 
 
@@ -209,8 +265,11 @@ def _judge_trial(job: tuple[Scenario, int, int | None, float]) -> OracleVerdict:
 
 def with_oracle(scenario: Scenario, seed: int, scored: list[Scored], console: Console) -> list[Scored]:
     """Add the physical oracle's verdict to the truly risky trials, two processes at a time."""
-    jobs = [(scenario, seed, s.record.index, (s.record.risky or {}).get("at_time", ORACLE_AT))
-            for s in scored if s.truly_risky]
+    jobs = [
+        (scenario, seed, s.record.index, (s.record.risky or {}).get("at_time", ORACLE_AT))
+        for s in scored
+        if s.truly_risky
+    ]
     with console.status(f"oracle: could any move have saved the {len(jobs)} truly risky trials?"):
         with ProcessPoolExecutor(max_workers=2) as pool:
             verdicts = iter(list(pool.map(_judge_trial, jobs)))
@@ -223,18 +282,41 @@ def with_oracle(scenario: Scenario, seed: int, scored: list[Scored], console: Co
 
 def trial_json(s: Scored) -> dict[str, Any]:
     r = s.record
-    return {"index": r.index, "truly_risky": s.truly_risky, "discarded": s.discarded, "predicted": s.predicted,
-            "acted": r.action is not None, "in_time": (r.action or {}).get("in_time"), "collided": r.collided,
-            "saveable": s.saveable, "standoff_saveable": s.standoff_saveable,
-            "robot_caused": r.collided and not s.truly_risky, "reason": (r.action or {}).get("reason"),
-            "idle_min_clearance": s.idle_clearance, "risk_probability": (r.risky or {}).get("probability"),
-            "risk_at_time": (r.risky or {}).get("at_time"), "time_to_collision": (r.risky or {}).get("time_to_collision"),
-            "reaction_ms": r.reaction_ms, "e2e_ms": r.e2e_ms, "collisions": r.outcome.get("collisions", [])}
+    return {
+        "index": r.index,
+        "truly_risky": s.truly_risky,
+        "discarded": s.discarded,
+        "predicted": s.predicted,
+        "acted": r.action is not None,
+        "in_time": (r.action or {}).get("in_time"),
+        "collided": r.collided,
+        "saveable": s.saveable,
+        "standoff_saveable": s.standoff_saveable,
+        "robot_caused": r.collided and not s.truly_risky,
+        "reason": (r.action or {}).get("reason"),
+        "idle_min_clearance": s.idle_clearance,
+        "risk_probability": (r.risky or {}).get("probability"),
+        "risk_at_time": (r.risky or {}).get("at_time"),
+        "time_to_collision": (r.risky or {}).get("time_to_collision"),
+        "reaction_ms": r.reaction_ms,
+        "e2e_ms": r.e2e_ms,
+        "collisions": r.outcome.get("collisions", []),
+    }
 
 
-def experiment(scenario_path: str, trials: int, seed: int, *, rate: float = 4.0, json_out: Path | None = None,
-               figures: Path | None = None, console: Console | None = None, logdir: Path | None = None,
-               nominal: bool = False, compare: Path | None = None) -> dict[str, Any]:
+def experiment(
+    scenario_path: str,
+    trials: int,
+    seed: int,
+    *,
+    rate: float = 4.0,
+    json_out: Path | None = None,
+    figures: Path | None = None,
+    console: Console | None = None,
+    logdir: Path | None = None,
+    nominal: bool = False,
+    compare: Path | None = None,
+) -> dict[str, Any]:
     """Start the stack, run the trials, print Table I, write the JSON and figures; returns the results."""
     from . import figures as figs
 
@@ -245,12 +327,20 @@ def experiment(scenario_path: str, trials: int, seed: int, *, rate: float = 4.0,
     indices: list[int | None] = [None] if nominal else list(range(trials))
     started = time.monotonic()
     with Stack(graph, scenario_path, logs, rate=rate) as stack:
-        console.print(f"stack up: {len(stack.names)} processes on {stack.endpoint}, simulated clock x{rate:g}, logs in {logs}")
+        console.print(
+            f"stack up: {len(stack.names)} processes on {stack.endpoint}, simulated clock x{rate:g}, logs in {logs}"
+        )
         scored = asyncio.run(run_trials(scenario, stack, seed, indices, console, graph))
     scored = with_oracle(scenario, seed, scored, console)
     result = metrics(scored)
-    result.update(scenario=scenario.name, seed=seed, rate=rate, sensor_noise=scenario.sensors.enabled,
-                  wall_s=time.monotonic() - started, paper=PAPER)
+    result.update(
+        scenario=scenario.name,
+        seed=seed,
+        rate=rate,
+        sensor_noise=scenario.sensors.enabled,
+        wall_s=time.monotonic() - started,
+        paper=PAPER,
+    )
     console.print(table(result))
     console.print(prevention_line(result))
     if figures is not None:

@@ -51,15 +51,31 @@ def draw_trial(record: TrialRecord, path: Path, title: str = "") -> Path:
         if o.kind != "wall":
             ax.annotate(o.kind, (o.shape.x, o.shape.y), ha="center", va="center", fontsize=8)
     for p in scene.people:
-        ax.add_patch(Wedge((p.x, p.y), 2.5, math.degrees(p.heading - p.hfov / 2), math.degrees(p.heading + p.hfov / 2),
-                           facecolor="#9be39b", alpha=0.25, edgecolor="none"))
+        ax.add_patch(
+            Wedge(
+                (p.x, p.y),
+                2.5,
+                math.degrees(p.heading - p.hfov / 2),
+                math.degrees(p.heading + p.hfov / 2),
+                facecolor="#9be39b",
+                alpha=0.25,
+                edgecolor="none",
+            )
+        )
         ax.add_patch(CirclePatch((p.x, p.y), p.radius, facecolor="#f2d024", edgecolor="black", lw=0.8, zorder=4))
     for it in snap.intentions:
         flat = it.get("path") or ()
         xs, ys = flat[0::2], flat[1::2]
         risky = bool(it.get("risky"))
-        ax.plot(xs, ys, color="#d62728" if risky else "#2a7fd4", ls="--" if risky else "-", lw=1.6,
-                label=f"to {it.get('target')} ({'risky' if risky else 'safe'})", zorder=3)
+        ax.plot(
+            xs,
+            ys,
+            color="#d62728" if risky else "#2a7fd4",
+            ls="--" if risky else "-",
+            lw=1.6,
+            label=f"to {it.get('target')} ({'risky' if risky else 'safe'})",
+            zorder=3,
+        )
         if risky and it.get("collision_point"):
             cx, cy = it["collision_point"]
             ax.plot([cx], [cy], marker="X", color="black", ms=11, zorder=5, label="predicted collision")
@@ -69,13 +85,25 @@ def draw_trial(record: TrialRecord, path: Path, title: str = "") -> Path:
     action = snap.action or record.action
     if action is not None and r is not None:
         fx, fy, fh = action["final_pose"]
-        _draw_shape(ax, Box(fx, fy, r.length / 2, r.width / 2, fh), facecolor="#90ee90", edgecolor="black",
-                    alpha=0.8, label="robot (imagined)")
+        _draw_shape(
+            ax,
+            Box(fx, fy, r.length / 2, r.width / 2, fh),
+            facecolor="#90ee90",
+            edgecolor="black",
+            alpha=0.8,
+            label="robot (imagined)",
+        )
     for name, track in record.outcome.get("tracks", {}).items():
         xs = [t[1] for t in track]
         ys = [t[2] for t in track]
-        ax.plot(xs, ys, ls=":", lw=1.2, color="#b22222" if name == (r.name if r else "") else "#a07800",
-                label=f"{name}: what happened")
+        ax.plot(
+            xs,
+            ys,
+            ls=":",
+            lw=1.2,
+            color="#b22222" if name == (r.name if r else "") else "#a07800",
+            label=f"{name}: what happened",
+        )
     for c in record.outcome.get("collisions", []):
         ax.plot([c["point"][0]], [c["point"][1]], marker="*", color="red", ms=14, zorder=6, label="real collision")
     ax.set_xlim(x0 - 0.2, x1 + 0.2)
@@ -121,7 +149,10 @@ def write_all(scored: list[Scored], directory: Path, lost_before: set[int] | Non
     chosen = chosen or next((s for s in drawable if s.record.action is not None), None)
     chosen = chosen or next(iter(drawable), None)
     if chosen is not None:
-        out.append(draw_trial(chosen.record, directory / "fig3_trial.png",
-                              f"Trial {chosen.record.index}: W at the robot's decision"))
+        out.append(
+            draw_trial(
+                chosen.record, directory / "fig3_trial.png", f"Trial {chosen.record.index}: W at the robot's decision"
+            )
+        )
     out.append(draw_reactions([s.record for s in scored], directory / "reaction_times.png"))
     return out

@@ -69,27 +69,54 @@ class Stack:
 
     def variables(self, config: Path) -> dict[str, str]:
         """The launch file's variables for this stack."""
-        return {"graph": self.graph, "port": str(self.port), "data": str(self.logdir / "data"),
-                "scenario": self.scenario, "rate": f"{self.rate:g}", "zenoh": str(config)}
+        return {
+            "graph": self.graph,
+            "port": str(self.port),
+            "data": str(self.logdir / "data"),
+            "scenario": self.scenario,
+            "rate": f"{self.rate:g}",
+            "zenoh": str(config),
+        }
 
     def start(self, timeout: float = 60.0) -> Self:
         """Launch the stack; wait until every process is ready."""
         self.port = self.port or free_port()
         self.logdir.mkdir(parents=True, exist_ok=True)
         config = self.logdir / "zenoh-client.json5"
-        config.write_text(json.dumps({"mode": "client", "connect": {"endpoints": [self.endpoint]},
-                                      "scouting": {"multicast": {"enabled": False}}}))
+        config.write_text(
+            json.dumps(
+                {
+                    "mode": "client",
+                    "connect": {"endpoints": [self.endpoint]},
+                    "scouting": {"multicast": {"enabled": False}},
+                }
+            )
+        )
         variables = self.variables(config)
         try:
             spec = load(LAUNCH_FILE, variables)
         except LaunchFileError as exc:
             raise LaunchError(str(exc)) from None
         self.names = tuple(p.name for p in spec.processes)
-        argv = [sys.executable, "-m", "wm.cli", "launch", str(LAUNCH_FILE), "--no-table", "--log-dir", str(self.logdir),
-                *(f"--set={k}={v}" for k, v in variables.items())]
+        argv = [
+            sys.executable,
+            "-m",
+            "wm.cli",
+            "launch",
+            str(LAUNCH_FILE),
+            "--no-table",
+            "--log-dir",
+            str(self.logdir),
+            *(f"--set={k}={v}" for k, v in variables.items()),
+        ]
         with (self.logdir / "launch.log").open("wb") as out:
-            self.launcher = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
-                                             env={**os.environ, "PYTHONUNBUFFERED": "1"})
+            self.launcher = subprocess.Popen(
+                argv,
+                stdin=subprocess.DEVNULL,
+                stdout=out,
+                stderr=subprocess.STDOUT,
+                env={**os.environ, "PYTHONUNBUFFERED": "1"},
+            )
         deadline = time.monotonic() + timeout
         for process in spec.processes:
             self._wait_ready(process.name, process.ready or AGENT_READY, deadline)
@@ -121,8 +148,9 @@ class Stack:
         if self.launcher is None:
             raise LaunchError("the stack is not running")
         if self.launcher.poll() is not None:
-            raise LaunchError(f"wm launch exited with status {self.launcher.returncode}:\n"
-                              f"{_tail(self.logdir / 'launch.log')}")
+            raise LaunchError(
+                f"wm launch exited with status {self.launcher.returncode}:\n{_tail(self.logdir / 'launch.log')}"
+            )
         try:
             states = json.loads((self.logdir / "status.json").read_text())
         except (OSError, ValueError):
@@ -130,8 +158,9 @@ class Stack:
         for state in states.get("processes", []):
             if state.get("failures"):
                 name = state["name"]
-                raise LaunchError(f"{name} failed ({'; '.join(state['failures'])}):\n"
-                                  f"{_tail(self.logdir / f'{name}.log')}")
+                raise LaunchError(
+                    f"{name} failed ({'; '.join(state['failures'])}):\n{_tail(self.logdir / f'{name}.log')}"
+                )
 
     def __enter__(self) -> Self:
         try:

@@ -75,7 +75,7 @@ def lattice_moves(world: World) -> list[RobotMove]:
     grid = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1).reshape(-1, 2)
     moves: list[RobotMove] = []
     for c in idle.outcome().collisions:
-        track = idle.walker(c.person).track[len(world.walker(c.person).track) - 1:]
+        track = idle.walker(c.person).track[len(world.walker(c.person).track) - 1 :]
         if len(track) < 2:
             continue
         samples = Polyline.of(track).remaining(0.0, LATTICE / 2)
@@ -83,8 +83,9 @@ def lattice_moves(world: World) -> list[RobotMove]:
         direction /= max(float(np.hypot(*direction)), 1e-9)
         beyond = samples[-1] + np.outer(np.arange(1, int(BEYOND / (LATTICE / 2)) + 1) * LATTICE / 2, direction)
         corridor = np.vstack([samples, beyond])
-        near = np.min(np.hypot(grid[:, None, 0] - corridor[None, :, 0], grid[:, None, 1] - corridor[None, :, 1]),
-                      axis=1)
+        near = np.min(
+            np.hypot(grid[:, None, 0] - corridor[None, :, 0], grid[:, None, 1] - corridor[None, :, 1]), axis=1
+        )
         cells = grid[near <= CORRIDOR]
         order = np.argsort(np.hypot(cells[:, 0] - c.point[0], cells[:, 1] - c.point[1]))
         moves += [RobotMove(c.obstacle, float(x), float(y), h) for x, y in cells[order] for h in HEADINGS]

@@ -42,15 +42,24 @@ def reactions(path: str | Path) -> list[Reaction]:
     done: list[Reaction] = []
     for _, t_ns, data in iter_messages(path, [CHANGES]):
         change = json.loads(data)
-        if change["type"] == RISKY_EDGE and change["kind"] in ("edge_added", "edge_updated") and "risky" in change["attrs"]:
+        if (
+            change["type"] == RISKY_EDGE
+            and change["kind"] in ("edge_added", "edge_updated")
+            and "risky" in change["attrs"]
+        ):
             key = (change["src"], change["dst"])
             if change["attrs"]["risky"] and key not in risky:
                 risky.add(key)
-                pending.append(Reaction(change["src_name"] or str(change["src"]), change["dst_name"] or str(change["dst"]), t_ns))
+                pending.append(
+                    Reaction(change["src_name"] or str(change["src"]), change["dst_name"] or str(change["dst"]), t_ns)
+                )
             elif not change["attrs"]["risky"]:
                 risky.discard(key)
         elif change["type"] == ACTION_NODE and change["kind"] == "node_added":
-            done += [Reaction(r.person, r.target, r.risky_at_ns, change["name"], (t_ns - r.risky_at_ns) / 1e6) for r in pending]
+            done += [
+                Reaction(r.person, r.target, r.risky_at_ns, change["name"], (t_ns - r.risky_at_ns) / 1e6)
+                for r in pending
+            ]
             pending = []
     return sorted(done + pending, key=lambda r: r.risky_at_ns)
 
@@ -86,9 +95,13 @@ def plot_svg(found: list[Reaction], title: str = "Reaction times", bins: int = 1
         bar_w, peak = plot_w / bins, max(counts)
         for i, count in enumerate(counts):
             h = plot_h * count / peak
-            parts.append(f'<rect x="{left + i * bar_w:.1f}" y="{top + plot_h - h:.1f}" width="{bar_w - 2:.1f}" height="{h:.1f}" fill="#1565c0"/>')
+            parts.append(
+                f'<rect x="{left + i * bar_w:.1f}" y="{top + plot_h - h:.1f}" width="{bar_w - 2:.1f}" height="{h:.1f}" fill="#1565c0"/>'
+            )
         for i in range(0, bins + 1, max(bins // 4, 1)):
-            parts.append(f'<text x="{left + i * bar_w:.1f}" y="{top + plot_h + 16}" text-anchor="middle">{lo + span * i / bins:.1f}</text>')
+            parts.append(
+                f'<text x="{left + i * bar_w:.1f}" y="{top + plot_h + 16}" text-anchor="middle">{lo + span * i / bins:.1f}</text>'
+            )
         mean_x = left + (stats["reaction_ms_mean"] - lo) / span * plot_w
         parts += [
             f'<line x1="{mean_x:.1f}" y1="{top}" x2="{mean_x:.1f}" y2="{top + plot_h}" stroke="#d50000" stroke-dasharray="5 3"/>',
@@ -123,8 +136,10 @@ def main(args: argparse.Namespace) -> int:
         for r in found:
             answer = f"{r.action} after {r.reaction_ms:.1f} ms" if r.reaction_ms is not None else "no action"
             print(f"{r.person} -> {r.target}: {answer}")
-        print(f"{stats['risky']} risky, {stats['missed']} missed, mean {stats['reaction_ms_mean']:.1f} ms, "
-              f"sd {stats['reaction_ms_sd']:.1f} ms")
+        print(
+            f"{stats['risky']} risky, {stats['missed']} missed, mean {stats['reaction_ms_mean']:.1f} ms, "
+            f"sd {stats['reaction_ms_sd']:.1f} ms"
+        )
     if args.svg:
         Path(args.svg).write_text(plot_svg(found, title=f"Reaction times: {Path(args.file).name}"))
     return 0

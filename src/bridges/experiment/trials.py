@@ -22,10 +22,10 @@ from typing import Any
 
 import zenoh
 
+import wm
 from agents.caregiving import keys
 from agents.caregiving.context import read_context
 from agents.caregiving.names import HAS_INTENTION, INTENTION, OBJECT, PERSON, WORLD
-import wm
 from agents.messaging import Messaging, TaskSet, logging_guard
 from wm import Event, Graph
 from wm.connection import close_session, open_session
@@ -84,8 +84,9 @@ def snapshot(g: Graph, action: dict[str, Any] | None) -> Snapshot | None:
     if ctx is None:
         return None
     names = {v: k for k, v in ctx.ids.items()}
-    intentions = [{"person": names.get(e.src), "target": names.get(e.dst), **dict(e.attrs)}
-                  for e in g.edges(type=HAS_INTENTION)]
+    intentions = [
+        {"person": names.get(e.src), "target": names.get(e.dst), **dict(e.attrs)} for e in g.edges(type=HAS_INTENTION)
+    ]
     return Snapshot(ctx.scene.to_wire(), intentions, action)
 
 
@@ -137,9 +138,14 @@ class Harness:
     async def _cleared(self, trial: int, timeout: float) -> None:
         def clean() -> bool:
             world = self.g.find_node(WORLD)
-            return (world is not None and world.get("episode") == trial and not self.g.nodes(PERSON)
-                    and not self.g.nodes(INTENTION) and not self.g.edges(type=HAS_INTENTION)
-                    and all(n.get("kind") == "wall" for n in self.g.nodes(OBJECT)))
+            return (
+                world is not None
+                and world.get("episode") == trial
+                and not self.g.nodes(PERSON)
+                and not self.g.nodes(INTENTION)
+                and not self.g.edges(type=HAS_INTENTION)
+                and all(n.get("kind") == "wall" for n in self.g.nodes(OBJECT))
+            )
 
         deadline = time.monotonic() + timeout
         while not clean():

@@ -29,7 +29,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 
 async def run(args: argparse.Namespace) -> None:
     scenario = load_scenario(args.scenario)
-    session = await open_session(load_with_environment(args.config), connect=args.connect or None, listen=args.listen or None)
+    session = await open_session(
+        load_with_environment(args.config), connect=args.connect or None, listen=args.listen or None
+    )
     try:
         with sigterm_cancels_current_task():
             bridge = WorldBridge(session, args.graph, scenario, rate=args.rate, max_time=args.max_time)

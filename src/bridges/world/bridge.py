@@ -60,8 +60,13 @@ def trial_for(scenario: Scenario, seed: int, index: int | None) -> Scenario:
 
 def detection_to_wire(d: Detection) -> dict[str, Any]:
     """A detection without its identity: kind, footprint, heading, height and target flag."""
-    return {"kind": d.kind, "shape": shape_to_wire(d.shape), "heading": d.heading, "height": d.height,
-            "target": d.target}
+    return {
+        "kind": d.kind,
+        "shape": shape_to_wire(d.shape),
+        "heading": d.heading,
+        "height": d.height,
+        "target": d.target,
+    }
 
 
 @dataclass
@@ -77,8 +82,15 @@ class _Trial:
 class WorldBridge:
     """Steps trials and talks to the stack over Zenoh."""
 
-    def __init__(self, session: zenoh.Session, graph: str, scenario: Scenario, rate: float = 1.0,
-                 dt: float = DT, max_time: float = 30.0) -> None:
+    def __init__(
+        self,
+        session: zenoh.Session,
+        graph: str,
+        scenario: Scenario,
+        rate: float = 1.0,
+        dt: float = DT,
+        max_time: float = 30.0,
+    ) -> None:
         self.graph = graph
         self.scenario = scenario
         self.rate = rate
@@ -128,8 +140,12 @@ class WorldBridge:
             spec = trial_for(self.scenario, int(f.number("seed", 0)), None if index is None else int(index))
             self._trials += 1
             sensor_seed = [int(f.number("seed", 0)), 0 if index is None else int(index) + 1, 1]
-            self.trial = _Trial(self._trials, spec, World.from_scenario(spec, self.dt, self.planner),
-                                Sensors(spec.sensors, np.random.default_rng(sensor_seed)))
+            self.trial = _Trial(
+                self._trials,
+                spec,
+                World.from_scenario(spec, self.dt, self.planner),
+                Sensors(spec.sensors, np.random.default_rng(sensor_seed)),
+            )
             self._publish_state()
             log.info("trial %d prepared (index %s)", self._trials, index)
             return {"trial": self._trials, "running": False}
@@ -159,8 +175,9 @@ class WorldBridge:
         move_fields = f.optional_child("move")
         move = RobotMove.from_fields(move_fields) if move_fields is not None else None
         accepted = trial.world.command_robot(move)
-        trial.commands.append({"time": trial.world.time, "move": move.to_wire() if move else None,
-                               "accepted": accepted})
+        trial.commands.append(
+            {"time": trial.world.time, "move": move.to_wire() if move else None, "accepted": accepted}
+        )
         return {"trial": trial.number, "accepted": accepted, "time": trial.world.time}
 
     # -- running -------------------------------------------------------------------------------
@@ -191,17 +208,27 @@ class WorldBridge:
                 trial.sensors.observe(scene)
                 ready = trial.sensors.ready(world.time)
                 if ready:
-                    self._frames.put({"trial": trial.number, "time": world.time, "stamp": ready[-1].stamp,
-                                      "dets": [detection_to_wire(d) for d in ready]})
+                    self._frames.put(
+                        {
+                            "trial": trial.number,
+                            "time": world.time,
+                            "stamp": ready[-1].stamp,
+                            "dets": [detection_to_wire(d) for d in ready],
+                        }
+                    )
                 self._publish_state()
                 if steps % TRACK_EVERY == 0:
                     self._record(trial)
                 await asyncio.sleep(max(0.0, start + steps * self.dt / self.rate - loop.time()))
             self._record(trial)
             self._outcomes.put(self.outcome(trial))
-            log.info("trial %d finished at t=%.2f s: %d collision(s)", trial.number, world.time,
-                     len(world.outcome().collisions))
-        except Exception:  # noqa: BLE001 - a failed trial is logged; the world serves the next one
+            log.info(
+                "trial %d finished at t=%.2f s: %d collision(s)",
+                trial.number,
+                world.time,
+                len(world.outcome().collisions),
+            )
+        except Exception:
             log.exception("trial %d failed", trial.number)
 
     def _record(self, trial: _Trial) -> None:
@@ -219,22 +246,41 @@ class WorldBridge:
         world = trial.world
         r = world.robot
         walls = [shape_to_wire(o.shape) for o in trial.world.scene().obstacles[4:] if o.kind == "wall"]
-        self._states.put({
-            "trial": trial.number, "time": world.time, "running": self._running(),
-            "name": r.name, "x": r.x, "y": r.y, "heading": r.heading, "speed": world.robot_speed,
-            "route": [c for point in world.robot_route for c in point],
-            "length": r.length, "width": r.width, "height": r.height, "max_speed": r.max_speed,
-            "max_accel": r.max_accel, "bounds": list(world.scene().bounds), "walls": walls,
-            "wall_height": trial.spec.room.wall_height,
-        })
+        self._states.put(
+            {
+                "trial": trial.number,
+                "time": world.time,
+                "running": self._running(),
+                "name": r.name,
+                "x": r.x,
+                "y": r.y,
+                "heading": r.heading,
+                "speed": world.robot_speed,
+                "route": [c for point in world.robot_route for c in point],
+                "length": r.length,
+                "width": r.width,
+                "height": r.height,
+                "max_speed": r.max_speed,
+                "max_accel": r.max_accel,
+                "bounds": list(world.scene().bounds),
+                "walls": walls,
+                "wall_height": trial.spec.room.wall_height,
+            }
+        )
 
     def outcome(self, trial: _Trial) -> dict[str, Any]:
         """The record of a trial, as published on ``world/outcome``."""
         o = trial.world.outcome()
         return {
-            "trial": trial.number, "duration": o.duration,
-            "collisions": [{"time": c.time, "person": c.person, "obstacle": c.obstacle, "point": list(c.point)}
-                           for c in o.collisions],
+            "trial": trial.number,
+            "duration": o.duration,
+            "collisions": [
+                {"time": c.time, "person": c.person, "obstacle": c.obstacle, "point": list(c.point)}
+                for c in o.collisions
+            ],
             "min_clearance": {k: (v if math.isfinite(v) else None) for k, v in o.min_clearance.items()},
-            "closest": o.closest, "arrival": o.arrival, "commands": trial.commands, "tracks": trial.tracks,
+            "closest": o.closest,
+            "arrival": o.arrival,
+            "commands": trial.commands,
+            "tracks": trial.tracks,
         }

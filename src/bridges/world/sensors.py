@@ -65,10 +65,15 @@ class Sensors:
         return out
 
     def _frame(self, scene: Scene) -> list[Detection]:
-        dets = [Detection(scene.time, o.name, o.kind, o.shape, getattr(o.shape, "theta", 0.0), o.height, o.target)
-                for o in scene.obstacles if o.kind != WALL_KIND]
-        dets += [Detection(scene.time, p.name, PERSON_KIND, Circle(p.x, p.y, p.radius), p.heading, p.eye_height, False)
-                 for p in scene.people]
+        dets = [
+            Detection(scene.time, o.name, o.kind, o.shape, getattr(o.shape, "theta", 0.0), o.height, o.target)
+            for o in scene.obstacles
+            if o.kind != WALL_KIND
+        ]
+        dets += [
+            Detection(scene.time, p.name, PERSON_KIND, Circle(p.x, p.y, p.radius), p.heading, p.eye_height, False)
+            for p in scene.people
+        ]
         if not self.spec.enabled:
             return dets
         return [self._noisy(d) for d in dets if self._rng.uniform() >= self.spec.dropout]
@@ -80,8 +85,9 @@ class Sensors:
             heading = d.heading + self._rng.normal(0.0, math.radians(self.spec.heading_sigma_deg))
             assert isinstance(s, Circle)  # people are always discs
             return Detection(d.stamp, d.name, d.kind, Circle(s.x + dx, s.y + dy, s.r), heading, d.height, d.target)
-        scale = self._scale.setdefault(d.name, float(self._rng.uniform(1 - self.spec.size_error,
-                                                                        1 + self.spec.size_error)))
+        scale = self._scale.setdefault(
+            d.name, float(self._rng.uniform(1 - self.spec.size_error, 1 + self.spec.size_error))
+        )
         shape: Shape
         if isinstance(s, Circle):
             shape = Circle(s.x + dx, s.y + dy, s.r * scale)

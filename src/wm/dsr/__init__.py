@@ -18,5 +18,15 @@ from .geometry import inner_api, rt_api
 from .graph import DSRGraph
 from .values import Attribute, DSRTypeError, DSRUnknownAttributeError, DSRUnknownTypeError, Edge, Node
 
-__all__ = ["Attribute", "DSRGraph", "DSRTypeError", "DSRUnknownAttributeError", "DSRUnknownTypeError", "Edge", "Node",
-           "inner_api", "rt_api", "signals"]
+__all__ = [
+    "Attribute",
+    "DSRGraph",
+    "DSRTypeError",
+    "DSRUnknownAttributeError",
+    "DSRUnknownTypeError",
+    "Edge",
+    "Node",
+    "inner_api",
+    "rt_api",
+    "signals",
+]

@@ -62,16 +62,19 @@ def _or_none(g: DSRGraph, work: Callable[[Graph], T]) -> T | None:
     return g.with_graph(guarded)
 
 
-class rt_api:  # noqa: N801 - pydsr's name
+class rt_api:
     """``rt_api(g)``: place nodes with RT edges and read their poses."""
 
     def __init__(self, g: DSRGraph) -> None:
         self._g = _graph(g)
 
-    def insert_or_assign_edge_RT(self, node: Node, to: int, trans: Sequence[float], rot_euler: Sequence[float]) -> bool:  # noqa: N802
+    def insert_or_assign_edge_RT(self, node: Node, to: int, trans: Sequence[float], rot_euler: Sequence[float]) -> bool:
         """Place ``to`` in ``node``'s frame; a previous RT parent of ``to`` is replaced. False if a node is missing."""
         parent, child = _node_arg(node).id, _check_id(to, "to")
-        attrs = {"rt_translation": _vector(trans, 3, "trans"), "rt_rotation_euler_xyz": _vector(rot_euler, 3, "rot_euler")}
+        attrs = {
+            "rt_translation": _vector(trans, 3, "trans"),
+            "rt_rotation_euler_xyz": _vector(rot_euler, 3, "rot_euler"),
+        }
 
         def place(graph: Graph) -> bool:
             old = graph.rt.parent(child)
@@ -83,15 +86,17 @@ class rt_api:  # noqa: N801 - pydsr's name
 
         return bool(_or_none(self._g, place))
 
-    def get_edge_RT(self, node: Node, to: int) -> Edge | None:  # noqa: N802
+    def get_edge_RT(self, node: Node, to: int) -> Edge | None:
         return self._g.get_edge(_node_arg(node).id, _check_id(to, "to"), RT)
 
-    def get_RT_pose_from_parent(self, node: Node) -> np.ndarray | None:  # noqa: N802
+    def get_RT_pose_from_parent(self, node: Node) -> np.ndarray | None:
         """The node's pose in its RT parent's frame, as a 4x4 matrix; None for a root."""
         child = _node_arg(node).id
-        return _or_none(self._g, lambda graph: graph.rt.local_matrix(child) if graph.rt.parent(child) is not None else None)
+        return _or_none(
+            self._g, lambda graph: graph.rt.local_matrix(child) if graph.rt.parent(child) is not None else None
+        )
 
-    def get_edge_RT_as_rtmat(self, edge: Edge, timestamp: int = 0) -> np.ndarray:  # noqa: N802
+    def get_edge_RT_as_rtmat(self, edge: Edge, timestamp: int = 0) -> np.ndarray:
         if not isinstance(edge, Edge) or edge.type != RT:
             raise DSRTypeError("get_edge_RT_as_rtmat takes an RT Edge")
         attrs = edge.attrs
@@ -102,26 +107,34 @@ class rt_api:  # noqa: N801 - pydsr's name
     def get_translation(self, node_id: int, to: int, timestamp: int = 0) -> np.ndarray | None:
         """The translation on the RT edge ``node_id -> to``."""
         src, dst = _check_id(node_id, "node_id"), _check_id(to, "to")
-        return _or_none(self._g, lambda graph: np.array(graph.get_edge(src, dst, RT).attrs.get("rt_translation", (0.0, 0.0, 0.0))))
+        return _or_none(
+            self._g, lambda graph: np.array(graph.get_edge(src, dst, RT).attrs.get("rt_translation", (0.0, 0.0, 0.0)))
+        )
 
 
-class inner_api:  # noqa: N801 - pydsr's name
+class inner_api:
     """``inner_api(g)`` (DSR's InnerEigenAPI): ``transform(a, b)`` is ``b``'s origin in ``a``'s frame."""
 
     def __init__(self, g: DSRGraph) -> None:
         self._g = _graph(g)
 
-    def transform(self, orig: Any, *args: Any, vector: Any = None, dest: Any = None, timestamp: int = 0) -> np.ndarray | None:
+    def transform(
+        self, orig: Any, *args: Any, vector: Any = None, dest: Any = None, timestamp: int = 0
+    ) -> np.ndarray | None:
         """``transform(orig, dest)`` or ``transform(orig, vector, dest)``: a point of ``dest``'s frame (its origin by default) in ``orig``'s."""
         point, source = _vector_and_frame(args, vector, dest, 3)
         target = _frame(orig)
         return _or_none(self._g, lambda graph: graph.rt.transform(target, source, point))
 
-    def transform_axis(self, orig: Any, *args: Any, vector: Any = None, dest: Any = None, timestamp: int = 0) -> np.ndarray | None:
+    def transform_axis(
+        self, orig: Any, *args: Any, vector: Any = None, dest: Any = None, timestamp: int = 0
+    ) -> np.ndarray | None:
         """Like :meth:`transform` for a pose (x, y, z, rx, ry, rz); without one, ``dest``'s own pose in ``orig``'s frame."""
         pose, source = _vector_and_frame(args, vector, dest, 6)
         target = _frame(orig)
-        return _or_none(self._g, lambda graph: graph.rt.transform(target, source, pose if pose is not None else [0.0] * 6))
+        return _or_none(
+            self._g, lambda graph: graph.rt.transform(target, source, pose if pose is not None else [0.0] * 6)
+        )
 
     def get_transformation_matrix(self, orig: Any, dest: Any, timestamp: int = 0) -> np.ndarray | None:
         """The 4x4 matrix taking coordinates in ``dest``'s frame to ``orig``'s."""
@@ -141,7 +154,9 @@ class inner_api:  # noqa: N801 - pydsr's name
         return None if matrix is None else np.array(euler_xyz(matrix[:3, :3]))
 
 
-def _vector_and_frame(args: tuple[Any, ...], vector: Any, dest: Any, length: int) -> tuple[list[float] | None, int | str]:
+def _vector_and_frame(
+    args: tuple[Any, ...], vector: Any, dest: Any, length: int
+) -> tuple[list[float] | None, int | str]:
     """The optional vector and the frame it is given in, from ``(dest[, ts])``, ``(vector, dest[, ts])`` or keywords."""
     if args and isinstance(args[0], (list, tuple, np.ndarray)):
         vector, args = args[0], args[1:]

@@ -93,7 +93,7 @@ class DSRGraph:
         listen: Iterable[str] | str | None = None,
         zenoh_config: str | None = None,
         ontology: Ontology | str | None = None,
-        id: int | None = None,  # noqa: A002 - pydsr's keyword for agent_id
+        id: int | None = None,
         dsr_input_file: str | None = None,  # pydsr's keyword for config_file
     ) -> None:
         agent_id = agent_id if id is None else id
@@ -103,7 +103,11 @@ class DSRGraph:
             raise DSRTypeError("name and config_file are str")
         self.agent_id = _check_id(agent_id, "agent_id")
         self.agent_name = name
-        self.ontology = ontology if isinstance(ontology, Ontology) else Ontology.load(ontology or os.environ.get("WM_ONTOLOGY", "default"))
+        self.ontology = (
+            ontology
+            if isinstance(ontology, Ontology)
+            else Ontology.load(ontology or os.environ.get("WM_ONTOLOGY", "default"))
+        )
         use_defaults(self.ontology, self.agent_id)
         self.signal_hub = SignalHub(self.agent_id, self.ontology)
         self._graph_name = graph or os.environ.get("WM_GRAPH", "default")
@@ -112,7 +116,11 @@ class DSRGraph:
         self._stop: asyncio.Event | None = None
         self._thread = threading.Thread(
             target=self._run,
-            args=(_endpoints(connect, "WM_CONNECT"), _endpoints(listen, "WM_LISTEN"), zenoh_config or os.environ.get("WM_ZENOH_CONFIG")),
+            args=(
+                _endpoints(connect, "WM_CONNECT"),
+                _endpoints(listen, "WM_LISTEN"),
+                zenoh_config or os.environ.get("WM_ZENOH_CONFIG"),
+            ),
             name="wm.dsr-replica",
             daemon=True,
         )
@@ -144,7 +152,12 @@ class DSRGraph:
     async def _serve(self, connect: list[str], listen: list[str], zenoh_config: str | None) -> None:
         self._stop = asyncio.Event()
         async with wm_connect(
-            self._graph_name, load_with_environment(zenoh_config), self.agent_name, connect=connect or None, listen=listen or None, ontology=self.ontology
+            self._graph_name,
+            load_with_environment(zenoh_config),
+            self.agent_name,
+            connect=connect or None,
+            listen=listen or None,
+            ontology=self.ontology,
         ) as g:
             g.on(self.signal_hub.publish)
             self._ready.set_result(g)
@@ -184,7 +197,9 @@ class DSRGraph:
         if self._g.node_count() == 0:
             self._g.load_json(Path(config_file))
         else:
-            log.info("graph %r already holds %d nodes; %s not loaded", self._graph_name, self._g.node_count(), config_file)
+            log.info(
+                "graph %r already holds %d nodes; %s not loaded", self._graph_name, self._g.node_count(), config_file
+            )
 
     def get_agent_id(self) -> int:
         return self.agent_id
@@ -214,20 +229,20 @@ class DSRGraph:
         return self._call(root)
 
     def get_nodes(self) -> list[Node]:
-        return self._call(lambda: [self._node(n.id) for n in self._g.nodes()])  # type: ignore[misc]
+        return self._call(lambda: [self._node(n.id) for n in self._g.nodes()])  # type: ignore[misc]  # _node(id) of a listed node is never None
 
-    def get_nodes_by_type(self, type: str) -> list[Node]:  # noqa: A002
+    def get_nodes_by_type(self, type: str) -> list[Node]:
         type_name = _type_name(type)
-        return self._call(lambda: [self._node(n.id) for n in self._g.nodes(type_name)])  # type: ignore[misc]
+        return self._call(lambda: [self._node(n.id) for n in self._g.nodes(type_name)])  # type: ignore[misc]  # _node(id) of a listed node is never None
 
     def get_name_from_id(self, node_id: int) -> str | None:
         key = _check_id(node_id, "get_name_from_id takes an id")
-        return self._call(lambda: (found.name if (found := self._g.find_node(key)) else None))
+        return self._call(lambda: found.name if (found := self._g.find_node(key)) else None)
 
     def get_id_from_name(self, name: str) -> int | None:
         if not isinstance(name, str):
             raise DSRTypeError(f"get_id_from_name takes a str, got {type(name).__name__}")
-        return self._call(lambda: (found.id if (found := self._g.find_node(name)) else None))
+        return self._call(lambda: found.id if (found := self._g.find_node(name)) else None)
 
     def insert_node(self, node: Node) -> int | None:
         """Insert a new node and return its id (also set on ``node``); None if its id or name exists."""
@@ -253,8 +268,13 @@ class DSRGraph:
             current = self._g.find_node(node.id) if node.id else None
             if current is None or (current.type, current.name) != (node.type, node.name):
                 return False
-            return _succeeds(lambda: self._write_changes(
-                node, lambda changed: self._g.update_node(node.id, changed), lambda name: self._g.delete_attr(node.id, name)))
+            return _succeeds(
+                lambda: self._write_changes(
+                    node,
+                    lambda changed: self._g.update_node(node.id, changed),
+                    lambda name: self._g.delete_attr(node.id, name),
+                )
+            )
 
         return self._call(update)
 
@@ -262,7 +282,9 @@ class DSRGraph:
         key = _ref(ref, "delete_node takes a node")
         return self._call(lambda: _succeeds(lambda: self._g.delete_node(key)))
 
-    def _write_changes(self, element: Node | Edge, write: Callable[[dict[str, Any]], None], remove: Callable[[str], None]) -> None:
+    def _write_changes(
+        self, element: Node | Edge, write: Callable[[dict[str, Any]], None], remove: Callable[[str], None]
+    ) -> None:
         """Write what the caller set, changed or removed on ``element`` since reading it, in one batch."""
         changed, removed = element.changes()
         with self._g.batch():
@@ -273,7 +295,7 @@ class DSRGraph:
 
     # -- edges ------------------------------------------------------------------
 
-    def get_edge(self, frm: int | str, to: int | str, type: str) -> Edge | None:  # noqa: A002
+    def get_edge(self, frm: int | str, to: int | str, type: str) -> Edge | None:
         src, dst, type_name = _ref(frm, "get_edge from"), _ref(to, "get_edge to"), _type_name(type)
 
         def get() -> Edge | None:
@@ -290,15 +312,20 @@ class DSRGraph:
 
         def assign() -> bool:
             try:
-                return _succeeds(lambda: self._write_changes(
-                    edge, lambda changed: self._g.insert_or_assign_edge(*key, changed), lambda name: self._g.delete_edge_attr(*key, name)))
+                return _succeeds(
+                    lambda: self._write_changes(
+                        edge,
+                        lambda changed: self._g.insert_or_assign_edge(*key, changed),
+                        lambda name: self._g.delete_edge_attr(*key, name),
+                    )
+                )
             except RTError as exc:
                 log.warning("insert_or_assign_edge refused: %s", exc)
                 return False
 
         return self._call(assign)
 
-    def delete_edge(self, frm: int | str, to: int | str, type: str) -> bool:  # noqa: A002
+    def delete_edge(self, frm: int | str, to: int | str, type: str) -> bool:
         src, dst, type_name = _ref(frm, "delete_edge from"), _ref(to, "delete_edge to"), _type_name(type)
 
         return self._call(lambda: _succeeds(lambda: self._g.delete_edge(src, dst, type_name)))
@@ -306,7 +333,7 @@ class DSRGraph:
     def get_edges(self) -> list[Edge]:
         return self._call(lambda: [Edge.of(e, self.agent_id, self.ontology) for e in self._g.edges()])
 
-    def get_edges_by_type(self, type: str) -> list[Edge]:  # noqa: A002
+    def get_edges_by_type(self, type: str) -> list[Edge]:
         type_name = _type_name(type)
         return self._call(lambda: [Edge.of(e, self.agent_id, self.ontology) for e in self._g.edges(type=type_name)])
 
@@ -339,4 +366,3 @@ class DSRGraph:
     @property
     def closed(self) -> bool:
         return self._stop is None or self._stop.is_set()
-

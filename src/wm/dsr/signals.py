@@ -70,7 +70,9 @@ Emission = tuple[SignalType, tuple[Any, ...]]
 def connect(graph: DSRGraph, signal: SignalType, callback: Callable[..., object]) -> None:
     """Call ``callback`` with the signal's arguments for every matching change, local or remote."""
     if not isinstance(signal, SignalType):
-        raise DSRTypeError(f"signal must be one of signals.{', signals.'.join(s.name for s in SignalType)}, got {signal!r:.40}")
+        raise DSRTypeError(
+            f"signal must be one of signals.{', signals.'.join(s.name for s in SignalType)}, got {signal!r:.40}"
+        )
     if not callable(callback):
         raise DSRTypeError(f"callback must be callable, got {type(callback).__name__}")
     if signal is UPDATE_EDGE_ATTR and not _takes_four(callback):
@@ -101,14 +103,17 @@ def emissions(event: Event, agent_id: int, ontology: Ontology) -> list[Emission]
     if event.kind is EventKind.NODE_UPDATED:
         return [(UPDATE_NODE_ATTR, (event.id, names))]
     if event.kind is EventKind.NODE_REMOVED:
-        gone = Node.of(WMNode(event.id, event.type, event.name or ""), [], agent_id, ontology)  # type: ignore[arg-type]
+        gone = Node.of(WMNode(event.id, event.type, event.name or ""), [], agent_id, ontology)  # type: ignore[arg-type]  # a node event always carries its id
         return [(DELETE_NODE, (event.id,)), (DELETE_NODE_OBJ, (gone,))]
     if event.kind is EventKind.EDGE_ADDED:
         return [(UPDATE_EDGE, (event.src, event.dst, event.type))]
     if event.kind is EventKind.EDGE_UPDATED:
-        return [(UPDATE_EDGE, (event.src, event.dst, event.type)), (UPDATE_EDGE_ATTR, (event.src, event.dst, event.type, names))]
+        return [
+            (UPDATE_EDGE, (event.src, event.dst, event.type)),
+            (UPDATE_EDGE_ATTR, (event.src, event.dst, event.type, names)),
+        ]
     if event.kind is EventKind.EDGE_REMOVED:
-        gone_edge = Edge.of(WMEdge(event.src, event.dst, event.type), agent_id, ontology)  # type: ignore[arg-type]
+        gone_edge = Edge.of(WMEdge(event.src, event.dst, event.type), agent_id, ontology)  # type: ignore[arg-type]  # an edge event always carries both ends
         return [(DELETE_EDGE, (event.src, event.dst, event.type)), (DELETE_EDGE_OBJ, (gone_edge,))]
     return []
 

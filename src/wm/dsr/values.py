@@ -54,7 +54,9 @@ def _kind(value: Any) -> str:
         return "bytes"
     if isinstance(value, (list, tuple, np.ndarray)):
         return "vector"
-    raise DSRTypeError(f"an Attribute holds a bool, int, float, str, bytes or a vector of numbers, not {type(value).__name__}")
+    raise DSRTypeError(
+        f"an Attribute holds a bool, int, float, str, bytes or a vector of numbers, not {type(value).__name__}"
+    )
 
 
 def _plain(value: Any) -> Any:
@@ -218,7 +220,11 @@ class _Element:
     def changes(self) -> tuple[dict[str, Any], list[str]]:
         """What the caller set or changed, and what it removed, since this was read (or last written)."""
         now = self._attrs.stored()  # compared in their stored form, handed on as the caller gave them
-        changed = {name: self._attrs[name].value for name, value in now.items() if name not in self._read or self._read[name] != value}
+        changed = {
+            name: self._attrs[name].value
+            for name, value in now.items()
+            if name not in self._read or self._read[name] != value
+        }
         return changed, sorted(set(self._read) - set(now))
 
     def mark_written(self) -> None:
@@ -228,7 +234,7 @@ class _Element:
 class Edge(_Element):
     """``Edge(to, from, type, agent_id)``: note that the destination comes first, as in pydsr."""
 
-    def __init__(self, to: int, frm: int, type: str, agent_id: int, *, ontology: Ontology | None = None) -> None:  # noqa: A002
+    def __init__(self, to: int, frm: int, type: str, agent_id: int, *, ontology: Ontology | None = None) -> None:
         self._to, self._from = _check_id(to, "Edge to"), _check_id(frm, "Edge from")
         super().__init__(ontology, "edge", type, agent_id)
 
@@ -253,7 +259,7 @@ class Edge(_Element):
 class Node(_Element):
     """``Node(agent_id, type, name="")``; the id is given by ``DSRGraph.insert_node``."""
 
-    def __init__(self, agent_id: int, type: str, name: str = "", *, ontology: Ontology | None = None) -> None:  # noqa: A002
+    def __init__(self, agent_id: int, type: str, name: str = "", *, ontology: Ontology | None = None) -> None:
         if not isinstance(name, str):
             raise DSRTypeError(f"a node name is a str, got {name.__class__.__name__}")
         super().__init__(ontology, "node", type, agent_id)

@@ -21,10 +21,14 @@ from .spec import LaunchFileError, load
 
 def add_command(commands: Any) -> None:
     """Add ``launch`` to the ``wm`` subcommands."""
-    p = commands.add_parser("launch", help="start wm serve and agents from a launch file (TOML), restart, stop in order")
+    p = commands.add_parser(
+        "launch", help="start wm serve and agents from a launch file (TOML), restart, stop in order"
+    )
     p.add_argument("file", help="the launch file")
     p.add_argument("--check", action="store_true", help="validate the file and exit without starting anything")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="set a [vars] variable (repeatable)")
+    p.add_argument(
+        "--set", action="append", default=[], metavar="NAME=VALUE", help="set a [vars] variable (repeatable)"
+    )
     p.add_argument("--log-dir", help="directory for the per-process logs (default: the file's log_dir)")
     p.add_argument("--no-table", action="store_true", help="no live status table, even on a terminal")
 

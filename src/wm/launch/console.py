@@ -38,8 +38,13 @@ class ProcessState:
 
     def as_dict(self) -> dict[str, object]:
         return {
-            "name": self.name, "state": self.state, "pid": self.pid, "restarts": self.restarts,
-            "failures": self.failures, "last_exit": self.last_exit, "started_at": self.started_at,
+            "name": self.name,
+            "state": self.state,
+            "pid": self.pid,
+            "restarts": self.restarts,
+            "failures": self.failures,
+            "last_exit": self.last_exit,
+            "started_at": self.started_at,
         }
 
 
@@ -52,9 +57,11 @@ class LaunchConsole:
         self.colours = {name: COLOURS[i % len(COLOURS)] for i, name in enumerate(names)}
         self.status_file = status_file
         self.states: list[ProcessState] = []
-        self._live = Live(console=self.console, refresh_per_second=2, get_renderable=self.table) if (
-            live_table and self.console.is_terminal
-        ) else None
+        self._live = (
+            Live(console=self.console, refresh_per_second=2, get_renderable=self.table)
+            if (live_table and self.console.is_terminal)
+            else None
+        )
 
     def __enter__(self) -> LaunchConsole:
         if self._live is not None:
@@ -88,8 +95,13 @@ class LaunchConsole:
         for s in self.states:
             up = _duration(now - s.started_at) if s.state == "up" and s.started_at else "-"
             table.add_row(
-                Text(s.name, self.colours.get(s.name, "")), Text(s.state, _STATE_STYLE.get(s.state, "")),
-                str(s.pid or "-"), up, str(s.restarts), str(len(s.failures)), "-" if s.last_exit is None else str(s.last_exit),
+                Text(s.name, self.colours.get(s.name, "")),
+                Text(s.state, _STATE_STYLE.get(s.state, "")),
+                str(s.pid or "-"),
+                up,
+                str(s.restarts),
+                str(len(s.failures)),
+                "-" if s.last_exit is None else str(s.last_exit),
             )
         return table
 
@@ -101,7 +113,14 @@ class LaunchConsole:
                 self.note(f"{s.name}: {failure}")
 
 
-_STATE_STYLE = {"up": "green", "backoff": "yellow", "failed": "red", "stopping": "yellow", "exited": "dim", "stopped": "dim"}
+_STATE_STYLE = {
+    "up": "green",
+    "backoff": "yellow",
+    "failed": "red",
+    "stopping": "yellow",
+    "exited": "dim",
+    "stopped": "dim",
+}
 
 
 def _duration(seconds: float) -> str:

@@ -44,7 +44,19 @@ from ..errors import WMError
 
 RESTART_POLICIES = ("never", "on-failure", "always")
 TOP_KEYS = {"log_dir", "stop_timeout", "vars", "defaults", "process"}
-PROCESS_KEYS = {"name", "cmd", "module", "args", "env", "cwd", "restart", "backoff", "ready", "ready_timeout", "stop_timeout"}
+PROCESS_KEYS = {
+    "name",
+    "cmd",
+    "module",
+    "args",
+    "env",
+    "cwd",
+    "restart",
+    "backoff",
+    "ready",
+    "ready_timeout",
+    "stop_timeout",
+}
 DEFAULTABLE = PROCESS_KEYS - {"name", "cmd", "module", "args"}
 BACKOFF_KEYS = {"initial", "factor", "max", "reset_after"}
 _NAME = re.compile(r"^[A-Za-z0-9_.\-]+$")
@@ -131,7 +143,9 @@ class _Checker:
 
     def unknown(self, key: str, table: Mapping[str, Any], allowed: set[str]) -> None:
         for extra in sorted(set(table) - allowed):
-            self.problem(f"{key}{extra}" if key else extra, f"unknown key (expected one of {', '.join(sorted(allowed))})")
+            self.problem(
+                f"{key}{extra}" if key else extra, f"unknown key (expected one of {', '.join(sorted(allowed))})"
+            )
 
 
 def _kind(value: Any) -> str:
@@ -218,8 +232,15 @@ def _process(check: _Checker, key: str, name: str, entry: dict[str, Any]) -> Pro
     if len(check.problems) > before:
         return None
     return ProcessSpec(
-        name, tuple(argv), expanded_env, cwd, restart, backoff, ready or None,
-        ready_timeout or 0.0, stop_timeout or 0.0,
+        name,
+        tuple(argv),
+        expanded_env,
+        cwd,
+        restart,
+        backoff,
+        ready or None,
+        ready_timeout or 0.0,
+        stop_timeout or 0.0,
     )
 
 
@@ -232,7 +253,9 @@ def _argv(check: _Checker, key: str, entry: Mapping[str, Any]) -> list[str]:
     if has_module:
         module = entry["module"]
         if not isinstance(module, str) or not _MODULE.match(module):
-            check.problem(f"{key}.module", f"must be a dotted module name like agents.caregiving.perception, got {module!r}")
+            check.problem(
+                f"{key}.module", f"must be a dotted module name like agents.caregiving.perception, got {module!r}"
+            )
             return []
         return [sys.executable, "-m", module, *args]
     cmd = entry["cmd"]
@@ -254,5 +277,7 @@ def _backoff(check: _Checker, key: str, table: Any) -> Backoff:
         check.problem(key, "must be a table like { initial = 0.5, factor = 2.0, max = 30.0 }")
         return Backoff()
     check.unknown(f"{key}.", table, BACKOFF_KEYS)
-    values = {k: check.number(f"{key}.{k}", v, 1.0 if k == "factor" else 0.0) for k, v in table.items() if k in BACKOFF_KEYS}
+    values = {
+        k: check.number(f"{key}.{k}", v, 1.0 if k == "factor" else 0.0) for k, v in table.items() if k in BACKOFF_KEYS
+    }
     return Backoff(**{k: v for k, v in values.items() if v is not None})

@@ -83,7 +83,9 @@ class Supervisor:
             restart = self.spec.restart == "always" or (self.spec.restart == "on-failure" and failure is not None)
             if not restart:
                 self._set("failed" if failure else "exited")
-                self.console.note(f"{self.spec.name}: {failure or 'exited with status 0'}; not restarting (restart = {self.spec.restart!r})")
+                self.console.note(
+                    f"{self.spec.name}: {failure or 'exited with status 0'}; not restarting (restart = {self.spec.restart!r})"
+                )
                 return
             quick_runs = quick_runs + 1 if time.monotonic() - started < self.spec.backoff.reset_after else 0
             delay = self.spec.backoff.delay(quick_runs - 1)
@@ -98,14 +100,21 @@ class Supervisor:
     async def _run_once(self) -> str | None:
         """Start the process and wait for it; returns what went wrong, or None for status 0."""
         with self.log_path.open("ab") as log:
-            log.write(f"--- {time.strftime('%Y-%m-%dT%H:%M:%S')} launch: starting {' '.join(self.spec.argv)}\n".encode())
+            log.write(
+                f"--- {time.strftime('%Y-%m-%dT%H:%M:%S')} launch: starting {' '.join(self.spec.argv)}\n".encode()
+            )
             log.flush()
             try:
                 proc = await asyncio.create_subprocess_exec(
-                    *self.spec.argv, stdin=asyncio.subprocess.DEVNULL, stdout=asyncio.subprocess.PIPE,
-                    stderr=asyncio.subprocess.STDOUT, cwd=self.spec.cwd, limit=LINE_LIMIT,
+                    *self.spec.argv,
+                    stdin=asyncio.subprocess.DEVNULL,
+                    stdout=asyncio.subprocess.PIPE,
+                    stderr=asyncio.subprocess.STDOUT,
+                    cwd=self.spec.cwd,
+                    limit=LINE_LIMIT,
                     env={**os.environ, "PYTHONUNBUFFERED": "1", **self.spec.env},
-                    start_new_session=True, preexec_fn=_die_with_parent,
+                    start_new_session=True,
+                    preexec_fn=_die_with_parent,
                 )
             except OSError as exc:
                 self.status.last_exit = None
@@ -113,13 +122,18 @@ class Supervisor:
             self._proc = proc
             self.status.pid, self.status.started_at = proc.pid, time.time()
             self._set("up")
-            self.console.note(f"{self.spec.name}: started, pid {proc.pid}" + (f" (restart {self.status.restarts})" if self.status.restarts else ""))
+            self.console.note(
+                f"{self.spec.name}: started, pid {proc.pid}"
+                + (f" (restart {self.status.restarts})" if self.status.restarts else "")
+            )
             assert proc.stdout is not None
             pump = asyncio.create_task(self._pump(proc.stdout, log))
             returncode = await proc.wait()
             await asyncio.wait({pump}, timeout=PUMP_GRACE)  # a grandchild may hold the pipe open
             pump.cancel()
-            log.write(f"--- {time.strftime('%Y-%m-%dT%H:%M:%S')} launch: pid {proc.pid} {describe_exit(returncode)}\n".encode())
+            log.write(
+                f"--- {time.strftime('%Y-%m-%dT%H:%M:%S')} launch: pid {proc.pid} {describe_exit(returncode)}\n".encode()
+            )
         self.status.last_exit = returncode
         self.status.pid = None
         self.console.changed()
@@ -211,7 +225,9 @@ class Launcher:
                 loop.remove_signal_handler(sig)
         self.console.summary()
         failed = [s for s in self.supervisors if s.status.failures]
-        self.console.note("every process stopped cleanly" if not failed else f"failures in: {', '.join(s.spec.name for s in failed)}")
+        self.console.note(
+            "every process stopped cleanly" if not failed else f"failures in: {', '.join(s.spec.name for s in failed)}"
+        )
         return 1 if failed else 0
 
     def _on_signal(self, sig: signal.Signals) -> None:
@@ -235,11 +251,15 @@ class Launcher:
     async def _wait_ready(self, supervisor: Supervisor, task: asyncio.Task[None]) -> None:
         ready = asyncio.create_task(supervisor.ready.wait())
         try:
-            await asyncio.wait({ready, task}, timeout=supervisor.spec.ready_timeout, return_when=asyncio.FIRST_COMPLETED)
+            await asyncio.wait(
+                {ready, task}, timeout=supervisor.spec.ready_timeout, return_when=asyncio.FIRST_COMPLETED
+            )
         finally:
             ready.cancel()
         if not supervisor.ready.is_set():
-            self.console.note(f"{supervisor.spec.name}: not ready ({supervisor.spec.ready!r} not seen); starting the rest anyway")
+            self.console.note(
+                f"{supervisor.spec.name}: not ready ({supervisor.spec.ready!r} not seen); starting the rest anyway"
+            )
 
     def _check_done(self, _task: asyncio.Task[None]) -> None:
         starting_done = self._starting is not None and self._starting.done()

@@ -24,8 +24,15 @@ from websockets.sync.client import ClientConnection, connect
 
 CHROMIUM = "/usr/bin/chromium"
 FLAGS = [
-    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
-    "--disable-component-update", "--disable-sync", "--remote-debugging-port=0",
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--remote-debugging-port=0",
 ]
 LISTENING = "DevTools listening on "
 
@@ -95,15 +102,25 @@ def chromium(url: str, *, width: int = 1400, height: int = 900, scale: float = 1
     profile = Path(tempfile.mkdtemp(prefix="wm-chromium-"))
     log = profile / "chromium.log"
     with log.open("wb") as out:
-        argv = [CHROMIUM, *FLAGS, f"--window-size={width},{height}", f"--force-device-scale-factor={scale:g}",
-                f"--user-data-dir={profile}", "about:blank"]
+        argv = [
+            CHROMIUM,
+            *FLAGS,
+            f"--window-size={width},{height}",
+            f"--force-device-scale-factor={scale:g}",
+            f"--user-data-dir={profile}",
+            "about:blank",
+        ]
         proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT)
     try:
         endpoint = _endpoint(proc, log, 30.0)
         with connect(endpoint, max_size=None, open_timeout=10) as browser:
             browser.send(json.dumps({"id": 1, "method": "Target.createTarget", "params": {"url": url}}))
             target = _reply(browser, 1)["targetId"]
-            browser.send(json.dumps({"id": 2, "method": "Target.attachToTarget", "params": {"targetId": target, "flatten": True}}))
+            browser.send(
+                json.dumps(
+                    {"id": 2, "method": "Target.attachToTarget", "params": {"targetId": target, "flatten": True}}
+                )
+            )
             yield Page(browser, _reply(browser, 2)["sessionId"])
     finally:
         _stop(proc)

@@ -21,7 +21,9 @@ def add_event_filters(parser: argparse.ArgumentParser, verb: str) -> None:
     parser.add_argument("--name", action="append", help=f"{verb} only events about this node name (repeatable)")
 
 
-def add_commands(commands: argparse._SubParsersAction[argparse.ArgumentParser], common: Callable[[argparse.ArgumentParser], None]) -> None:
+def add_commands(
+    commands: argparse._SubParsersAction[argparse.ArgumentParser], common: Callable[[argparse.ArgumentParser], None]
+) -> None:
     """Add the monitoring subcommands to the ``wm`` parser."""
     p = commands.add_parser("monitor", help="live terminal view of a graph (read-only)")
     common(p)
@@ -54,42 +56,68 @@ def add_commands(commands: argparse._SubParsersAction[argparse.ArgumentParser], 
 def add_dump_source(dump: argparse.ArgumentParser) -> None:
     """``wm dump --from FILE [--at T]``: the graph of a recording instead of the network."""
     dump.add_argument("--from", dest="source", metavar="FILE", help="read a recording instead of the network")
-    dump.add_argument("--at", type=float, metavar="T", help="with --from: seconds after the recording's start (default: its end)")
+    dump.add_argument(
+        "--at", type=float, metavar="T", help="with --from: seconds after the recording's start (default: its end)"
+    )
 
 
 async def run(args: argparse.Namespace, ontology: Ontology | None) -> int:
     """Run one monitoring command (or ``dump --from``)."""
     endpoints = args.connect if hasattr(args, "connect") else []
     if args.command == "dump":
-        from .recording_file import graph_at
-
         from ..cli import print_graph
+        from .recording_file import graph_at
 
         print_graph(graph_at(args.source, args.at, ontology), args.format)
     elif args.command == "monitor":
         from .monitor import monitor
 
-        await monitor(args.graph, config=args.config, connect_to=endpoints, ontology=ontology, kinds=args.kind, types=args.type, names=args.name)
+        await monitor(
+            args.graph,
+            config=args.config,
+            connect_to=endpoints,
+            ontology=ontology,
+            kinds=args.kind,
+            types=args.type,
+            names=args.name,
+        )
     elif args.command == "view":
         from .view import view
 
-        await view(args.graph, host=args.host, port=args.port, config=args.config, connect_to=endpoints, ontology=ontology)
+        await view(
+            args.graph, host=args.host, port=args.port, config=args.config, connect_to=endpoints, ontology=ontology
+        )
     elif args.command == "foxglove":
         from .foxglove_live import serve_foxglove
 
-        await serve_foxglove(args.graph, host=args.host, port=args.port, config=args.config, connect_to=endpoints, ontology=ontology,
-                             log_dir=args.logs)
+        await serve_foxglove(
+            args.graph,
+            host=args.host,
+            port=args.port,
+            config=args.config,
+            connect_to=endpoints,
+            ontology=ontology,
+            log_dir=args.logs,
+        )
     elif args.command == "record":
         from .recorder import record
 
-        count = await record(args.file, args.graph, config=args.config, connect_to=endpoints, ontology=ontology, duration=args.duration,
-                             log_dir=args.logs)
+        count = await record(
+            args.file,
+            args.graph,
+            config=args.config,
+            connect_to=endpoints,
+            ontology=ontology,
+            duration=args.duration,
+            log_dir=args.logs,
+        )
         print(f"wm record: {count} updates in {args.file}")
     elif args.command == "replay":
         from .replay import replay
 
         target = args.as_graph or args.graph
-        count = await replay(args.file, target, speed=args.speed, config=args.config, connect_to=endpoints, ontology=ontology)
+        count = await replay(
+            args.file, target, speed=args.speed, config=args.config, connect_to=endpoints, ontology=ontology
+        )
         print(f"wm replay: {count} updates republished into {target!r}")
     return 0
-

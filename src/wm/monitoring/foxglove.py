@@ -88,7 +88,12 @@ SAFE = (0.3, 0.6, 0.3, 1.0)
 def quaternion_xyz(euler: Sequence[float]) -> tuple[float, float, float, float]:
     """(x, y, z, w) of the rotation by intrinsic x-y-z Euler angles: q = qx(a) qy(b) qz(c)."""
     (ca, sa), (cb, sb), (cc, sc) = ((math.cos(v / 2), math.sin(v / 2)) for v in euler)
-    return (sa * cb * cc + ca * sb * sc, ca * sb * cc - sa * cb * sc, ca * cb * sc + sa * sb * cc, ca * cb * cc - sa * sb * sc)
+    return (
+        sa * cb * cc + ca * sb * sc,
+        ca * sb * cc - sa * cb * sc,
+        ca * cb * sc + sa * sb * cc,
+        ca * cb * cc - sa * sb * sc,
+    )
 
 
 def _color(rgba: tuple[float, float, float, float], alpha: float | None = None) -> Color:
@@ -97,7 +102,9 @@ def _color(rgba: tuple[float, float, float, float], alpha: float | None = None) 
 
 
 def _pose(x: float, y: float, z: float = 0.0, yaw: float = 0.0) -> Pose:
-    return Pose(position=Vector3(x=x, y=y, z=z), orientation=Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2)))
+    return Pose(
+        position=Vector3(x=x, y=y, z=z), orientation=Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+    )
 
 
 def _stamp(t_ns: int) -> Timestamp:
@@ -110,7 +117,11 @@ def _footprint(item: Mapping[str, Any], color: Color, height: float) -> dict[str
     if item["shape"] == "box":
         return {"cubes": [CubePrimitive(pose=pose, size=Vector3(x=item["sx"], y=item["sy"], z=height), color=color)]}
     d = 2 * item["r"]
-    return {"cylinders": [CylinderPrimitive(pose=pose, size=Vector3(x=d, y=d, z=height), bottom_scale=1.0, top_scale=1.0, color=color)]}
+    return {
+        "cylinders": [
+            CylinderPrimitive(pose=pose, size=Vector3(x=d, y=d, z=height), bottom_scale=1.0, top_scale=1.0, color=color)
+        ]
+    }
 
 
 def scene_update(scene: Mapping[str, Any], t_ns: int) -> SceneUpdate:
@@ -123,27 +134,57 @@ def scene_update(scene: Mapping[str, Any], t_ns: int) -> SceneUpdate:
 
     entities = []
     for body in scene["bodies"]:
-        label = TextPrimitive(pose=_pose(body["x"], body["y"], 0.6), billboard=True, font_size=14.0, scale_invariant=True,
-                              color=_color((1, 1, 1, 1)), text=body["name"])
-        entities.append(entity(f"node/{body['id']}", texts=[label],
-                               **_footprint(body, _color(TYPE_COLORS.get(body["type"], OTHER_COLOR)), 0.3)))
+        label = TextPrimitive(
+            pose=_pose(body["x"], body["y"], 0.6),
+            billboard=True,
+            font_size=14.0,
+            scale_invariant=True,
+            color=_color((1, 1, 1, 1)),
+            text=body["name"],
+        )
+        entities.append(
+            entity(
+                f"node/{body['id']}",
+                texts=[label],
+                **_footprint(body, _color(TYPE_COLORS.get(body["type"], OTHER_COLOR)), 0.3),
+            )
+        )
     for cone in scene["cones"]:
         wedge = fov_wedge(cone)
         points = []
-        for a, b in zip(wedge[1:-2], wedge[2:-1]):
-            points += [Point3(x=cone["x"], y=cone["y"], z=0.01), Point3(x=a[0], y=a[1], z=0.01), Point3(x=b[0], y=b[1], z=0.01)]
-        entities.append(entity(f"fov/{cone['id']}", triangles=[TriangleListPrimitive(pose=_pose(0, 0), points=points,
-                                                                                     color=_color((1.0, 0.85, 0.2, 0.25)))]))
+        for a, b in zip(wedge[1:-2], wedge[2:-1], strict=False):
+            points += [
+                Point3(x=cone["x"], y=cone["y"], z=0.01),
+                Point3(x=a[0], y=a[1], z=0.01),
+                Point3(x=b[0], y=b[1], z=0.01),
+            ]
+        entities.append(
+            entity(
+                f"fov/{cone['id']}",
+                triangles=[
+                    TriangleListPrimitive(pose=_pose(0, 0), points=points, color=_color((1.0, 0.85, 0.2, 0.25)))
+                ],
+            )
+        )
     for path in scene["paths"]:
-        line = LinePrimitive(type=LinePrimitiveLineType.LineStrip, pose=_pose(0, 0), thickness=0.04,
-                             points=[Point3(x=x, y=y, z=0.02) for x, y in path["points"]], color=_color(RISKY if path["risky"] else SAFE))
+        line = LinePrimitive(
+            type=LinePrimitiveLineType.LineStrip,
+            pose=_pose(0, 0),
+            thickness=0.04,
+            points=[Point3(x=x, y=y, z=0.02) for x, y in path["points"]],
+            color=_color(RISKY if path["risky"] else SAFE),
+        )
         entities.append(entity("path/{}/{}/{}".format(*path["edge"]), lines=[line]))
     for point in scene["points"]:
-        sphere = SpherePrimitive(pose=_pose(point["x"], point["y"], 0.1), size=Vector3(x=0.2, y=0.2, z=0.2), color=_color(RISKY))
+        sphere = SpherePrimitive(
+            pose=_pose(point["x"], point["y"], 0.1), size=Vector3(x=0.2, y=0.2, z=0.2), color=_color(RISKY)
+        )
         entities.append(entity("collision/{}/{}/{}".format(*point["edge"]), spheres=[sphere]))
     for ghost in scene["ghosts"]:
         entities.append(entity(f"ghost/{ghost['id']}", **_footprint(ghost, _color(TYPE_COLORS["robot"], 0.35), 0.3)))
-    return SceneUpdate(deletions=[SceneEntityDeletion(timestamp=stamp, type=SceneEntityDeletionType.All, id="")], entities=entities)
+    return SceneUpdate(
+        deletions=[SceneEntityDeletion(timestamp=stamp, type=SceneEntityDeletionType.All, id="")], entities=entities
+    )
 
 
 def frame_transforms(graph: Graph, t_ns: int) -> FrameTransforms:
@@ -154,8 +195,15 @@ def frame_transforms(graph: Graph, t_ns: int) -> FrameTransforms:
     for edge in graph.edges(type=RT):
         x, y, z = edge.get("rt_translation", (0.0, 0.0, 0.0))
         qx, qy, qz, qw = quaternion_xyz(edge.get("rt_rotation_euler_xyz", (0.0, 0.0, 0.0)))
-        transforms.append(FrameTransform(timestamp=stamp, parent_frame_id=names[edge.src], child_frame_id=names[edge.dst],
-                                         translation=Vector3(x=x, y=y, z=z), rotation=Quaternion(x=qx, y=qy, z=qz, w=qw)))
+        transforms.append(
+            FrameTransform(
+                timestamp=stamp,
+                parent_frame_id=names[edge.src],
+                child_frame_id=names[edge.dst],
+                translation=Vector3(x=x, y=y, z=z),
+                rotation=Quaternion(x=qx, y=qy, z=qz, w=qw),
+            )
+        )
     return FrameTransforms(transforms=transforms)
 
 
@@ -168,8 +216,15 @@ def change_of(g: Graph, event: Event) -> dict[str, Any]:
         element = g.find_edge(event.src, event.dst, event.type)
     attrs: Mapping[str, Any] = element.attrs if element is not None else {}
     return {
-        "kind": event.kind.value, "type": event.type, "writer": event.writer, "id": event.id, "name": event.name,
-        "src": event.src, "dst": event.dst, "src_name": event.src_name, "dst_name": event.dst_name,
+        "kind": event.kind.value,
+        "type": event.type,
+        "writer": event.writer,
+        "id": event.id,
+        "name": event.name,
+        "src": event.src,
+        "dst": event.dst,
+        "src_name": event.src_name,
+        "dst_name": event.dst_name,
         "attrs": {k: encode_value(attrs[k]) for k in sorted(event.attrs) if k in attrs},
     }
 

@@ -70,11 +70,17 @@ async def serve_foxglove(
 
     graph.on(on_event)
     server = foxglove.start_server(
-        name=f"cortex-wm {graph_name}", host=host, port=port, context=context, capabilities=[],
+        name=f"cortex-wm {graph_name}",
+        host=host,
+        port=port,
+        context=context,
+        capabilities=[],
         server_listener=_Subscriptions(asyncio.get_running_loop(), changed),
     )
     try:
-        async with connect(graph_name, config, "wm-foxglove", connect=list(connect_to) or None, replica=graph, read_only=True):
+        async with connect(
+            graph_name, config, "wm-foxglove", connect=list(connect_to) or None, replica=graph, read_only=True
+        ):
             print(f"wm foxglove: serving graph {graph_name!r} on ws://{host}:{server.port}", flush=True)
             while True:
                 if changed.is_set():

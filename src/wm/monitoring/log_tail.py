@@ -15,8 +15,13 @@ from pathlib import Path
 
 from foxglove.messages import Log, LogLevel, Timestamp
 
-LEVELS = {"DEBUG": LogLevel.Debug, "INFO": LogLevel.Info, "WARNING": LogLevel.Warning, "ERROR": LogLevel.Error,
-          "CRITICAL": LogLevel.Fatal}
+LEVELS = {
+    "DEBUG": LogLevel.Debug,
+    "INFO": LogLevel.Info,
+    "WARNING": LogLevel.Warning,
+    "ERROR": LogLevel.Error,
+    "CRITICAL": LogLevel.Fatal,
+}
 
 
 class LogTail:

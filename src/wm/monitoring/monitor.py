@@ -69,7 +69,11 @@ class MonitorState:
 
 def _short(value: Any) -> str:
     if isinstance(value, tuple):
-        return "(" + ", ".join(f"{x:.2f}" if isinstance(x, float) else str(x) for x in value[:4]) + (", …)" if len(value) > 4 else ")")
+        return (
+            "("
+            + ", ".join(f"{x:.2f}" if isinstance(x, float) else str(x) for x in value[:4])
+            + (", …)" if len(value) > 4 else ")")
+        )
     if isinstance(value, float):
         return f"{value:.3g}"
     return str(value)
@@ -78,7 +82,9 @@ def _short(value: Any) -> str:
 def key_attrs(ontology: Ontology, node_type: str, attrs: dict[str, Any] | Any) -> list[str]:
     """The attributes shown for a node type: those its ontology entry lists under ``show``, else the first three."""
     element = ontology.node_types.get(node_type)
-    names = (element.show if element is not None else ()) or tuple(sorted(a for a in attrs if not a.startswith("rt_"))[:3])
+    names = (element.show if element is not None else ()) or tuple(
+        sorted(a for a in attrs if not a.startswith("rt_"))[:3]
+    )
     return list(names)
 
 
@@ -91,10 +97,22 @@ def members_table(g: Graph) -> Table:
     agents = {n.get("replica"): n for n in g.nodes("agent")}
     for replica, agent in sorted(members.items(), key=lambda m: m[1]):
         node = agents.get(replica)
-        table.add_row(replica, agent, Text("live", style="green"), _short(node.get("cpu", "")) if node else "", _short(node.get("memory", "")) if node else "")
+        table.add_row(
+            replica,
+            agent,
+            Text("live", style="green"),
+            _short(node.get("cpu", "")) if node else "",
+            _short(node.get("memory", "")) if node else "",
+        )
     for replica, node in agents.items():
         if replica not in members:
-            table.add_row(str(replica), node.name, Text("gone", style="red"), _short(node.get("cpu", "")), _short(node.get("memory", "")))
+            table.add_row(
+                str(replica),
+                node.name,
+                Text("gone", style="red"),
+                _short(node.get("cpu", "")),
+                _short(node.get("memory", "")),
+            )
     return table
 
 
@@ -106,7 +124,12 @@ def counts_table(g: Graph, state: MonitorState) -> Table:
     edges = Counter(e.type for e in g.edges())
     rates = state.rates()
     for element_type in sorted(set(nodes) | set(edges) | set(rates)):
-        table.add_row(element_type, str(nodes.get(element_type, "")), str(edges.get(element_type, "")), f"{rates.get(element_type, 0.0):.1f}")
+        table.add_row(
+            element_type,
+            str(nodes.get(element_type, "")),
+            str(edges.get(element_type, "")),
+            f"{rates.get(element_type, 0.0):.1f}",
+        )
     return table
 
 
@@ -170,7 +193,14 @@ async def monitor(
     with Live(Text(f"wm monitor: connecting to graph {graph_name!r}…"), auto_refresh=False, screen=True) as live:
         while True:
             try:
-                async with connect(graph_name, config, "wm-monitor", connect=list(connect_to) or None, ontology=ontology, read_only=True) as g:
+                async with connect(
+                    graph_name,
+                    config,
+                    "wm-monitor",
+                    connect=list(connect_to) or None,
+                    ontology=ontology,
+                    read_only=True,
+                ) as g:
                     state.last_heard = time.monotonic()
                     g.on(state.on_event)
                     g.on(state.on_logged, kind=kinds, type=types, name=names)
@@ -184,4 +214,3 @@ async def monitor(
                 state.status = "disconnected"
                 live.update(Text(f"wm monitor: {exc}; retrying…", style="yellow"), refresh=True)
                 await asyncio.sleep(1.0)
-

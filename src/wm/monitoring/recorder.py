@@ -28,7 +28,9 @@ from .recording_file import RecordingWriter
 class Recorder:
     """Feeds a :class:`RecordingWriter` from one replica (attach before it joins, to keep the catch-up)."""
 
-    def __init__(self, graph: Graph, writer: RecordingWriter, *, scene_period: float = 0.2, flush_period: float = 0.5) -> None:
+    def __init__(
+        self, graph: Graph, writer: RecordingWriter, *, scene_period: float = 0.2, flush_period: float = 0.5
+    ) -> None:
         self.graph = graph
         self.writer = writer
         self.scene_period = scene_period
@@ -51,7 +53,9 @@ class Recorder:
         updates, self._updates = self._updates, []
         records = self.graph.take_volatile_changes()
         if updates or records:
-            self.writer.update(t_ns, merge_updates(*updates) if len(updates) > 1 else (updates[0] if updates else None), records)
+            self.writer.update(
+                t_ns, merge_updates(*updates) if len(updates) > 1 else (updates[0] if updates else None), records
+            )
             self.messages += 1
 
     def tick(self) -> None:
@@ -93,7 +97,9 @@ async def record(
     writer = RecordingWriter(path, graph_name, log_dir)
     recorder = Recorder(graph, writer)
     try:
-        async with connect(graph_name, config, "wm-record", connect=list(connect_to) or None, replica=graph, read_only=True):
+        async with connect(
+            graph_name, config, "wm-record", connect=list(connect_to) or None, replica=graph, read_only=True
+        ):
             print(f"wm record: recording graph {graph_name!r} into {path}", flush=True)
             task = asyncio.ensure_future(recorder.run())
             try:

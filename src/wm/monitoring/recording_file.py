@@ -39,7 +39,9 @@ UPDATES = "/wm/updates"
 RECORDING_WRITER = "recording"
 CHUNK_SIZE = 256 * 1024
 # the SDK gives every non-JSON channel a schema; this one says, in words, what the msgpack holds
-UPDATE_SCHEMA = foxglove.Schema(name="wm.Update", encoding="text", data=b"msgpack array: [crdt_update_or_nil, volatile_records]")
+UPDATE_SCHEMA = foxglove.Schema(
+    name="wm.Update", encoding="text", data=b"msgpack array: [crdt_update_or_nil, volatile_records]"
+)
 
 
 class RecordingWriter:

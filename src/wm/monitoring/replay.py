@@ -18,9 +18,9 @@ from ..errors import NotFoundError
 from ..graph import Graph
 from ..model import parse_edge_key
 from ..ontology import Ontology
+from ..volatile import Record
 from ..zenoh_config import ConfigSource
 from .recording_file import iter_updates
-from ..volatile import Record
 
 
 def write_volatile(g: Graph, records: list[Record]) -> None:

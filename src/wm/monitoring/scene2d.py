@@ -55,7 +55,9 @@ def world_poses(g: Graph, root: int) -> dict[int, tuple[float, float, float]]:
     """(x, y, yaw) in the root's frame of every node reached from ``root`` along RT edges."""
     children: dict[int, list[tuple[int, np.ndarray]]] = {}
     for edge in g.edges(type=RT):
-        local = homogeneous(edge.get("rt_translation", (0.0, 0.0, 0.0)), edge.get("rt_rotation_euler_xyz", (0.0, 0.0, 0.0)))
+        local = homogeneous(
+            edge.get("rt_translation", (0.0, 0.0, 0.0)), edge.get("rt_rotation_euler_xyz", (0.0, 0.0, 0.0))
+        )
         children.setdefault(edge.src, []).append((edge.dst, local))
     poses: dict[int, tuple[float, float, float]] = {root: (0.0, 0.0, 0.0)}
     stack = [(root, np.eye(4))]
@@ -89,7 +91,14 @@ def _pairs(values: Any) -> list[list[float]]:
 def build(g: Graph) -> dict[str, Any]:
     """The scene of ``g`` as JSON-ready data (see the module docstring)."""
     root = root_node(g)
-    scene: dict[str, Any] = {"frame": root.name if root else None, "bodies": [], "cones": [], "paths": [], "points": [], "ghosts": []}
+    scene: dict[str, Any] = {
+        "frame": root.name if root else None,
+        "bodies": [],
+        "cones": [],
+        "paths": [],
+        "points": [],
+        "ghosts": [],
+    }
     if root is None:
         return scene
     try:
@@ -101,7 +110,9 @@ def build(g: Graph) -> dict[str, Any]:
         if node.id not in poses or node.id == root.id:
             continue
         x, y, yaw = poses[node.id]
-        scene["bodies"].append({"id": node.id, "name": node.name, "type": node.type, "x": x, "y": y, "yaw": yaw, **footprint(node)})
+        scene["bodies"].append(
+            {"id": node.id, "name": node.name, "type": node.type, "x": x, "y": y, "yaw": yaw, **footprint(node)}
+        )
         if (fov := node.get("fov")) is not None:
             scene["cones"].append({"id": node.id, "x": x, "y": y, "yaw": yaw, "fov": float(fov), "range": CONE_RANGE_M})
     if (room := root.get("room_size")) is not None:
@@ -109,7 +120,9 @@ def build(g: Graph) -> dict[str, Any]:
     for edge in g.edges():
         ref = [edge.src, edge.dst, edge.type]
         if edge.get("path"):
-            scene["paths"].append({"edge": ref, "points": _pairs(edge.get("path")), "risky": bool(edge.get("risky", False))})
+            scene["paths"].append(
+                {"edge": ref, "points": _pairs(edge.get("path")), "risky": bool(edge.get("risky", False))}
+            )
         if (point := edge.get("collision_point")) is not None:
             scene["points"].append({"edge": ref, "x": float(point[0]), "y": float(point[1])})
         if edge.type != RT:
@@ -118,12 +131,20 @@ def build(g: Graph) -> dict[str, Any]:
         if (pose := node.get("final_pose")) is not None and len(pose) >= 3:
             owner = owners.get(node.id)
             shape = footprint(owner) if owner is not None and owner.get("footprint") is not None else footprint(node)
-            scene["ghosts"].append({"id": node.id, "name": node.name, "x": pose[0], "y": pose[1], "yaw": pose[2], **shape})
+            scene["ghosts"].append(
+                {"id": node.id, "name": node.name, "x": pose[0], "y": pose[1], "yaw": pose[2], **shape}
+            )
     return scene
 
 
 def fov_wedge(cone: dict[str, Any], steps: int = 12) -> list[list[float]]:
     """The outline of a field-of-view cone as a closed polygon (apex first)."""
     x, y, yaw, half, reach = cone["x"], cone["y"], cone["yaw"], cone["fov"] / 2, cone["range"]
-    arc = [[x + reach * math.cos(yaw - half + 2 * half * i / steps), y + reach * math.sin(yaw - half + 2 * half * i / steps)] for i in range(steps + 1)]
+    arc = [
+        [
+            x + reach * math.cos(yaw - half + 2 * half * i / steps),
+            y + reach * math.sin(yaw - half + 2 * half * i / steps),
+        ]
+        for i in range(steps + 1)
+    ]
     return [[x, y], *arc, [x, y]]

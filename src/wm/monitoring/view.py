@@ -21,11 +21,11 @@ from websockets.datastructures import Headers
 from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request, Response
 
-from . import scene2d
 from ..connection import connect
 from ..graph import Graph
 from ..ontology import Ontology
 from ..zenoh_config import ConfigSource
+from . import scene2d
 
 PAGE = resources.files("wm.monitoring").joinpath("view_page.html").read_bytes()
 
@@ -59,7 +59,13 @@ class ViewServer:
         if request.path == "/ws":
             return None
         if request.path in ("/", "/index.html"):
-            headers = Headers({"Content-Type": "text/html; charset=utf-8", "Content-Length": str(len(PAGE)), "Cache-Control": "no-store"})
+            headers = Headers(
+                {
+                    "Content-Type": "text/html; charset=utf-8",
+                    "Content-Length": str(len(PAGE)),
+                    "Cache-Control": "no-store",
+                }
+            )
             return Response(HTTPStatus.OK, "OK", headers, PAGE)
         return connection.respond(HTTPStatus.NOT_FOUND, "not found\n")
 
@@ -101,7 +107,9 @@ async def view(
     ontology: Ontology | None = None,
 ) -> None:
     """Serve the live view of ``graph_name`` until cancelled."""
-    async with connect(graph_name, config, "wm-view", connect=list(connect_to) or None, ontology=ontology, read_only=True) as g:
+    async with connect(
+        graph_name, config, "wm-view", connect=list(connect_to) or None, ontology=ontology, read_only=True
+    ) as g:
         viewer = ViewServer(g, graph_name)
         server = await viewer.start(host, port)
         bound = server.sockets[0].getsockname()[1]

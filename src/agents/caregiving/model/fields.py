@@ -39,14 +39,22 @@ class Fields:
             raise self.fail(key, "is required")
         return default
 
-    def number(self, key: str, default: Any = _MISSING, *, positive: bool = False,
-               non_negative: bool = False, at_most: float | None = None) -> float:
+    def number(
+        self,
+        key: str,
+        default: Any = _MISSING,
+        *,
+        positive: bool = False,
+        non_negative: bool = False,
+        at_most: float | None = None,
+    ) -> float:
         """A finite real number, optionally constrained."""
         value = self._get(key, default)
         return self.check_number(key, value, positive=positive, non_negative=non_negative, at_most=at_most)
 
-    def check_number(self, key: str, value: Any, *, positive: bool = False, non_negative: bool = False,
-                     at_most: float | None = None) -> float:
+    def check_number(
+        self, key: str, value: Any, *, positive: bool = False, non_negative: bool = False, at_most: float | None = None
+    ) -> float:
         """Validate an already-extracted value as a number (used for list items)."""
         kind = "a positive number" if positive else "a non-negative number" if non_negative else "a number"
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):

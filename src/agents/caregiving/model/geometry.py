@@ -54,9 +54,7 @@ def _to_local(box: Box, pts: FloatArray) -> FloatArray:
 
 def _to_world(box: Box, local: FloatArray) -> FloatArray:
     c, s = math.cos(box.theta), math.sin(box.theta)
-    return np.stack(
-        (c * local[:, 0] - s * local[:, 1] + box.x, s * local[:, 0] + c * local[:, 1] + box.y), axis=1
-    )
+    return np.stack((c * local[:, 0] - s * local[:, 1] + box.x, s * local[:, 0] + c * local[:, 1] + box.y), axis=1)
 
 
 def signed_distance(shape: Shape, points: ArrayLike) -> FloatArray:
@@ -83,8 +81,10 @@ def point_distance(shape: Shape, x: float, y: float) -> float:
 def corner_points(box: Box) -> list[tuple[float, float]]:
     """The four corners of a box, counter-clockwise, as plain float pairs (see :func:`corners`)."""
     c, s = math.cos(box.theta), math.sin(box.theta)
-    return [(box.x + c * u - s * v, box.y + s * u + c * v)
-            for u, v in ((box.hx, box.hy), (-box.hx, box.hy), (-box.hx, -box.hy), (box.hx, -box.hy))]
+    return [
+        (box.x + c * u - s * v, box.y + s * u + c * v)
+        for u, v in ((box.hx, box.hy), (-box.hx, box.hy), (-box.hx, -box.hy), (box.hx, -box.hy))
+    ]
 
 
 def closest_boundary_point(shape: Shape, points: ArrayLike) -> FloatArray:
@@ -219,8 +219,7 @@ class Polyline:
             return float(pts[-1, 0]), float(pts[-1, 1])
         k = int(np.searchsorted(cum, distance, side="right")) - 1
         t = (distance - cum[k]) / (cum[k + 1] - cum[k])
-        return (float(pts[k, 0] + t * (pts[k + 1, 0] - pts[k, 0])),
-                float(pts[k, 1] + t * (pts[k + 1, 1] - pts[k, 1])))
+        return (float(pts[k, 0] + t * (pts[k + 1, 0] - pts[k, 0])), float(pts[k, 1] + t * (pts[k + 1, 1] - pts[k, 1])))
 
     def remaining(self, distance: float, step: float) -> FloatArray:
         """Points every ``step`` metres from ``distance`` to the end (both ends included)."""

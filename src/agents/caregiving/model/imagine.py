@@ -53,8 +53,13 @@ class Imagination:
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict."""
         return {
-            "person": self.person, "target": self.target, "gaze": self.gaze, "seen": list(self.seen),
-            "reachable": self.reachable, "path": [list(p) for p in self.path], "collided": self.collided,
+            "person": self.person,
+            "target": self.target,
+            "gaze": self.gaze,
+            "seen": list(self.seen),
+            "reachable": self.reachable,
+            "path": [list(p) for p in self.path],
+            "collided": self.collided,
             "collision_time": self.collision_time,
             "collision_point": list(self.collision_point) if self.collision_point is not None else None,
             "collision_object": self.collision_object,
@@ -74,8 +79,13 @@ class Imagination:
         point = f.numbers("collision_point", 2) if collided else None
         clearance = f.optional_number("min_clearance")
         return cls(
-            person=f.string("person"), target=f.string("target"), gaze=f.number("gaze"), seen=f.strings("seen"),
-            reachable=f.boolean("reachable"), path=f.pairs("path"), collided=collided,
+            person=f.string("person"),
+            target=f.string("target"),
+            gaze=f.number("gaze"),
+            seen=f.strings("seen"),
+            reachable=f.boolean("reachable"),
+            path=f.pairs("path"),
+            collided=collided,
             collision_time=f.number("collision_time") if collided else None,
             collision_point=(point[0], point[1]) if point is not None else None,
             collision_object=f.string("collision_object") if collided else None,
@@ -84,8 +94,15 @@ class Imagination:
         )
 
 
-def imagine_person(scene: Scene, person: str, target: str, gaze: float, rollout: Rollout | None = None,
-                   planner: GridPlanner | None = None, known: Iterable[str] = ()) -> Imagination:
+def imagine_person(
+    scene: Scene,
+    person: str,
+    target: str,
+    gaze: float,
+    rollout: Rollout | None = None,
+    planner: GridPlanner | None = None,
+    known: Iterable[str] = (),
+) -> Imagination:
     """Plan with only what ``person`` sees at ``gaze`` (and the objects ``known`` to them), then walk the plan.
 
     ``known`` names objects the person is sure to have seen before (out of view now, still remembered).
@@ -103,6 +120,17 @@ def imagine_person(scene: Scene, person: str, target: str, gaze: float, rollout:
         return Imagination(person, target, gaze, names, False, (), False, None, None, None, math.inf, 0.0)
     walk = (rollout or _NUMPY).walk(plan.path, p.radius, p.speed, [o for o in around if o.name != target])
     c = walk.contact
-    return Imagination(person, target, float(gaze), names, True, tuple((float(x), float(y)) for x, y in plan.path),
-                       c is not None, c.time if c else None, c.point if c else None, c.obstacle if c else None,
-                       walk.min_clearance, walk.duration)
+    return Imagination(
+        person,
+        target,
+        float(gaze),
+        names,
+        True,
+        tuple((float(x), float(y)) for x, y in plan.path),
+        c is not None,
+        c.time if c else None,
+        c.point if c else None,
+        c.obstacle if c else None,
+        walk.min_clearance,
+        walk.duration,
+    )

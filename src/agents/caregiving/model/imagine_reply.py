@@ -57,8 +57,12 @@ class ImagineReply:
 
 def encode_risk(r: Risk) -> dict[str, Any]:
     """A msgpack-friendly risk."""
-    return {"probability": r.probability, "time": r.time, "point": list(r.point) if r.point else None,
-            "object": r.obstacle}
+    return {
+        "probability": r.probability,
+        "time": r.time,
+        "point": list(r.point) if r.point else None,
+        "object": r.obstacle,
+    }
 
 
 def encode_answer(a: Answer) -> dict[str, Any]:
@@ -78,15 +82,24 @@ def encode_answer(a: Answer) -> dict[str, Any]:
 
 def encode(reply: ImagineReply) -> dict[str, Any]:
     """The msgpack map of a reply."""
-    return {"episode": reply.episode, "stamp": reply.stamp, "written_at": reply.written_at,
-            "compute_ms": reply.compute_ms, "results": [encode_answer(a) for a in reply.results]}
+    return {
+        "episode": reply.episode,
+        "stamp": reply.stamp,
+        "written_at": reply.written_at,
+        "compute_ms": reply.compute_ms,
+        "results": [encode_answer(a) for a in reply.results],
+    }
 
 
 def decode_risk(f: Fields) -> Risk:
     """Parse :func:`encode_risk` output."""
     point = f.numbers("point", 2) if f.has("point") else None
-    return Risk(f.number("probability", non_negative=True, at_most=1.0), f.optional_number("time"),
-                (point[0], point[1]) if point else None, f.string("object") if f.has("object") else None)
+    return Risk(
+        f.number("probability", non_negative=True, at_most=1.0),
+        f.optional_number("time"),
+        (point[0], point[1]) if point else None,
+        f.string("object") if f.has("object") else None,
+    )
 
 
 def decode_answer(f: Fields) -> Answer:
@@ -110,6 +123,10 @@ def decode(data: object) -> ImagineReply:
     episode = f.optional_number("episode")
     if episode is not None and not episode.is_integer():
         raise f.fail("episode", f"expected a whole number, got {episode!r}")
-    return ImagineReply(None if episode is None else int(episode), f.number("stamp"), f.optional_number("written_at"),
-                        f.number("compute_ms", non_negative=True),
-                        tuple(decode_answer(a) for a in f.children("results")))
+    return ImagineReply(
+        None if episode is None else int(episode),
+        f.number("stamp"),
+        f.optional_number("written_at"),
+        f.number("compute_ms", non_negative=True),
+        tuple(decode_answer(a) for a in f.children("results")),
+    )

@@ -58,19 +58,37 @@ class WalkOutcome:
     def as_imagination(self) -> Imagination:
         """The walk as walked (one point per step), for sampling perception's uncertainty around it."""
         w = self.walk
-        return Imagination(w.person, w.target, w.gaze, self.seen, self.status != "stuck", self.track, self.collided,
-                           self.collision_time, self.collision_point, self.collision_object, self.min_clearance,
-                           max(len(self.track) - 1, 0) * DT)
+        return Imagination(
+            w.person,
+            w.target,
+            w.gaze,
+            self.seen,
+            self.status != "stuck",
+            self.track,
+            self.collided,
+            self.collision_time,
+            self.collision_point,
+            self.collision_object,
+            self.min_clearance,
+            max(len(self.track) - 1, 0) * DT,
+        )
 
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict."""
-        return {"person": self.walk.person, "target": self.walk.target, "gaze": self.walk.gaze,
-                "known": list(self.walk.known), "status": self.status, "track": [list(p) for p in self.track],
-                "seen": list(self.seen), "collision_time": self.collision_time,
-                "collision_point": list(self.collision_point) if self.collision_point else None,
-                "collision_object": self.collision_object,
-                "min_clearance": self.min_clearance if math.isfinite(self.min_clearance) else None,
-                "saw_robot_at": self.saw_robot_at}
+        return {
+            "person": self.walk.person,
+            "target": self.walk.target,
+            "gaze": self.walk.gaze,
+            "known": list(self.walk.known),
+            "status": self.status,
+            "track": [list(p) for p in self.track],
+            "seen": list(self.seen),
+            "collision_time": self.collision_time,
+            "collision_point": list(self.collision_point) if self.collision_point else None,
+            "collision_object": self.collision_object,
+            "min_clearance": self.min_clearance if math.isfinite(self.min_clearance) else None,
+            "saw_robot_at": self.saw_robot_at,
+        }
 
     @classmethod
     def from_fields(cls, f: Fields) -> WalkOutcome:
@@ -79,10 +97,17 @@ class WalkOutcome:
         collided = status == "collided"
         point = f.numbers("collision_point", 2) if collided else None
         clearance = f.optional_number("min_clearance")
-        return cls(walk_from_fields(f), status, f.pairs("track"), f.strings("seen"),
-                   f.number("collision_time") if collided else None, (point[0], point[1]) if point else None,
-                   f.string("collision_object") if collided else None,
-                   math.inf if clearance is None else clearance, f.optional_number("saw_robot_at"))
+        return cls(
+            walk_from_fields(f),
+            status,
+            f.pairs("track"),
+            f.strings("seen"),
+            f.number("collision_time") if collided else None,
+            (point[0], point[1]) if point else None,
+            f.string("collision_object") if collided else None,
+            math.inf if clearance is None else clearance,
+            f.optional_number("saw_robot_at"),
+        )
 
 
 @dataclass(frozen=True)
@@ -101,8 +126,12 @@ class JointImagination:
 
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict."""
-        return {"move": self.move.to_wire() if self.move else None, "robot_reachable": self.robot_reachable,
-                "robot_arrival": self.robot_arrival, "walks": [w.to_wire() for w in self.walks]}
+        return {
+            "move": self.move.to_wire() if self.move else None,
+            "robot_reachable": self.robot_reachable,
+            "robot_arrival": self.robot_arrival,
+            "walks": [w.to_wire() for w in self.walks],
+        }
 
     @classmethod
     def from_wire(cls, data: object) -> JointImagination:
@@ -113,8 +142,12 @@ class JointImagination:
     def from_fields(cls, f: Fields) -> JointImagination:
         """Parse a joint imagination nested in a larger message."""
         move = f.optional_child("move")
-        return cls(RobotMove.from_fields(move) if move is not None else None, f.boolean("robot_reachable"),
-                   f.optional_number("robot_arrival"), tuple(WalkOutcome.from_fields(w) for w in f.children("walks")))
+        return cls(
+            RobotMove.from_fields(move) if move is not None else None,
+            f.boolean("robot_reachable"),
+            f.optional_number("robot_arrival"),
+            tuple(WalkOutcome.from_fields(w) for w in f.children("walks")),
+        )
 
 
 def walk_from_fields(f: Fields) -> Walk:
@@ -130,9 +163,16 @@ def walk_to_wire(w: Walk) -> dict[str, Any]:
     return {"person": w.person, "target": w.target, "gaze": w.gaze, "known": list(w.known)}
 
 
-def imagine_joint(scene: Scene, walks: Sequence[Walk], move: RobotMove | None, *, delay: float = 0.0,
-                  current: RobotMove | None = None, horizon: float = HORIZON,
-                  planner: GridPlanner | None = None) -> JointImagination:
+def imagine_joint(
+    scene: Scene,
+    walks: Sequence[Walk],
+    move: RobotMove | None,
+    *,
+    delay: float = 0.0,
+    current: RobotMove | None = None,
+    horizon: float = HORIZON,
+    planner: GridPlanner | None = None,
+) -> JointImagination:
     """Step the robot's move and the people's walks together, as the world would, and report how they end."""
     if scene.robot is None:
         raise RequestError("the scene has no robot")
@@ -156,6 +196,14 @@ def _outcome(world: World, walk: Walk, start: float) -> WalkOutcome:
     w = world.walker(walk.person)
     hit = next((c for c in world.outcome().collisions if c.person == walk.person), None)
     saw = world.robot_seen.get(walk.person)
-    return WalkOutcome(walk, w.status, tuple(w.track), tuple(w.known), hit.time - start if hit else None,
-                       hit.point if hit else None, hit.obstacle if hit else None, w.min_clearance,
-                       saw - start if saw is not None else None)
+    return WalkOutcome(
+        walk,
+        w.status,
+        tuple(w.track),
+        tuple(w.known),
+        hit.time - start if hit else None,
+        hit.point if hit else None,
+        hit.obstacle if hit else None,
+        w.min_clearance,
+        saw - start if saw is not None else None,
+    )

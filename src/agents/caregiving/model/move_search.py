@@ -130,12 +130,17 @@ def ordered_moves(scene: Scene, danger: Danger) -> Iterator[RobotMove]:
 
     yield from (m for m in standoffs(scene, danger, danger.obstacle) if reachable(m, deadline) and robot_fits(scene, m))
     # Seconds the robot has in hand at each path pose: the more, the likelier the person sees it in time.
-    slack = [(until - drive_time(scene, m.x, m.y), k, m) for k, (m, until) in enumerate(path_poses(scene, danger))
-             if reachable(m, until)]
+    slack = [
+        (until - drive_time(scene, m.x, m.y), k, m)
+        for k, (m, until) in enumerate(path_poses(scene, danger))
+        if reachable(m, until)
+    ]
     yield from (m for _, _, m in sorted(slack, key=lambda t: (-t[0], t[1])) if robot_fits(scene, m))
     point = danger.point
-    others = sorted((o for o in scene.obstacles if o.kind != WALL_KIND and o.name != danger.obstacle),
-                    key=lambda o: math.hypot(o.shape.x - point[0], o.shape.y - point[1]))
+    others = sorted(
+        (o for o in scene.obstacles if o.kind != WALL_KIND and o.name != danger.obstacle),
+        key=lambda o: math.hypot(o.shape.x - point[0], o.shape.y - point[1]),
+    )
     for o in others:
         yield from (m for m in standoffs(scene, danger, o.name) if reachable(m, deadline) and robot_fits(scene, m))
 
@@ -158,11 +163,13 @@ class SearchSpec:
 
     def walk_sets(self) -> list[tuple[Walk, ...]]:
         """The sets of walks to imagine each move with: every gaze class of each endangered person in turn."""
-        first = {d.person: Walk(d.person, d.target, self.gazes[d.person][0], self.known.get(d.person, ()))
-                 for d in self.dangers}
+        first = {
+            d.person: Walk(d.person, d.target, self.gazes[d.person][0], self.known.get(d.person, ()))
+            for d in self.dangers
+        }
         sets = []
         for d in self.dangers:
-            for gaze in self.gazes[d.person][1 if sets else 0:]:
+            for gaze in self.gazes[d.person][1 if sets else 0 :]:
                 walks = dict(first)
                 walks[d.person] = Walk(d.person, d.target, gaze, self.known.get(d.person, ()))
                 sets.append(tuple(walks.values()) + self.bystanders)
@@ -170,9 +177,17 @@ class SearchSpec:
 
     def items(self, move: RobotMove | None, uncertainty: dict[str, Any]) -> list[dict[str, Any]]:
         """The simulator items that judge one move (see :mod:`agents.caregiving.model.service`)."""
-        return [{"kind": "joint", "walks": [walk_to_wire(w) for w in walks], "move": move.to_wire() if move else None,
-                 "current": self.current.to_wire() if self.current else None, "delay": self.delay,
-                 "uncertainty": uncertainty} for walks in self.walk_sets()]
+        return [
+            {
+                "kind": "joint",
+                "walks": [walk_to_wire(w) for w in walks],
+                "move": move.to_wire() if move else None,
+                "current": self.current.to_wire() if self.current else None,
+                "delay": self.delay,
+                "uncertainty": uncertainty,
+            }
+            for walks in self.walk_sets()
+        ]
 
 
 @dataclass(frozen=True)
@@ -205,8 +220,9 @@ def judge(move: RobotMove | None, answers: list[Answer]) -> Verdict:
         for w in a.joint.walks:
             if w.status not in ("arrived", "walking"):
                 what = f"into {w.collision_object}" if w.collided else "stuck"
-                return Verdict(move, False, 1.0, None,
-                               f"{w.walk.person} walks {what} at gaze {math.degrees(w.walk.gaze):.0f} deg")
+                return Verdict(
+                    move, False, 1.0, None, f"{w.walk.person} walks {what} at gaze {math.degrees(w.walk.gaze):.0f} deg"
+                )
         sampled = a.risk or NO_RISK
         if sampled.probability >= risk:
             risk, worst = sampled.probability, sampled.obstacle or ""
@@ -248,8 +264,15 @@ def choose(verdicts: list[Verdict], threshold: float, idle_risk: float) -> Verdi
 JudgeMoves = Callable[[list[RobotMove]], Awaitable[list[Verdict]]]
 
 
-async def search_move(scene: Scene, spec: SearchSpec, judge_moves: JudgeMoves, threshold: float, max_moves: int,
-                      idle_risk: float = 1.0, batch: int = 3) -> tuple[Verdict | None, list[Verdict]]:
+async def search_move(
+    scene: Scene,
+    spec: SearchSpec,
+    judge_moves: JudgeMoves,
+    threshold: float,
+    max_moves: int,
+    idle_risk: float = 1.0,
+    batch: int = 3,
+) -> tuple[Verdict | None, list[Verdict]]:
     """Algorithm 2's search: the move to send (see :func:`choose`) and every verdict on the way.
 
     The likeliest candidate is judged alone, then ``batch`` at a time, up to the first safe one or ``max_moves``.

@@ -54,13 +54,20 @@ class _Mask:
 class GridPlanner:
     """Occupancy-grid planner over fixed room bounds with a per-obstacle inflation cache."""
 
-    def __init__(self, bounds: tuple[float, float, float, float], resolution: float = 0.05,
-                 margin: float | None = None, cache_size: int = 4096) -> None:
+    def __init__(
+        self,
+        bounds: tuple[float, float, float, float],
+        resolution: float = 0.05,
+        margin: float | None = None,
+        cache_size: int = 4096,
+    ) -> None:
         self.bounds = bounds
         self.resolution = resolution
         self.margin = resolution if margin is None else margin
-        self.shape = (int(math.ceil((bounds[2] - bounds[0]) / resolution)),
-                      int(math.ceil((bounds[3] - bounds[1]) / resolution)))
+        self.shape = (
+            int(math.ceil((bounds[2] - bounds[0]) / resolution)),
+            int(math.ceil((bounds[3] - bounds[1]) / resolution)),
+        )
         self._cache: OrderedDict[tuple[Shape, float], _Mask] = OrderedDict()
         self._cache_size = cache_size
         self.cache_hits = 0
@@ -106,18 +113,19 @@ class GridPlanner:
         grid = np.zeros(self.shape, dtype=bool)
         for obs in obstacles:
             m = self._inflated(obs.shape, radius + self.margin)
-            grid[m.i0:m.i0 + m.cells.shape[0], m.j0:m.j0 + m.cells.shape[1]] |= m.cells
+            grid[m.i0 : m.i0 + m.cells.shape[0], m.j0 : m.j0 + m.cells.shape[1]] |= m.cells
         return grid
 
     # -- planning -----------------------------------------------------------------------------
-    def plan_to_object(self, start: tuple[float, float], target: Obstacle, obstacles: Sequence[Obstacle],
-                       radius: float) -> Plan:
+    def plan_to_object(
+        self, start: tuple[float, float], target: Obstacle, obstacles: Sequence[Obstacle], radius: float
+    ) -> Plan:
         """Shortest walk from ``start`` to a free cell touching the target's inflated footprint."""
         others = [o for o in obstacles if o.name != target.name]
         grid = self.blocked([*others, target], radius)
         tm = self._inflated(target.shape, radius + self.margin)
         pad = np.zeros(self.shape, dtype=bool)
-        pad[tm.i0:tm.i0 + tm.cells.shape[0], tm.j0:tm.j0 + tm.cells.shape[1]] = tm.cells
+        pad[tm.i0 : tm.i0 + tm.cells.shape[0], tm.j0 : tm.j0 + tm.cells.shape[1]] = tm.cells
         lo_i, lo_j = max(tm.i0 - 1, 0), max(tm.j0 - 1, 0)
         hi_i, hi_j = tm.i0 + tm.cells.shape[0] + 1, tm.j0 + tm.cells.shape[1] + 1
         window = pad[lo_i:hi_i, lo_j:hi_j]
@@ -125,13 +133,17 @@ class GridPlanner:
         ring[lo_i:hi_i, lo_j:hi_j] = ndimage.binary_dilation(window, _EIGHT) & ~window
         return self._search(start, grid, ring)
 
-    def plan_to_point(self, start: tuple[float, float], goal: tuple[float, float], obstacles: Sequence[Obstacle],
-                      radius: float) -> Plan:
+    def plan_to_point(
+        self, start: tuple[float, float], goal: tuple[float, float], obstacles: Sequence[Obstacle], radius: float
+    ) -> Plan:
         """Shortest walk from ``start`` to ``goal``; unreachable if the goal cell is blocked."""
         grid = self.blocked(obstacles, radius)
         goal_cell = self.cell_of(*goal)
-        if not grid[self.cell_of(*start)] and not grid[goal_cell] and \
-                self._clear(np.asarray(start, dtype=np.float64), self.centres(np.array([goal_cell])), grid, True)[0]:
+        if (
+            not grid[self.cell_of(*start)]
+            and not grid[goal_cell]
+            and self._clear(np.asarray(start, dtype=np.float64), self.centres(np.array([goal_cell])), grid, True)[0]
+        ):
             # What A* and string pulling would return, without the search: the straight drive.
             path = np.array([start, goal], dtype=np.float64)
             return Plan(True, path, polyline_length(path))
@@ -157,16 +169,22 @@ class GridPlanner:
         path = self._string_pull(pts, grid)
         return Plan(True, path, polyline_length(path))
 
-    def _astar(self, grid: NDArray[np.bool_], goals: NDArray[np.bool_],
-               start_cell: tuple[int, int]) -> NDArray[np.integer] | None:
+    def _astar(
+        self, grid: NDArray[np.bool_], goals: NDArray[np.bool_], start_cell: tuple[int, int]
+    ) -> NDArray[np.integer] | None:
         """Cells after ``start_cell`` to the nearest goal (A* from every goal at once), None if unreachable."""
         labels, _ = ndimage.label(~grid, structure=_EIGHT)
         goal_cells = np.argwhere(goals & ~grid & (labels == labels[start_cell]))
         if goal_cells.size == 0:
             return None
         cost = (~grid).astype(np.int8)
-        cells = tcod.path.path2d(cost, start_points=[tuple(c) for c in goal_cells.tolist()],
-                                 end_points=[start_cell], cardinal=_CARDINAL, diagonal=_DIAGONAL)
+        cells = tcod.path.path2d(
+            cost,
+            start_points=[tuple(c) for c in goal_cells.tolist()],
+            end_points=[start_cell],
+            cardinal=_CARDINAL,
+            diagonal=_DIAGONAL,
+        )
         return cells[::-1][1:] if len(cells) else None
 
     def _free_cell_near(self, point: tuple[float, float], grid: NDArray[np.bool_]) -> tuple[int, int] | None:
@@ -175,7 +193,7 @@ class GridPlanner:
         if not grid[i, j]:
             return i, j
         lo_i, lo_j = max(i - 2, 0), max(j - 2, 0)
-        free = np.argwhere(~grid[lo_i:i + 3, lo_j:j + 3]) + (lo_i, lo_j)
+        free = np.argwhere(~grid[lo_i : i + 3, lo_j : j + 3]) + (lo_i, lo_j)
         if free.size == 0:
             return None
         d = np.hypot(*(self.centres(free) - point).T)
@@ -203,12 +221,13 @@ class GridPlanner:
             anchor = nxt
         return np.asarray(out)
 
-    def _clear(self, origin: FloatArray, ends: FloatArray, grid: NDArray[np.bool_], skip_origin: bool
-               ) -> NDArray[np.bool_]:
+    def _clear(
+        self, origin: FloatArray, ends: FloatArray, grid: NDArray[np.bool_], skip_origin: bool
+    ) -> NDArray[np.bool_]:
         """For each end point, whether the segment from ``origin`` crosses only free cells."""
         seg = ends - origin
         n = int(math.ceil(float(np.hypot(seg[:, 0], seg[:, 1]).max()) / (self.resolution / 2))) + 1
-        t = np.linspace(0.0, 1.0, n)[int(skip_origin):]  # the start itself may sit on a blocked cell
+        t = np.linspace(0.0, 1.0, n)[int(skip_origin) :]  # the start itself may sit on a blocked cell
         samples = origin + seg[:, None, :] * t[None, :, None]
         idx = np.floor((samples - self.bounds[:2]) / self.resolution).astype(np.intp)
         i = np.clip(idx[..., 0], 0, self.shape[0] - 1)

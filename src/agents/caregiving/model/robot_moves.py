@@ -49,11 +49,11 @@ def travel_time(distance: float, max_speed: float, max_accel: float, v0: float =
     if distance <= 0.0:
         return 0.0
     v0 = min(max(v0, 0.0), max_speed)
-    d_up = (max_speed ** 2 - v0 ** 2) / (2 * max_accel)
-    d_down = max_speed ** 2 / (2 * max_accel)
+    d_up = (max_speed**2 - v0**2) / (2 * max_accel)
+    d_down = max_speed**2 / (2 * max_accel)
     if d_up + d_down <= distance:
         return (max_speed - v0) / max_accel + (distance - d_up - d_down) / max_speed + max_speed / max_accel
-    peak = max(math.sqrt((2 * max_accel * distance + v0 ** 2) / 2), v0)
+    peak = max(math.sqrt((2 * max_accel * distance + v0**2) / 2), v0)
     return (peak - v0) / max_accel + peak / max_accel
 
 
@@ -87,8 +87,11 @@ def robot_fits(scene: Scene, move: RobotMove) -> bool:
     footprint = Box(move.x, move.y, robot.length / 2, robot.width / 2, move.heading)
     blockers = [o.shape for o in scene.obstacles] + [p.body().shape for p in scene.people]
     x0, y0, x1, y1 = scene.bounds
-    inside = bool((signed_distance(Box((x0 + x1) / 2, (y0 + y1) / 2, (x1 - x0) / 2, (y1 - y0) / 2),
-                                   corners(footprint)) <= 0.0).all())
+    inside = bool(
+        (
+            signed_distance(Box((x0 + x1) / 2, (y0 + y1) / 2, (x1 - x0) / 2, (y1 - y0) / 2), corners(footprint)) <= 0.0
+        ).all()
+    )
     return inside and not any(shapes_overlap(footprint, b) for b in blockers)
 
 

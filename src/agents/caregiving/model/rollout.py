@@ -85,8 +85,9 @@ def trajectory(path: ArrayLike, speed: float, dt: float = DT) -> tuple[FloatArra
 class Rollout(Protocol):
     """Anything that can walk a disc along a path among obstacles."""
 
-    def walk(self, path: ArrayLike, radius: float, speed: float, obstacles: Sequence[Obstacle],
-             dt: float = DT) -> RolloutResult:
+    def walk(
+        self, path: ArrayLike, radius: float, speed: float, obstacles: Sequence[Obstacle], dt: float = DT
+    ) -> RolloutResult:
         """Walk ``path`` and report the first contact with any of ``obstacles``."""
         ...
 
@@ -98,8 +99,9 @@ class NumpyRollout:
         """``(steps, obstacles)`` clearances of a disc at each point."""
         return np.stack([signed_distance(o.shape, points) for o in obstacles], axis=1) - radius
 
-    def walk(self, path: ArrayLike, radius: float, speed: float, obstacles: Sequence[Obstacle],
-             dt: float = DT) -> RolloutResult:
+    def walk(
+        self, path: ArrayLike, radius: float, speed: float, obstacles: Sequence[Obstacle], dt: float = DT
+    ) -> RolloutResult:
         """Walk ``path`` and report the first contact with any of ``obstacles``."""
         times, points = trajectory(path, speed, dt)
         if not obstacles:
@@ -107,7 +109,7 @@ class NumpyRollout:
         clear = self.clearances(points, radius, obstacles)
         touching = np.flatnonzero((clear <= 0.0).any(axis=1))
         last = int(touching[0]) if touching.size else len(times) - 1
-        seen = clear[:last + 1]
+        seen = clear[: last + 1]
         k, j = np.unravel_index(int(np.argmin(seen)), seen.shape)
         contact = None
         if touching.size:
@@ -145,8 +147,7 @@ class BulletRollout:
         if kind == "cyl":
             shape = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=a, height=height, physicsClientId=self._client)
         else:
-            shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[a, b, height / 2],
-                                            physicsClientId=self._client)
+            shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[a, b, height / 2], physicsClientId=self._client)
         self._frozen = None  # a saved state no longer matches the body set
         body = pb.createMultiBody(0, shape, basePosition=[0.0, 0.0, -_FAR], physicsClientId=self._client)
         # Bullet rounds box corners by the collision margin (4 cm by default); we want sharp geometry.
@@ -167,8 +168,11 @@ class BulletRollout:
         ids = []
         for o in obstacles:
             s = o.shape
-            sig: _Signature = ("cyl", round(s.r, 6), 0.0, round(o.height, 6)) if isinstance(s, Circle) \
+            sig: _Signature = (
+                ("cyl", round(s.r, 6), 0.0, round(o.height, 6))
+                if isinstance(s, Circle)
                 else ("box", round(s.hx, 6), round(s.hy, 6), round(o.height, 6))
+            )
             pose = (s.x, s.y, 0.0 if isinstance(s, Circle) else s.theta)
             current = self._placed.get(o.name)
             if current is not None and current[0] != sig:
@@ -222,8 +226,9 @@ class BulletRollout:
         self._move(walker, 0.0, 0.0, -_FAR, 0.0)
         return out
 
-    def walk(self, path: ArrayLike, radius: float, speed: float, obstacles: Sequence[Obstacle],
-             dt: float = DT) -> RolloutResult:
+    def walk(
+        self, path: ArrayLike, radius: float, speed: float, obstacles: Sequence[Obstacle], dt: float = DT
+    ) -> RolloutResult:
         """Walk step by step and stop at the first contact.
 
         A broad phase on axis-aligned bounds skips pairs that cannot beat the best clearance so far;

@@ -22,8 +22,9 @@ from .fields import Fields
 from .geometry import Box, Circle, Shape, aabb, shapes_overlap
 from .scene import Obstacle, PersonState, RobotState, Scene
 
-OBJECT_KINDS = frozenset({"ball", "backpack", "box", "bed", "cabinet", "chair", "couch", "door",
-                          "plant", "shoe", "table", "toy", "wall"})
+OBJECT_KINDS = frozenset(
+    {"ball", "backpack", "box", "bed", "cabinet", "chair", "couch", "door", "plant", "shoe", "table", "toy", "wall"}
+)
 #: The shipped scenarios, package data of :mod:`agents.caregiving`.
 SHIPPED = resources.files("agents.caregiving").joinpath("scenarios")
 
@@ -31,6 +32,8 @@ SHIPPED = resources.files("agents.caregiving").joinpath("scenarios")
 def shipped_scenarios() -> list[str]:
     """The names of the shipped scenarios, sorted."""
     return sorted(f.name.removesuffix(".yaml") for f in SHIPPED.iterdir() if f.name.endswith(".yaml"))
+
+
 #: Gap kept between sampled entities so nobody starts touching anything.
 PLACEMENT_MARGIN = 0.15
 _PLACE_ATTEMPTS = 200
@@ -63,12 +66,23 @@ class RoomSpec:
     def wall_obstacles(self) -> tuple[Obstacle, ...]:
         """The four boundary walls and every interior wall as box obstacles."""
         w, d, t, h = self.width / 2, self.depth / 2, self.wall_thickness, self.wall_height
-        boxes = [Box(0.0, d + t / 2, w + t, t / 2), Box(0.0, -d - t / 2, w + t, t / 2),
-                 Box(w + t / 2, 0.0, t / 2, d + t), Box(-w - t / 2, 0.0, t / 2, d + t)]
+        boxes = [
+            Box(0.0, d + t / 2, w + t, t / 2),
+            Box(0.0, -d - t / 2, w + t, t / 2),
+            Box(w + t / 2, 0.0, t / 2, d + t),
+            Box(-w - t / 2, 0.0, t / 2, d + t),
+        ]
         for wall in self.walls:
             (x0, y0), (x1, y1) = wall.start, wall.end
-            boxes.append(Box((x0 + x1) / 2, (y0 + y1) / 2, math.hypot(x1 - x0, y1 - y0) / 2,
-                             wall.thickness / 2, math.atan2(y1 - y0, x1 - x0)))
+            boxes.append(
+                Box(
+                    (x0 + x1) / 2,
+                    (y0 + y1) / 2,
+                    math.hypot(x1 - x0, y1 - y0) / 2,
+                    wall.thickness / 2,
+                    math.atan2(y1 - y0, x1 - x0),
+                )
+            )
         return tuple(Obstacle(f"wall{i}", "wall", b, h) for i, b in enumerate(boxes))
 
 
@@ -177,16 +191,27 @@ class Scenario:
         objects = tuple(Obstacle(o.name, o.kind, o.footprint(), o.height, o.target) for o in self.objects)
         people = tuple(person_state(p) for p in self.people)
         r = self.robot
-        robot = RobotState(r.name, r.x, r.y, math.radians(r.heading_deg), r.length, r.width, r.height,
-                           r.max_speed, r.max_accel)
+        robot = RobotState(
+            r.name, r.x, r.y, math.radians(r.heading_deg), r.length, r.width, r.height, r.max_speed, r.max_accel
+        )
         return Scene(self.room.bounds, self.room.wall_obstacles() + objects, people, robot, time)
 
 
 def person_state(p: PersonSpec) -> PersonState:
     """A person spec as the scene's runtime state (radians)."""
-    return PersonState(p.name, p.x, p.y, math.radians(p.heading_deg), p.speed, p.radius, p.eye_height,
-                       math.radians(p.hfov_deg), math.radians(p.vfov_deg),
-                       math.radians(p.gaze_range_deg[0]), math.radians(p.gaze_range_deg[1]))
+    return PersonState(
+        p.name,
+        p.x,
+        p.y,
+        math.radians(p.heading_deg),
+        p.speed,
+        p.radius,
+        p.eye_height,
+        math.radians(p.hfov_deg),
+        math.radians(p.vfov_deg),
+        math.radians(p.gaze_range_deg[0]),
+        math.radians(p.gaze_range_deg[1]),
+    )
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -206,14 +231,23 @@ def load_scenario(path: str | Path) -> Scenario:
 def parse_scenario(data: object) -> Scenario:
     """Validate an already-parsed YAML document."""
     f = Fields(data, "", ScenarioError)
-    f.reject_unknown(frozenset({"name", "description", "room", "objects", "people", "robot", "sensors",
-                                "randomisation"}))
+    f.reject_unknown(
+        frozenset({"name", "description", "room", "objects", "people", "robot", "sensors", "randomisation"})
+    )
     room = _room(f.child("room"))
     objects = tuple(_object(o) for o in f.children("objects"))
     people = tuple(_person(p) for p in f.children("people"))
     robot = _robot(f.child("robot"))
-    scenario = Scenario(f.string("name"), str(f.string("description", "-")), room, objects, people, robot,
-                        _sensors(f.child("sensors")), _randomisation(f.child("randomisation")))
+    scenario = Scenario(
+        f.string("name"),
+        str(f.string("description", "-")),
+        room,
+        objects,
+        people,
+        robot,
+        _sensors(f.child("sensors")),
+        _randomisation(f.child("randomisation")),
+    )
     _cross_check(scenario, f)
     return scenario
 
@@ -236,8 +270,13 @@ def _room(f: Fields) -> RoomSpec:
         if (x0, y0) == (x1, y1):
             raise w.fail("end", "must differ from start")
         walls.append(WallSpec((x0, y0), (x1, y1), w.number("thickness", 0.1, positive=True)))
-    return RoomSpec(width, depth, f.number("wall_height", 2.5, positive=True),
-                    f.number("wall_thickness", 0.1, positive=True), tuple(walls))
+    return RoomSpec(
+        width,
+        depth,
+        f.number("wall_height", 2.5, positive=True),
+        f.number("wall_thickness", 0.1, positive=True),
+        tuple(walls),
+    )
 
 
 def _object(f: Fields) -> ObjectSpec:
@@ -254,13 +293,38 @@ def _object(f: Fields) -> ObjectSpec:
             raise s.fail("size", f"expected two positive numbers, got {[length, width]}")
         radius = 0.0
     x, y, heading = _pose(f)
-    return ObjectSpec(f.string("name"), f.string("kind", choices=OBJECT_KINDS), shape, radius, length, width,
-                      f.number("height", positive=True), x, y, heading, f.boolean("target", False))
+    return ObjectSpec(
+        f.string("name"),
+        f.string("kind", choices=OBJECT_KINDS),
+        shape,
+        radius,
+        length,
+        width,
+        f.number("height", positive=True),
+        x,
+        y,
+        heading,
+        f.boolean("target", False),
+    )
 
 
 def _person(f: Fields) -> PersonSpec:
-    f.reject_unknown(frozenset({"name", "pose", "target", "speed", "radius", "eye_height", "hfov_deg",
-                                "vfov_deg", "gaze_range_deg", "gaze_deg"}))
+    f.reject_unknown(
+        frozenset(
+            {
+                "name",
+                "pose",
+                "target",
+                "speed",
+                "radius",
+                "eye_height",
+                "hfov_deg",
+                "vfov_deg",
+                "gaze_range_deg",
+                "gaze_deg",
+            }
+        )
+    )
     x, y, heading = _pose(f)
     lo, hi = f.numbers("gaze_range_deg", 2)
     if not -90.0 < lo < hi < 90.0:
@@ -268,10 +332,20 @@ def _person(f: Fields) -> PersonSpec:
     gaze = f.number("gaze_deg", (lo + hi) / 2)
     if not lo <= gaze <= hi:
         raise f.fail("gaze_deg", f"expected a value within gaze_range_deg {[lo, hi]}, got {gaze}")
-    return PersonSpec(f.string("name"), x, y, heading, f.string("target"), f.number("speed", positive=True),
-                      f.number("radius", positive=True), f.number("eye_height", positive=True),
-                      f.number("hfov_deg", positive=True, at_most=360.0),
-                      f.number("vfov_deg", positive=True, at_most=180.0), (lo, hi), gaze)
+    return PersonSpec(
+        f.string("name"),
+        x,
+        y,
+        heading,
+        f.string("target"),
+        f.number("speed", positive=True),
+        f.number("radius", positive=True),
+        f.number("eye_height", positive=True),
+        f.number("hfov_deg", positive=True, at_most=360.0),
+        f.number("vfov_deg", positive=True, at_most=180.0),
+        (lo, hi),
+        gaze,
+    )
 
 
 def _robot(f: Fields) -> RobotSpec:
@@ -280,17 +354,32 @@ def _robot(f: Fields) -> RobotSpec:
     length, width = f.numbers("footprint", 2)
     if length <= 0 or width <= 0:
         raise f.fail("footprint", f"expected two positive numbers, got {[length, width]}")
-    return RobotSpec(f.string("name", "robot"), x, y, heading, length, width, f.number("height", positive=True),
-                     f.number("max_speed", positive=True), f.number("max_accel", positive=True))
+    return RobotSpec(
+        f.string("name", "robot"),
+        x,
+        y,
+        heading,
+        length,
+        width,
+        f.number("height", positive=True),
+        f.number("max_speed", positive=True),
+        f.number("max_accel", positive=True),
+    )
 
 
 def _sensors(f: Fields) -> SensorSpec:
-    f.reject_unknown(frozenset({"enabled", "rate_hz", "position_sigma", "heading_sigma_deg", "size_error",
-                                "dropout", "latency"}))
-    return SensorSpec(f.boolean("enabled", True), f.number("rate_hz", positive=True),
-                      f.number("position_sigma", non_negative=True), f.number("heading_sigma_deg", 0.0, non_negative=True),
-                      f.number("size_error", non_negative=True, at_most=0.9),
-                      f.number("dropout", non_negative=True, at_most=0.99), f.number("latency", non_negative=True))
+    f.reject_unknown(
+        frozenset({"enabled", "rate_hz", "position_sigma", "heading_sigma_deg", "size_error", "dropout", "latency"})
+    )
+    return SensorSpec(
+        f.boolean("enabled", True),
+        f.number("rate_hz", positive=True),
+        f.number("position_sigma", non_negative=True),
+        f.number("heading_sigma_deg", 0.0, non_negative=True),
+        f.number("size_error", non_negative=True, at_most=0.9),
+        f.number("dropout", non_negative=True, at_most=0.99),
+        f.number("latency", non_negative=True),
+    )
 
 
 def _randomisation(f: Fields) -> RandomisationSpec:
@@ -298,8 +387,12 @@ def _randomisation(f: Fields) -> RandomisationSpec:
     trials = f.number("trials", 1, positive=True)
     if trials != int(trials):
         raise f.fail("trials", f"expected a whole number, got {trials}")
-    return RandomisationSpec(f.strings("entities", []), f.number("radius", 0.0, non_negative=True),
-                             f.number("heading_jitter_deg", 0.0, non_negative=True), int(trials))
+    return RandomisationSpec(
+        f.strings("entities", []),
+        f.number("radius", 0.0, non_negative=True),
+        f.number("heading_jitter_deg", 0.0, non_negative=True),
+        int(trials),
+    )
 
 
 def _cross_check(s: Scenario, f: Fields) -> None:
@@ -309,8 +402,11 @@ def _cross_check(s: Scenario, f: Fields) -> None:
     entries.append(("robot.name", s.robot.name))
     for path, name in entries:
         if name in names or name.startswith("wall"):
-            raise ScenarioError(f"{path}: name {name!r} is already used"
-                                if name in names else f"{path}: names starting with 'wall' are reserved")
+            raise ScenarioError(
+                f"{path}: name {name!r} is already used"
+                if name in names
+                else f"{path}: names starting with 'wall' are reserved"
+            )
         names[name] = path
     targets = {o.name for o in s.objects if o.target}
     for i, p in enumerate(s.people):
@@ -334,8 +430,12 @@ def _footprints(s: Scenario) -> list[tuple[str, Shape]]:
 def _inside(shape: Shape, bounds: tuple[float, float, float, float], margin: float = 0.0) -> bool:
     x0, y0, x1, y1 = aabb(shape)
     eps = 1e-9
-    return (x0 >= bounds[0] + margin - eps and y0 >= bounds[1] + margin - eps
-            and x1 <= bounds[2] - margin + eps and y1 <= bounds[3] - margin + eps)
+    return (
+        x0 >= bounds[0] + margin - eps
+        and y0 >= bounds[1] + margin - eps
+        and x1 <= bounds[2] - margin + eps
+        and y1 <= bounds[3] - margin + eps
+    )
 
 
 def sample_trial(scenario: Scenario, rng: np.random.Generator) -> Scenario:
@@ -368,10 +468,8 @@ def _moved(s: Scenario, name: str, dx: float, dy: float, dheading: float) -> Sce
     if isinstance(nominal, RobotSpec):
         return replace(s, robot=replace(nominal, x=x, y=y, heading_deg=h))
     if isinstance(nominal, PersonSpec):
-        return replace(s, people=tuple(replace(p, x=x, y=y, heading_deg=h) if p.name == name else p
-                                       for p in s.people))
-    return replace(s, objects=tuple(replace(o, x=x, y=y, heading_deg=h) if o.name == name else o
-                                    for o in s.objects))
+        return replace(s, people=tuple(replace(p, x=x, y=y, heading_deg=h) if p.name == name else p for p in s.people))
+    return replace(s, objects=tuple(replace(o, x=x, y=y, heading_deg=h) if o.name == name else o for o in s.objects))
 
 
 def _entity(s: Scenario, name: str) -> ObjectSpec | PersonSpec | RobotSpec:

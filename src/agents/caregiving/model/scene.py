@@ -69,8 +69,9 @@ class RobotState:
 
     def body(self) -> Obstacle:
         """The robot's footprint as an obstacle."""
-        return Obstacle(self.name, ROBOT_KIND,
-                        Box(self.x, self.y, self.length / 2, self.width / 2, self.heading), self.height)
+        return Obstacle(
+            self.name, ROBOT_KIND, Box(self.x, self.y, self.length / 2, self.width / 2, self.heading), self.height
+        )
 
 
 @dataclass(frozen=True)
@@ -152,23 +153,41 @@ def _obstacle_to_wire(o: Obstacle) -> dict[str, Any]:
 
 
 def _obstacle_from_wire(f: Fields) -> Obstacle:
-    return Obstacle(f.string("name"), f.string("kind"), shape_from_wire(f.child("shape")),
-                    f.number("height", positive=True), f.boolean("target", False))
+    return Obstacle(
+        f.string("name"),
+        f.string("kind"),
+        shape_from_wire(f.child("shape")),
+        f.number("height", positive=True),
+        f.boolean("target", False),
+    )
 
 
 def _person_from_wire(f: Fields) -> PersonState:
     return PersonState(
-        name=f.string("name"), x=f.number("x"), y=f.number("y"), heading=f.number("heading"),
-        speed=f.number("speed", positive=True), radius=f.number("radius", positive=True),
-        eye_height=f.number("eye_height", positive=True), hfov=f.number("hfov", positive=True),
-        vfov=f.number("vfov", positive=True), gaze_min=f.number("gaze_min"), gaze_max=f.number("gaze_max"),
+        name=f.string("name"),
+        x=f.number("x"),
+        y=f.number("y"),
+        heading=f.number("heading"),
+        speed=f.number("speed", positive=True),
+        radius=f.number("radius", positive=True),
+        eye_height=f.number("eye_height", positive=True),
+        hfov=f.number("hfov", positive=True),
+        vfov=f.number("vfov", positive=True),
+        gaze_min=f.number("gaze_min"),
+        gaze_max=f.number("gaze_max"),
     )
 
 
 def _robot_from_wire(f: Fields) -> RobotState:
     return RobotState(
-        name=f.string("name"), x=f.number("x"), y=f.number("y"), heading=f.number("heading"),
-        length=f.number("length", positive=True), width=f.number("width", positive=True),
-        height=f.number("height", positive=True), max_speed=f.number("max_speed", positive=True),
-        max_accel=f.number("max_accel", positive=True), speed=f.number("speed", 0.0, non_negative=True),
+        name=f.string("name"),
+        x=f.number("x"),
+        y=f.number("y"),
+        heading=f.number("heading"),
+        length=f.number("length", positive=True),
+        width=f.number("width", positive=True),
+        height=f.number("height", positive=True),
+        max_speed=f.number("max_speed", positive=True),
+        max_accel=f.number("max_accel", positive=True),
+        speed=f.number("speed", 0.0, non_negative=True),
     )

@@ -37,9 +37,12 @@ KINDS = frozenset({"person", "joint"})
 def uncertainty_from_fields(u: Fields) -> Uncertainty:
     """Parse an item's ``uncertainty`` map."""
     sigma = u.child("sigma", {})
-    return Uncertainty(u.number("size_error", 0.0, non_negative=True, at_most=0.9),
-                       {k: sigma.number(k, non_negative=True) for k in sigma.keys()},
-                       int(u.number("samples", 64, positive=True, at_most=4096)), int(u.number("seed", 0)))
+    return Uncertainty(
+        u.number("size_error", 0.0, non_negative=True, at_most=0.9),
+        {k: sigma.number(k, non_negative=True) for k in sigma.keys()},
+        int(u.number("samples", 64, positive=True, at_most=4096)),
+        int(u.number("seed", 0)),
+    )
 
 
 def serve_item(scene: Scene, item: Any, rollout: Rollout | None = None) -> Answer:
@@ -57,9 +60,13 @@ def serve_item(scene: Scene, item: Any, rollout: Rollout | None = None) -> Answe
         raise f.fail("walks", "expected at least one walk")
     move = f.optional_child("move")
     current = f.optional_child("current")
-    joint = imagine_joint(scene, walks, RobotMove.from_fields(move) if move is not None else None,
-                          delay=f.number("delay", 0.0, non_negative=True, at_most=MAX_DELAY),
-                          current=RobotMove.from_fields(current) if current is not None else None)
+    joint = imagine_joint(
+        scene,
+        walks,
+        RobotMove.from_fields(move) if move is not None else None,
+        delay=f.number("delay", 0.0, non_negative=True, at_most=MAX_DELAY),
+        current=RobotMove.from_fields(current) if current is not None else None,
+    )
     return Answer(joint=joint, risk=joint_risk(scene, joint, uncertainty) if uncertainty is not None else None)
 
 
@@ -95,4 +102,3 @@ def batch_scene(request: Any, context: Scene | None) -> tuple[Scene, list[Any]]:
     if scene is None:
         raise RequestError("no context yet: W holds no world and robot, and the request pins no scene")
     return scene, items
-

@@ -64,8 +64,9 @@ def collision_risk(scene: Scene, im: Imagination, u: Uncertainty, dt: float = DT
         return NO_RISK
     person = scene.person(im.person)
     seen = set(im.seen)
-    unseen = [o for o in scene.bodies_around(im.person)
-              if o.name != im.target and o.name not in seen and o.kind != WALL_KIND]
+    unseen = [
+        o for o in scene.bodies_around(im.person) if o.name != im.target and o.name not in seen and o.kind != WALL_KIND
+    ]
     if not unseen:
         return NO_RISK
     rng = np.random.default_rng(u.seed)
@@ -124,5 +125,3 @@ def _clearances(shape: Circle | Box, walkers: np.ndarray, offset: np.ndarray, sc
     outside = np.hypot(np.maximum(q[..., 0], 0.0), np.maximum(q[..., 1], 0.0))
     inside = np.minimum(np.maximum(q[..., 0], q[..., 1]), 0.0)
     return outside + inside
-
-

@@ -110,11 +110,21 @@ class World:
         # What a walker knows of: the walls, and whatever their intent names, the robot and other people
         # where they are now.
         bodies = [*scene.obstacles, scene.robot.body(), *(p.body() for p in scene.people)]
-        self._walkers = [_Walker(p, intents[p.name].target, intents[p.name].gaze,
-                                 {o.name: o for o in bodies
-                                  if o.kind == WALL_KIND or o.name in intents[p.name].known and o.name != p.name},
-                                 track=[(p.x, p.y)])
-                         for p in scene.people if p.name in intents]
+        self._walkers = [
+            _Walker(
+                p,
+                intents[p.name].target,
+                intents[p.name].gaze,
+                {
+                    o.name: o
+                    for o in bodies
+                    if o.kind == WALL_KIND or o.name in intents[p.name].known and o.name != p.name
+                },
+                track=[(p.x, p.y)],
+            )
+            for p in scene.people
+            if p.name in intents
+        ]
         self.robot: RobotState = scene.robot
         self._speed = scene.robot.speed
         self._drive: _Drive | None = None
@@ -170,9 +180,13 @@ class World:
 
     def outcome(self) -> Outcome:
         """The record so far."""
-        return Outcome(tuple(self._collisions), {w.state.name: w.min_clearance for w in self._walkers},
-                       {w.state.name: w.closest for w in self._walkers},
-                       {w.state.name: w.arrival for w in self._walkers}, self.time)
+        return Outcome(
+            tuple(self._collisions),
+            {w.state.name: w.min_clearance for w in self._walkers},
+            {w.state.name: w.closest for w in self._walkers},
+            {w.state.name: w.arrival for w in self._walkers},
+            self.time,
+        )
 
     # -- robot ---------------------------------------------------------------------------------
     def command_robot(self, move: RobotMove | None) -> bool:
@@ -184,8 +198,12 @@ class World:
         if not robot_fits(scene, move):
             return False
         self.robot_arrival = None
-        plan = self.planner.plan_to_point((self.robot.x, self.robot.y), (move.x, move.y),
-                                          [*self._static, *(p.body() for p in scene.people)], self.robot.width / 2)
+        plan = self.planner.plan_to_point(
+            (self.robot.x, self.robot.y),
+            (move.x, move.y),
+            [*self._static, *(p.body() for p in scene.people)],
+            self.robot.width / 2,
+        )
         if not plan.reachable:
             return False
         self._drive = _Drive(Polyline.of(plan.path), move.heading)
@@ -208,13 +226,16 @@ class World:
         if self._drive is None:
             self._speed = max(self._speed - r.max_accel * self.dt, 0.0)
             if self._speed > 0.0:
-                self.robot = replace(r, x=r.x + math.cos(r.heading) * self._speed * self.dt,
-                                     y=r.y + math.sin(r.heading) * self._speed * self.dt)
+                self.robot = replace(
+                    r,
+                    x=r.x + math.cos(r.heading) * self._speed * self.dt,
+                    y=r.y + math.sin(r.heading) * self._speed * self.dt,
+                )
             return
         d = self._drive
         remaining = max(d.route.length - d.walked, 0.0)
         # Fastest speed for this step that still leaves room to brake at max_accel afterwards.
-        stop_speed = r.max_accel * (math.sqrt(self.dt ** 2 + 2 * remaining / r.max_accel) - self.dt)
+        stop_speed = r.max_accel * (math.sqrt(self.dt**2 + 2 * remaining / r.max_accel) - self.dt)
         self._speed = min(self._speed + r.max_accel * self.dt, r.max_speed, stop_speed)
         d.walked = min(d.walked + self._speed * self.dt, d.route.length)
         if d.route.length - d.walked < 1e-3 or self._speed < 1e-6:
@@ -296,8 +317,9 @@ class World:
             w.min_clearance, w.closest = clear[k], bodies[k].name
         if clear[k] <= 0.0:
             point = closest_boundary_point(bodies[k].shape, (x, y))[0]
-            self._collisions.append(Collision(self.time + self.dt, w.state.name, bodies[k].name,
-                                              (float(point[0]), float(point[1]))))
+            self._collisions.append(
+                Collision(self.time + self.dt, w.state.name, bodies[k].name, (float(point[0]), float(point[1])))
+            )
             w.status = "collided"
 
     # -- stepping ------------------------------------------------------------------------------
