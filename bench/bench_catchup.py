@@ -39,9 +39,9 @@ from benchlib import (
     spawn,
     write_json,
 )
-from wm import keys
-from wm import sync_protocol as proto
-from wm.replication import Replicator
+from wm.net import keys
+from wm.net import sync_protocol as proto
+from wm.net.replication import Replicator
 
 GRAPH = "bench_catchup"
 GOAL_MS = 150.0

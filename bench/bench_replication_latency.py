@@ -20,7 +20,7 @@ import zenoh
 
 import wm
 from benchlib import endpoint, free_port, parser, percentiles, print_table, read_line, spawn, write_json
-from wm.zenoh_config import build_config
+from wm.net.zenoh_config import build_config
 
 GRAPH = "bench"
 

@@ -34,13 +34,20 @@ from typing import Any
 
 import zenoh
 
-from wm.zenoh_config import MODES, ZenohConfigError, build_config, environment_variables, read_config, variable_value
+from wm.net.zenoh_config import (
+    MODES,
+    ZenohConfigError,
+    build_config,
+    environment_variables,
+    read_config,
+    variable_value,
+)
 
 _ASSIGNMENT = re.compile(r"^[A-Z_][A-Z0-9_]*=")
 
 
 def parse_variables(items: Sequence[str]) -> dict[str, Any]:
-    """``NAME=VALUE`` pairs as template variables (values as :func:`wm.zenoh_config.variable_value`)."""
+    """``NAME=VALUE`` pairs as template variables (values as :func:`wm.net.zenoh_config.variable_value`)."""
     out: dict[str, Any] = {}
     for item in items:
         name, sep, raw = item.partition("=")

@@ -6,7 +6,7 @@ import msgpack
 import pytest
 
 import wm
-from wm import sync_protocol as proto
+from wm.net import sync_protocol as proto
 
 
 def sample() -> wm.Graph:

@@ -74,10 +74,10 @@ import zenoh
 
 import wm
 from wm import Event, EventStream, Graph
-from wm.connection import close_session, open_session
 from wm.events import EventFilter
+from wm.net.connection import close_session, open_session
+from wm.net.zenoh_config import load_with_environment
 from wm.reaper import install_reaper
-from wm.zenoh_config import load_with_environment
 
 from . import logs
 from .agent_node import AgentNode

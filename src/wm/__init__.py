@@ -4,7 +4,6 @@ A typed graph of nodes and edges with typed attributes and RT (geometric)
 edges, replicated as a CRDT. Start with :class:`wm.Graph` for a local replica.
 """
 
-from .connection import ConnectError, connect
 from .errors import (
     AttributeTypeError,
     DecodeError,
@@ -25,6 +24,7 @@ from .errors import (
 from .events import Event, EventKind, EventStream, Subscription
 from .graph import Graph
 from .model import Edge, Node
+from .net.connection import ConnectError, connect
 from .ontology import AttributeSpec, Ontology
 from .rt import se2
 

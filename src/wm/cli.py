@@ -21,13 +21,13 @@ from typing import Any
 
 from . import dsr_json, plugins
 from .check import check
-from .connection import connect
 from .errors import NotFoundError, PluginError, UnknownAttributeError, WMError
 from .graph import Graph
 from .launch import command as launch_command
 from .monitoring import commands as monitoring_commands
+from .net.connection import connect
+from .net.zenoh_config import load_with_environment
 from .ontology import Ontology
-from .zenoh_config import load_with_environment
 
 
 class CommandError(WMError):
@@ -196,7 +196,7 @@ async def run(args: argparse.Namespace) -> int:
     if hasattr(args, "config"):  # the file, built with its variables from WM_ZENOH_<NAME>
         args.config = load_with_environment(args.config)
     if args.command == "serve":
-        from .serve import serve
+        from .net.serve import serve
 
         await serve(
             args.data,

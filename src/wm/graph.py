@@ -8,7 +8,7 @@ publishes typed events (:mod:`wm.events`). Reads return immutable snapshots,
 kept until a change touches their element (every remote transaction drops
 them all: pycrdt does not report every change a remote update makes).
 
-It knows nothing of the network: :mod:`wm.replication` moves its updates.
+It knows nothing of the network: :mod:`wm.net.replication` moves its updates.
 A Graph is not thread-safe; use it from one thread (the asyncio loop).
 """
 
@@ -47,7 +47,7 @@ from .view_rules import LeftOut, ViewRules
 from .volatile import Record, VolatileStore, check_records, edge_owner, node_owner
 
 if TYPE_CHECKING:
-    from .replication import Replicator
+    from .net.replication import Replicator
 
 NodeRef = int | str
 SNAPSHOT_VERSION = 1
@@ -628,7 +628,7 @@ class Graph:
                     )
                     self._store.set_node_attrs(str(loser), {NAME_KEY: new_name})
 
-    # -- replication hooks (used by wm.replication and wm.persistence) --------
+    # -- replication hooks (used by wm.net.replication and wm.persistence) --------
 
     def state_vector(self) -> bytes:
         return self._store.state_vector()

@@ -1,7 +1,7 @@
 """``${NAME}`` and ``${NAME:-default}`` placeholders, expanded the same way everywhere.
 
 Launch files (:mod:`wm.launch.spec`) and Zenoh config files
-(:mod:`wm.zenoh_config`) both use them. A placeholder takes the value of
+(:mod:`wm.net.zenoh_config`) both use them. A placeholder takes the value of
 ``NAME`` when one is given, else its default; one with neither is reported to
 the caller's ``on_missing`` and left as it is, so that a caller can name every
 missing variable at once.

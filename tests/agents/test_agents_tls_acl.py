@@ -16,7 +16,7 @@ from launch_helpers import PROBE, PROBE_PATH
 
 import wm
 from procs import PYTHON, REPO, WM, endpoint, free_port
-from wm.zenoh_config import load_with_environment
+from wm.net.zenoh_config import load_with_environment
 
 GRAPH = "secure"
 TLS_CLIENT = str(REPO / "deploy" / "zenoh" / "tls" / "client.json5")

@@ -11,7 +11,7 @@ import pytest
 from agents.caregiving import keys
 from agents.messaging import Messaging, RemoteError
 from procs import PYTHON, REPO, WM, Proc, endpoint, free_port
-from wm.connection import close_session, open_session
+from wm.net.connection import close_session, open_session
 
 BROKEN = """name: broken
 room: {size: [8.0, 6.0]}

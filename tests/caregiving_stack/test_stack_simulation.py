@@ -18,7 +18,7 @@ from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.world_model import Walk
 from agents.messaging import Messaging, NoReply, RemoteError
 from procs import PYTHON, Proc, endpoint, free_port
-from wm.connection import close_session, open_session
+from wm.net.connection import close_session, open_session
 
 GRAPH = "simtest"
 GAZES = [math.radians(8), math.radians(-30)]

@@ -16,7 +16,7 @@ from typing import Any
 import pytest
 import zenoh
 
-from wm.zenoh_config import build_config
+from wm.net.zenoh_config import build_config
 
 TESTS_DIR = Path(__file__).resolve().parents[1]
 REPO = TESTS_DIR.parent

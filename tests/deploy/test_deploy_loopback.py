@@ -6,7 +6,7 @@ import zenoh
 import zenohctl  # deploy/, put on sys.path by deploy_helpers
 from deploy_helpers import DEPLOY, PYTHON, ZENOH_DIR, Collector, free_port, wait_matching, wait_until
 
-from wm.zenoh_config import build_config
+from wm.net.zenoh_config import build_config
 
 PEER = ZENOH_DIR / "peer-loopback.json5"
 ROUTER = ZENOH_DIR / "router.json5"

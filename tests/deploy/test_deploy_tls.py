@@ -9,7 +9,7 @@ import pytest
 import zenoh
 from deploy_helpers import ZENOH_DIR, Collector, free_port, wait_matching
 
-from wm.zenoh_config import build_config
+from wm.net.zenoh_config import build_config
 
 TLS_ROUTER = ZENOH_DIR / "tls/router.json5"
 TLS_CLIENT = ZENOH_DIR / "tls/client.json5"

@@ -1,4 +1,4 @@
-"""wm.zenoh_config: building configs from files, mappings and endpoints; placeholders; errors.
+"""wm.net.zenoh_config: building configs from files, mappings and endpoints; placeholders; errors.
 The deploy templates, and the NAME=VALUE variables of deploy/zenohctl.py."""
 
 from __future__ import annotations
@@ -13,7 +13,13 @@ from zenohctl import main as zenohctl
 from zenohctl import parse_variables
 
 from wm.errors import WMError
-from wm.zenoh_config import ZenohConfigError, build_config, environment_variables, load_with_environment, read_config
+from wm.net.zenoh_config import (
+    ZenohConfigError,
+    build_config,
+    environment_variables,
+    load_with_environment,
+    read_config,
+)
 
 TEMPLATES = sorted(p.relative_to(ZENOH_DIR).as_posix() for p in ZENOH_DIR.rglob("*.json5"))
 ALL_VARS = {

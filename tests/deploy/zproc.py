@@ -4,7 +4,7 @@
     zproc.py sub CONFIG KEY [NAME=VALUE ...] [--count N] [--timeout S]
     zproc.py pub CONFIG KEY PAYLOAD [NAME=VALUE ...] [--period S] [--timeout S]
 
-CONFIG is a JSON5 file filled with the NAME=VALUE variables (wm.zenoh_config).
+CONFIG is a JSON5 file filled with the NAME=VALUE variables (wm.net.zenoh_config).
 Every role prints ``READY <zid>`` once its session is open and its entities are
 declared; ``sub`` prints ``SAMPLE <key> <payload>`` per sample it receives.
 Each role ends on SIGTERM/SIGINT, and ``sub``/``pub`` also after --timeout seconds
@@ -26,7 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "deploy"))
 
 from zenohctl import parse_variables
 
-from wm.zenoh_config import ZenohConfigError, build_config
+from wm.net.zenoh_config import ZenohConfigError, build_config
 
 
 def main() -> int:

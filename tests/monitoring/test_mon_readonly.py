@@ -18,7 +18,7 @@ from websockets.sync.client import connect as ws_connect
 
 from procs import WM, wait_until
 from wm.monitoring.recording_file import graph_at
-from wm.zenoh_config import build_config
+from wm.net.zenoh_config import build_config
 
 MONITORS = {"wm-view", "wm-record", "wm-monitor"}
 

@@ -10,8 +10,8 @@ import zenoh
 
 import wm
 from procs import endpoint, free_port
-from wm import sync_protocol as proto
-from wm.zenoh_config import build_config
+from wm.net import sync_protocol as proto
+from wm.net.zenoh_config import build_config
 
 
 async def wait_for(condition, what: str, timeout: float = 10.0) -> None:

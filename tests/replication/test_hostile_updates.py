@@ -27,8 +27,8 @@ import zenoh
 from pycrdt import Doc, Map, Text
 
 from procs import PYTHON, REPO, WM, Proc, endpoint, free_port, read_dump, wait_until
-from wm import sync_protocol as proto
-from wm.zenoh_config import build_config
+from wm.net import sync_protocol as proto
+from wm.net.zenoh_config import build_config
 
 GRAPH = "hostile"
 ATTACKER = "mallory"

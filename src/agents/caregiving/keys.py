@@ -12,7 +12,7 @@ All payloads are msgpack maps (see :mod:`agents.messaging`).
 
 from __future__ import annotations
 
-from wm import keys as wm_keys
+from wm.net import keys as wm_keys
 
 ROOT = "cg"
 

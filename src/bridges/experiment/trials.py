@@ -28,7 +28,7 @@ from agents.caregiving.context import read_context
 from agents.caregiving.names import HAS_INTENTION, INTENTION, OBJECT, PERSON, WORLD
 from agents.messaging import Messaging, TaskSet, logging_guard
 from wm import Event, Graph
-from wm.connection import close_session, open_session
+from wm.net.connection import close_session, open_session
 
 log = logging.getLogger(__name__)
 

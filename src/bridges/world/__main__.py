@@ -9,8 +9,8 @@ import sys
 
 from agents.caregiving.model.errors import ScenarioError
 from agents.caregiving.model.scenario import load_scenario
-from wm.connection import ConnectError, close_session, open_session, sigterm_cancels_current_task
-from wm.zenoh_config import ZenohConfigError, load_with_environment
+from wm.net.connection import ConnectError, close_session, open_session, sigterm_cancels_current_task
+from wm.net.zenoh_config import ZenohConfigError, load_with_environment
 
 from .bridge import WorldBridge
 

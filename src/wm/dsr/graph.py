@@ -28,11 +28,11 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from .. import dsr_json
-from ..connection import connect as wm_connect
 from ..errors import NotFoundError, RTError
 from ..graph import Graph
+from ..net.connection import connect as wm_connect
+from ..net.zenoh_config import load_with_environment
 from ..ontology import Ontology
-from ..zenoh_config import load_with_environment
 from .signals import SignalHub
 from .values import DSRTypeError, Edge, Node, _check_id, use_defaults
 

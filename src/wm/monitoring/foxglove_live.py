@@ -26,11 +26,11 @@ from pathlib import Path
 import foxglove
 from foxglove.websocket import ChannelView, Client, ServerListener
 
-from ..connection import connect
 from ..events import Event
 from ..graph import Graph
+from ..net.connection import connect
+from ..net.zenoh_config import ConfigSource
 from ..ontology import Ontology
-from ..zenoh_config import ConfigSource
 from .foxglove import GraphChannels
 
 DEFAULT_PORT = 8765

@@ -23,11 +23,11 @@ from rich.panel import Panel
 from rich.table import Table
 from rich.text import Text
 
-from ..connection import ConnectError, connect
 from ..events import Event, EventKind
 from ..graph import Graph
+from ..net.connection import ConnectError, connect
+from ..net.zenoh_config import ConfigSource
 from ..ontology import Ontology
-from ..zenoh_config import ConfigSource
 from .scene2d import root_node, world_poses
 
 RATE_WINDOW_S = 5.0

@@ -17,11 +17,11 @@ from pathlib import Path
 
 from pycrdt import merge_updates
 
-from ..connection import connect
 from ..events import Event
 from ..graph import Graph
+from ..net.connection import connect
+from ..net.zenoh_config import ConfigSource
 from ..ontology import Ontology
-from ..zenoh_config import ConfigSource
 from .recording_file import RecordingWriter
 
 

@@ -13,13 +13,13 @@ import asyncio
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..connection import connect
 from ..errors import NotFoundError
 from ..graph import Graph
 from ..model import parse_edge_key
+from ..net.connection import connect
+from ..net.zenoh_config import ConfigSource
 from ..ontology import Ontology
 from ..volatile import Record
-from ..zenoh_config import ConfigSource
 from .recording_file import iter_updates
 
 

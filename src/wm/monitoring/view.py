@@ -21,10 +21,10 @@ from websockets.datastructures import Headers
 from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request, Response
 
-from ..connection import connect
 from ..graph import Graph
+from ..net.connection import connect
+from ..net.zenoh_config import ConfigSource
 from ..ontology import Ontology
-from ..zenoh_config import ConfigSource
 from . import scene2d
 
 PAGE = resources.files("wm.monitoring").joinpath("view_page.html").read_bytes()

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import re
 
-from .errors import ValidationError
+from ..errors import ValidationError
 
 ROOT = "wm"
 _SEGMENT = re.compile(r"^[A-Za-z0-9_.\-]+$")

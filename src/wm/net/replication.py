@@ -1,6 +1,6 @@
 """The Zenoh provider: keeps one :class:`wm.Graph` in step with its peers.
 
-It moves the messages of :mod:`wm.sync_protocol` over one Zenoh session:
+It moves the messages of :mod:`wm.net.sync_protocol` over one Zenoh session:
 
 * the first local write of a loop tick leaves at once as a DELTA on
   ``wm/<g>/delta/<me>``; the writes after it in the same tick leave together,
@@ -28,10 +28,10 @@ from typing import Any
 
 import zenoh
 
+from ..errors import DecodeError
+from ..graph import Graph
 from . import keys
 from . import sync_protocol as proto
-from .errors import DecodeError
-from .graph import Graph
 
 log = logging.getLogger(__name__)
 DURABLE_AGENT = "serve"

@@ -32,11 +32,11 @@ from typing import TYPE_CHECKING, Any
 import msgpack
 from pycrdt import merge_updates
 
-from .errors import DecodeError
-from .volatile import Record, check_records
+from ..errors import DecodeError
+from ..volatile import Record, check_records
 
 if TYPE_CHECKING:
-    from .graph import Graph
+    from ..graph import Graph
 
 VERSION = 2
 

@@ -24,9 +24,9 @@ from pathlib import Path
 
 import zenoh
 
-from .errors import WMError
-from .graph import Graph
-from .ontology import Ontology
+from ..errors import WMError
+from ..graph import Graph
+from ..ontology import Ontology
 from .replication import Replicator
 from .zenoh_config import ConfigSource, Endpoints, Mode, ZenohConfigError, build_config
 
@@ -110,7 +110,7 @@ async def connect(
     """Yield a :class:`wm.Graph` replica of graph ``graph``, kept in sync with every peer.
 
     ``config`` is a Zenoh config file, mapping or ``zenoh.Config`` (see
-    :func:`wm.zenoh_config.build_config`); ``connect``/``listen`` add
+    :func:`wm.net.zenoh_config.build_config`); ``connect``/``listen`` add
     endpoints. ``name`` is the agent name shown in ``g.members()``. The
     replication layer is reachable as ``g.network`` (stats, ``confirm()``).
     ``read_only=True`` joins as a monitor: it receives everything and never

@@ -36,8 +36,8 @@ from typing import Any, Literal, TypeAlias
 import json5
 import zenoh
 
-from . import placeholders
-from .errors import WMError
+from .. import placeholders
+from ..errors import WMError
 
 __all__ = [
     "ENV_PREFIX",

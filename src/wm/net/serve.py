@@ -12,16 +12,16 @@ import logging
 from collections.abc import Sequence
 from pathlib import Path
 
+from ..graph import Graph
+from ..ontology import Ontology
+from ..persistence import DiskLog, Persister
+from ..reaper import install_reaper
 from .connection import close_session, open_session, sigterm_cancels_current_task
-from .graph import Graph
 from .keys import check_segment
-from .ontology import Ontology
-from .persistence import DiskLog, Persister
-from .reaper import install_reaper
 from .replication import DURABLE_AGENT, Replicator
 from .zenoh_config import ConfigSource, Mode
 
-log = logging.getLogger("wm.serve")
+log = logging.getLogger("wm.net.serve")
 
 
 async def serve(
