@@ -58,7 +58,8 @@ class NoReply(MessageError):
 
 def pack(message: Any) -> bytes:
     """msgpack bytes of a message (tuples become lists)."""
-    return msgpack.packb(message, use_bin_type=True)
+    packed: bytes = msgpack.packb(message, use_bin_type=True)
+    return packed
 
 
 def unpack(payload: bytes) -> Any:

@@ -741,9 +741,10 @@ class Graph:
 
     def encode_state(self) -> bytes:
         """The whole replica (CRDT state and volatile registers) as one byte string."""
-        return msgpack.packb(
+        packed: bytes = msgpack.packb(
             {"v": SNAPSHOT_VERSION, "crdt": self._store.diff(), "volatile": self._volatile.records()}, use_bin_type=True
         )
+        return packed
 
     def load_state(self, data: bytes, writer: str = "snapshot") -> None:
         """Merge a byte string made by :meth:`encode_state` (into an empty or a live replica)."""

@@ -109,7 +109,8 @@ _KIND_OF_CODE = {int(kind): kind for kind in Kind}  # a dict look-up costs less 
 def encode(message: Message) -> bytes:
     kind = _KIND_OF[type(message)]
     fields = [getattr(message, name) for name, _ in _FIELDS[kind][1]]
-    return msgpack.packb([VERSION, int(kind), message.sender, *fields], use_bin_type=True)
+    packed: bytes = msgpack.packb([VERSION, int(kind), message.sender, *fields], use_bin_type=True)
+    return packed
 
 
 def decode(data: bytes) -> Message:
