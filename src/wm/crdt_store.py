@@ -174,11 +174,27 @@ class CrdtStore:
         """A document transaction whose changes are attributed to ``origin`` (a replica id)."""
         return _Transaction(self, origin)
 
+    def _keys(self, event: Any) -> dict[str, Any]:
+        """The keys a map event changed; none, and the change marked unreliable, if pycrdt cannot say.
+
+        yrs 0.28 can panic while listing the keys of a map event that a merged remote update
+        produced (``types/mod.rs``: ``Option::unwrap()`` on ``None``). The document itself is
+        intact, so the index re-checks the whole document instead of trusting the event.
+        """
+        try:
+            keys: dict[str, Any] = event.keys
+        except BaseException as exc:  # pyo3 raises a Rust panic as PanicException, a BaseException
+            if type(exc).__name__ != "PanicException":
+                raise
+            self.pending.unreliable = True
+            return {}
+        return keys
+
     def _on_nodes(self, events: list[Any]) -> None:
         for event in events:
             path = event.path
             if not path:
-                for key, change in event.keys.items():
+                for key, change in self._keys(event).items():
                     action = change["action"]
                     if action in ("delete", "update"):
                         self.pending.nodes_removed.append(key)
@@ -186,20 +202,20 @@ class CrdtStore:
                         self.pending.nodes_added.append(key)
             else:
                 # a change inside an attribute's value (only a peer writes shared types there) touches that attribute
-                changed = set(event.keys) if len(path) == 1 else {str(path[1])}
+                changed = set(self._keys(event)) if len(path) == 1 else {str(path[1])}
                 if not changed:
                     self.pending.unreliable = True
                 self.pending.node_attrs.setdefault(str(path[0]), set()).update(changed)
 
     def _on_edges(self, event: Any) -> None:
-        for key, change in event.keys.items():
+        for key, change in self._keys(event).items():
             if change["action"] == "delete":
                 self.pending.edges_removed.append(key)
             else:  # "add", or "update" when a peer overwrote a marker
                 self.pending.edges_added.append(key)
 
     def _on_edge_attrs(self, event: Any) -> None:
-        for flat_key in event.keys:
+        for flat_key in self._keys(event):
             key, dot, attr = flat_key.rpartition(".")
             if dot:
                 self.pending.edge_attrs.setdefault(key, set()).add(attr)
