@@ -62,6 +62,9 @@ def test_wire_round_trips_through_msgpack(scene: Scene) -> None:
     assert Imagination.from_wire(packed) == im
     move = standoff_moves(scene, "ball")[0]
     assert Scene.from_wire(msgpack.unpackb(msgpack.packb(scene.to_wire()))) == scene
+    assert scene.robot is not None
+    driving = scene.with_robot(replace(scene.robot, speed=0.4, route=((0.5, 1.0), (1.5, 1.0))))
+    assert Scene.from_wire(msgpack.unpackb(msgpack.packb(driving.to_wire()))) == driving
     assert RobotMove.from_wire(move.to_wire()) == move
 
 

@@ -190,4 +190,5 @@ def _robot_from_wire(f: Fields) -> RobotState:
         max_speed=f.number("max_speed", positive=True),
         max_accel=f.number("max_accel", positive=True),
         speed=f.number("speed", 0.0, non_negative=True),
+        route=f.pairs("route") if f.has("route") else (),
     )
