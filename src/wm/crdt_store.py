@@ -260,14 +260,7 @@ class CrdtStore:
                 if type(node) is not raw_map:
                     contents[key] = None
                     continue
-                try:
-                    node_type = node.get(raw_txn, TYPE_KEY)
-                except ValueError:
-                    node_type = None
-                try:
-                    name = node.get(raw_txn, NAME_KEY)
-                except ValueError:
-                    name = None
+                node_type, name = _head(raw_txn, node)
                 attrs = {k for k in node.keys(raw_txn) if not k.startswith("@")} if attr_names else set()
                 contents[key] = NodeContent(node_type, name, attrs)
         return contents
@@ -286,15 +279,7 @@ class CrdtStore:
                 if type(node) is not raw_map:
                     heads[key] = None
                     continue
-                try:
-                    node_type = node.get(raw_txn, TYPE_KEY)
-                except ValueError:
-                    node_type = None
-                try:
-                    name = node.get(raw_txn, NAME_KEY)
-                except ValueError:
-                    name = None
-                heads[key] = (node_type, name)
+                heads[key] = _head(raw_txn, node)
         return heads
 
     def node_values(self, key: str) -> dict[str, Any] | None:
@@ -442,3 +427,16 @@ class CrdtStore:
             callback(event.update, self.current_origin)
 
         return self.doc.observe(on_transaction)
+
+
+def _head(raw_txn: Any, node: Any) -> tuple[Any, Any]:
+    """A node map's ``@type`` and ``@name`` as stored, None where missing (pycrdt's raw get raises ValueError)."""
+    try:
+        node_type = node.get(raw_txn, TYPE_KEY)
+    except ValueError:
+        node_type = None
+    try:
+        name = node.get(raw_txn, NAME_KEY)
+    except ValueError:
+        name = None
+    return node_type, name
