@@ -75,6 +75,21 @@ def test_the_service_dispatches_wire_requests(scene: Scene) -> None:
     walk = {"person": "person", "target": "couch", "gaze": GAZE}
     joint = serve_item(scene, {"kind": "joint", "walks": [walk], "move": move.to_wire()}).joint
     assert joint is not None and joint.move == move and joint.walks[0].walk.person == "person"
+    found = serve_item(scene, {**SEARCH, "max_moves": 6}).search
+    assert found is not None and found.chosen is not None and found.chosen.clear
+    assert 1 <= len(found.verdicts) <= 6 and found.verdicts[-1] is found.chosen
+
+
+DANGER = {
+    "person": "person",
+    "target": "couch",
+    "path": [[-2.5, 0.0], [3.0, 0.0]],
+    "point": [-0.36, 0.0],
+    "obstacle": "ball",
+    "time_to_collision": 4.3,
+}
+SPEC = {"dangers": [DANGER], "gazes": {"person": [GAZE]}, "known": {}, "bystanders": [], "delay": 0.2}
+SEARCH = {"kind": "search", "spec": SPEC, "uncertainty": {"samples": 16}, "threshold": 0.2, "max_moves": 4}
 
 
 @pytest.mark.parametrize(
@@ -122,6 +137,18 @@ def test_the_service_dispatches_wire_requests(scene: Scene) -> None:
             "request.walks[0].gaze: is required",
         ),
         ([1, 2], "request: expected a mapping"),
+        ({**SEARCH, "spec": None}, "request.spec: expected a mapping, got None"),
+        ({**SEARCH, "uncertainty": {"samples": -3}}, "request.uncertainty.samples: expected a positive number"),
+        ({**SEARCH, "spec": {**SPEC, "dangers": []}}, "request.spec.dangers: expected at least one danger"),
+        ({**SEARCH, "spec": {**SPEC, "gazes": {}}}, "request.spec.gazes.person: is required"),
+        ({**SEARCH, "spec": {**SPEC, "gazes": {"person": [4.0]}}}, "request.spec.gazes.person: expected one or more"),
+        ({**SEARCH, "spec": {**SPEC, "delay": 60}}, "request.spec.delay: expected at most 5.0"),
+        ({**SEARCH, "threshold": 2}, "request.threshold: expected at most 1.0"),
+        ({**SEARCH, "max_moves": 0}, "request.max_moves: expected a positive number"),
+        (
+            {**SEARCH, "spec": {**SPEC, "dangers": [{**DANGER, "time_to_collision": "soon"}]}},
+            "request.spec.dangers[0].time_to_collision: expected a positive number",
+        ),
     ],
 )
 def test_malformed_requests_raise_request_error(scene: Scene, request_: object, message: str) -> None:

@@ -1,25 +1,28 @@
 """Algorithm 2's move search: candidate order and pruning, walk sets, verdicts, and the move it picks."""
 
 import math
+from typing import Any
 
 import pytest
 
+from agents.caregiving.model.errors import ReplyError, RequestError
+from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.imagine import imagine_person
+from agents.caregiving.model.imagine_reply import Answer, decode_answer, encode_answer
 from agents.caregiving.model.move_search import (
     Danger,
     SearchSpec,
-    Verdict,
     candidates,
     choose,
     judge,
-    judge_here,
     ordered_moves,
-    search_move,
+    search,
 )
 from agents.caregiving.model.robot_moves import RobotMove, robot_fits
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import serve_one
+from agents.caregiving.model.verdict import Verdict
 from agents.caregiving.model.world_model import Walk, World
 
 GAZE = math.radians(8)
@@ -90,7 +93,7 @@ def test_verdicts_say_why_a_move_is_refused(scene: Scene) -> None:
     inside_the_couch = verdict(RobotMove("couch", 3.5, 0.0, 0.0))
     assert inside_the_couch.reason == "the robot cannot reach the pose"
     front = verdict(RobotMove("ball", -0.46, 0.0, 0.0))
-    assert front.clear and front.arrival is not None and front.in_time(spec.dangers[0])
+    assert front.clear and front.arrival is not None and front.in_time(spec.dangers[0].time_to_collision)
 
 
 def test_choose_takes_the_first_safe_move_else_a_clearly_better_one_else_none() -> None:
@@ -103,16 +106,42 @@ def test_choose_takes_the_first_safe_move_else_a_clearly_better_one_else_none() 
     assert choose([v(False, 0.0)], 0.2, 1.0) is None
 
 
-async def test_the_move_found_saves_the_person_in_the_world() -> None:
+def test_the_move_found_saves_the_person_in_the_world() -> None:
     s = load_scenario("paper_experiment1")
     world = World.from_scenario(s)
     for _ in range(10):
         world.step()
     scene = world.scene()
-    spec = SearchSpec((danger_of(scene),), {"person": (GAZE,)}, {}, delay=0.2)
-    chosen, verdicts = await search_move(scene, spec, judge_here(scene, spec, UNCERTAINTY), 0.2, 24)
-    assert chosen is not None and chosen.safe(0.2) and verdicts[-1] == chosen
-    for _ in range(4):
+    spec = SearchSpec((danger_of(scene),), {"person": (GAZE,)}, {}, delay=0.15)
+    found = search(scene, spec, lambda item: serve_one(scene, item), UNCERTAINTY, 0.2, 24, judging=0.05)
+    chosen = found.chosen
+    assert chosen is not None and chosen.safe(0.2) and found.verdicts[-1] is chosen
+    for _ in range(3 + len(found.verdicts)):  # the delay, then 50 ms of judging per candidate
         world.step()
     assert world.command_robot(chosen.move)
     assert not world.run(40.0).collided
+
+
+def test_each_candidate_is_imagined_starting_later_by_the_time_judging_takes(scene: Scene) -> None:
+    spec = SearchSpec((danger_of(scene),), {"person": (GAZE,)}, {}, delay=0.1)
+    delays: list[float] = []
+
+    def imagine(item: dict[str, Any]) -> Answer:
+        delays.append(item["delay"])
+        return serve_one(scene, {**item, "move": {"target": "couch", "x": 3.5, "y": 0.0}})  # never reachable
+
+    found = search(scene, spec, imagine, UNCERTAINTY, 0.2, 3, judging=0.04)
+    assert found.chosen is None and len(found.verdicts) == 3
+    assert delays == pytest.approx([0.14, 0.18, 0.22])
+
+
+def test_a_search_and_its_spec_survive_the_wire(scene: Scene) -> None:
+    spec = SearchSpec(
+        (danger_of(scene),), {"person": (GAZE, 0.1)}, {"person": ("door",)}, (Walk("bob", "door", 0.1),), None, 0.3
+    )
+
+    assert SearchSpec.from_fields(Fields(spec.to_wire(), "spec", RequestError), 5.0) == spec
+    found = search(scene, spec, lambda item: serve_one(scene, item), UNCERTAINTY, 0.2, 4)
+
+    back = decode_answer(Fields(encode_answer(Answer(search=found)), "answer", ReplyError))
+    assert back.search == found and (back.search.chosen is None) == (found.chosen is None)

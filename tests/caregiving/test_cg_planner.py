@@ -114,9 +114,7 @@ def test_a_point_goal_in_line_of_sight_gets_the_path_the_search_would_return() -
         start, goal = (tuple(rng.uniform((-3.5, -2.5), (3.5, 2.5))) for _ in range(2))
         plan = planner.plan_to_point(start, goal, obstacles, 0.2)
         searcher = GridPlanner(BOUNDS)
-        goals = np.zeros(searcher.shape, dtype=bool)
-        goals[searcher.cell_of(*goal)] = True
-        reference = searcher._search(start, searcher.blocked(obstacles, 0.2), goals)
+        reference = searcher._search(start, searcher.blocked(obstacles, 0.2), np.array([searcher.cell_of(*goal)]))
         assert plan.reachable == reference.reachable
         if not plan.reachable:
             continue

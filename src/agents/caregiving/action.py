@@ -6,10 +6,12 @@ Triggered by each risky ``has_intention`` edge as it lands in W. The search
 itself is :mod:`agents.caregiving.model.move_search`; this agent turns W into its input,
 asks the simulator to imagine the candidates, and writes the result:
 
-* every endangered person is protected by one search: the candidates of all
-  their dangers, interleaved, each imagined in time (:mod:`agents.caregiving.model.joint`)
-  with every gaze class of each endangered person, the other people walking
-  their likeliest intentions beside them, and perception's uncertainty sampled;
+* every endangered person is protected by one search, which the simulator runs
+  next to its imagination in one request (no round trip per candidate): the
+  candidates of all their dangers, interleaved, each imagined in time
+  (:mod:`agents.caregiving.model.joint`) with every gaze class of each endangered
+  person, the other people walking their likeliest intentions beside them, and
+  perception's uncertainty sampled, one at a time up to the first safe one;
 * when no single move keeps everyone safe, each danger is searched alone, most
   urgent first, and the move found is written with the people it leaves unsaved;
 * while a move is under way, a new risky intention first re-imagines that move
@@ -35,8 +37,9 @@ from typing import Any
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.imagine_reply import Answer
-from agents.caregiving.model.move_search import Danger, SearchSpec, Verdict, judge, search_move
+from agents.caregiving.model.move_search import Danger, SearchSpec, judge
 from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.verdict import Verdict
 from agents.caregiving.model.visibility import GazeClass, gaze_classes
 from agents.caregiving.model.world_model import Walk
 from wm import Edge, Event, Node
@@ -47,8 +50,10 @@ from .names import HAS, HAS_INTENTION, INTENTION, KNOWS, OBJECT, PERSON, ROBOT, 
 from .risk_options import add_risk_arguments, size_error
 
 LIVE = ("proposed", "active")
-#: Seconds one candidate move takes to judge in the simulator (the joint imagination of its walk sets).
-JUDGING = 0.05
+#: Wall seconds one candidate move takes to judge in the simulator, until the first search has measured it.
+JUDGING = 0.03
+#: Weight of the newest search in the running estimate of the time a candidate takes to judge.
+JUDGING_WEIGHT = 0.3
 
 
 def risky_first(classes: tuple[GazeClass, ...], risky: float) -> tuple[float, ...]:
@@ -69,7 +74,6 @@ class Action(Agent):
     @classmethod
     def add_arguments(cls, parser: argparse.ArgumentParser) -> None:
         add_risk_arguments(parser)
-        parser.add_argument("--batch", type=int, default=3, help="moves imagined per request after the first")
         parser.add_argument("--max-moves", type=int, default=24, help="moves tried per search at most")
         parser.add_argument(
             "--retry",
@@ -91,6 +95,8 @@ class Action(Agent):
         self.rpc_ms = self.sim_ms = 0.0
         self.pending: set[tuple[int, int]] = set()
         self.tried: list[Verdict] = []  # the moves the last search judged, for its log line
+        self.judging = JUDGING  # wall seconds per candidate judged, measured by every search
+        self.clock: tuple[float, float] | None = None  # (simulated, wall) seconds of the first odometry this trial
         self.new_episode = True
         self.failed: dict[int, float] = {}
         self.log.info("acting", size_error=self.size_error)
@@ -120,7 +126,7 @@ class Action(Agent):
         self.rpc_ms = self.sim_ms = 0.0
         current = self._current()
         spec = self._spec(ctx, dangers, current)
-        keep = replace(spec, delay=self._delay(ctx, 1))
+        keep = replace(spec, delay=self._delay(ctx) + self.judging * self._rate())
         if current is not None and (await self._judge(keep, [self._move_of(current)]))[0].safe(
             self.args.risk_threshold
         ):
@@ -156,6 +162,7 @@ class Action(Agent):
                 self.g.delete_node(node.id)
         self.episode = episode
         self.failed.clear()
+        self.clock = None
 
     def _dangers(self, ctx: Context, risky: list[Edge]) -> dict[str, tuple[Edge, Danger]]:
         """Each endangered person's most urgent danger that is not yet due nor failed too recently."""
@@ -221,7 +228,7 @@ class Action(Agent):
 
         Most candidates fail at once with the walk set that was found risky, so that set goes alone first.
         """
-        uncertainty = {"size_error": self.size_error, "sigma": self._sigma(), "samples": self.args.samples, "seed": 0}
+        uncertainty = self._uncertainty()
         items = [spec.items(m, uncertainty) for m in moves]
         first = await self._imagine([x[:1] for x in items])
         verdicts = [judge(m, a) for m, a in zip(moves, first, strict=True)]
@@ -243,21 +250,33 @@ class Action(Agent):
         answers = iter(reply.results)
         return [list(islice(answers, len(g))) for g in groups]
 
-    def _sigma(self) -> dict[str, float]:
-        return {n.name: n.get("position_sigma", 0.0) for t in (PERSON, OBJECT) for n in self.g.nodes(t)}
+    def _uncertainty(self) -> dict[str, Any]:
+        sigma = {n.name: n.get("position_sigma", 0.0) for t in (PERSON, OBJECT) for n in self.g.nodes(t)}
+        return {"size_error": self.size_error, "sigma": sigma, "samples": self.args.samples, "seed": 0}
 
     async def _find(self, ctx: Context, spec: SearchSpec, idle_risk: float) -> Verdict | None:
-        """Search with the simulator; each round imagines the robot starting when its command would arrive."""
-
-        async def judge_moves(moves: list[RobotMove]) -> list[Verdict]:
-            return await self._judge(replace(spec, delay=self._delay(ctx, len(moves))), moves)
-
+        """One search, run by the simulator; each candidate imagines the robot starting when its command would arrive."""
         a = self.args
-        chosen, verdicts = await search_move(
-            ctx.scene, spec, judge_moves, a.risk_threshold, a.max_moves, idle_risk, a.batch
-        )
-        self.tried += verdicts
-        return chosen
+        item = {
+            "kind": "search",
+            "spec": replace(spec, delay=self._delay(ctx)).to_wire(),
+            "uncertainty": self._uncertainty(),
+            "threshold": a.risk_threshold,
+            "max_moves": a.max_moves,
+            "idle_risk": idle_risk,
+            "judging": self.judging * self._rate(),
+        }
+        sim_ms = self.sim_ms
+        [[answer]] = await self._imagine([[item]])
+        if answer.search is None:
+            self.log.error("the simulator refused the search", error=answer.error)
+            return None
+        judged = len(answer.search.verdicts)
+        if judged:
+            per_move = (self.sim_ms - sim_ms) / 1e3 / judged
+            self.judging += JUDGING_WEIGHT * (per_move - self.judging)
+        self.tried += answer.search.verdicts
+        return answer.search.chosen
 
     # -- writing W -----------------------------------------------------------------------------
     def _write(
@@ -295,7 +314,7 @@ class Action(Agent):
                     "risk_at": edge.get("updated_at", 0.0),
                     "at_time": ctx.scene.time,
                     "time_to_collision": danger.time_to_collision,
-                    "in_time": chosen.in_time(danger),
+                    "in_time": chosen.in_time(danger.time_to_collision),
                     "reason": reason,
                 },
             )
@@ -305,7 +324,7 @@ class Action(Agent):
             target=move.target,
             x=round(move.x, 2),
             y=round(move.y, 2),
-            in_time=chosen.in_time(danger),
+            in_time=chosen.in_time(danger.time_to_collision),
             risk=round(chosen.risk, 2),
             people=len(dangers),
             tried=len(self.tried),
@@ -317,16 +336,27 @@ class Action(Agent):
             since_risk_ms=round((time.time() - edge.get("updated_at", time.time())) * 1e3, 1),
         )
 
-    def _delay(self, ctx: Context, moves: int) -> float:
-        """When a move judged now would reach the world, in seconds after the context.
+    def _delay(self, ctx: Context) -> float:
+        """When a move decided now would reach the world, in simulated seconds after the context.
 
         The world has gone on past the context already (sensor latency, then Algorithm 1 and the search so
-        far: the robot's odometry in W says by how much); judging the moves takes about :data:`JUDGING`
-        each, and the executor and the world take ``--dispatch`` more.
+        far: the robot's odometry in W says by how much), and the executor and the world take ``--dispatch``
+        more. The search adds the time it spends judging, candidate by candidate.
         """
         robot = next(iter(self.g.nodes(ROBOT)), None)
         lag = (robot.get("stamp", ctx.scene.time) if robot is not None else ctx.scene.time) - ctx.scene.time
-        return max(lag, 0.0) + JUDGING * moves + self.args.dispatch
+        return max(lag, 0.0) + self.args.dispatch
+
+    def _rate(self) -> float:
+        """Simulated seconds per wall second, as the robot's odometry in W shows them (1 until it has)."""
+        robot = next(iter(self.g.nodes(ROBOT)), None)
+        if robot is None or robot.get("stamp") is None or robot.get("written_at") is None:
+            return 1.0
+        now = (float(robot.get("stamp")), float(robot.get("written_at")))
+        if self.clock is None or now[0] < self.clock[0]:
+            self.clock = now
+        sim, wall = now[0] - self.clock[0], now[1] - self.clock[1]
+        return sim / wall if wall > 0.5 and sim > 0.0 else 1.0
 
     @staticmethod
     def _ms(started: float) -> float:

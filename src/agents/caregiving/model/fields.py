@@ -88,6 +88,13 @@ class Fields:
             raise self.fail(key, f"expected a list of {count} numbers, got {_show(value)}")
         return tuple(self.check_number(f"{key}[{i}]", v) for i, v in enumerate(value))
 
+    def number_list(self, key: str) -> tuple[float, ...]:
+        """A list of numbers, of any length."""
+        value = self._get(key, _MISSING)
+        if not isinstance(value, (list, tuple)):
+            raise self.fail(key, f"expected a list of numbers, got {_show(value)}")
+        return tuple(self.check_number(f"{key}[{i}]", v) for i, v in enumerate(value))
+
     def has(self, key: str) -> bool:
         """Whether ``key`` is present and not null."""
         return self._data.get(key) is not None

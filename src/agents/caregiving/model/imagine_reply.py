@@ -10,10 +10,12 @@ There is one ANSWER per item of the request, in order::
 
     {"ok": true, "kind": "person", "result": IMAGINATION, "risk"?: RISK}
     {"ok": true, "kind": "joint", "result": JOINT, "risk"?: RISK}
+    {"ok": true, "kind": "search", "result": SEARCH}
     {"ok": false, "error": "..."}
 
 with ``RISK = {"probability", "time", "point", "object"}``, present when the
-item asked for its uncertainty to be sampled. :func:`decode` checks every field
+item asked for its uncertainty to be sampled, and ``SEARCH`` a move search's
+verdicts and chosen move (:class:`~agents.caregiving.model.verdict.SearchResult`). :func:`decode` checks every field
 and raises :class:`~agents.caregiving.model.errors.ReplyError` on anything else.
 """
 
@@ -27,8 +29,9 @@ from .fields import Fields
 from .imagine import Imagination
 from .joint import JointImagination
 from .uncertainty import Risk
+from .verdict import SearchResult
 
-KINDS = frozenset({"person", "joint"})
+KINDS = frozenset({"person", "joint", "search"})
 _REPLY_KEYS = frozenset({"episode", "stamp", "written_at", "compute_ms", "results"})
 _ANSWER_KEYS = frozenset({"ok", "kind", "result", "risk"})
 _ERROR_KEYS = frozenset({"ok", "error"})
@@ -36,10 +39,11 @@ _ERROR_KEYS = frozenset({"ok", "error"})
 
 @dataclass(frozen=True)
 class Answer:
-    """One item's answer: a person's imagined walk or a joint imagination, its sampled risk, or the error."""
+    """One item's answer: a person's imagined walk, a joint imagination or a move search; its sampled risk; or the error."""
 
     imagination: Imagination | None = None  # a "person" item's walk
     joint: JointImagination | None = None  # a "joint" item's robot move and walks
+    search: SearchResult | None = None  # a "search" item's verdicts and chosen move
     risk: Risk | None = None  # when the item asked for its uncertainty to be sampled
     error: str | None = None  # why the item was not imagined
 
@@ -73,8 +77,10 @@ def encode_answer(a: Answer) -> dict[str, Any]:
         out: dict[str, Any] = {"ok": True, "kind": "person", "result": a.imagination.to_wire()}
     elif a.joint is not None:
         out = {"ok": True, "kind": "joint", "result": a.joint.to_wire()}
+    elif a.search is not None:
+        out = {"ok": True, "kind": "search", "result": a.search.to_wire()}
     else:
-        raise ValueError("an answer holds an imagination, a joint imagination or an error")
+        raise ValueError("an answer holds an imagination, a joint imagination, a search or an error")
     if a.risk is not None:
         out["risk"] = encode_risk(a.risk)
     return out
@@ -113,6 +119,8 @@ def decode_answer(f: Fields) -> Answer:
     sampled = decode_risk(risk) if risk is not None else None
     if kind == "person":
         return Answer(imagination=Imagination.from_fields(f.child("result")), risk=sampled)
+    if kind == "search":
+        return Answer(search=SearchResult.from_fields(f.child("result")), risk=sampled)
     return Answer(joint=JointImagination.from_fields(f.child("result")), risk=sampled)
 
 

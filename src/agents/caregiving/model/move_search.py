@@ -26,20 +26,21 @@ or before the collision (stand-offs). The joint imagination in time
 from __future__ import annotations
 
 import math
-from collections.abc import Awaitable, Callable, Iterator
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, replace
 from itertools import islice
 from typing import Any
 
 import numpy as np
 
+from .fields import Fields
 from .geometry import Polyline, bounding_radius
 from .imagine_reply import Answer
-from .joint import walk_to_wire
+from .joint import walk_from_fields, walk_to_wire
 from .robot_moves import RobotMove, robot_fits, standoff_poses, travel_time
 from .scene import Scene
-from .service import serve_one
 from .uncertainty import NO_RISK
+from .verdict import SearchResult, Verdict
 from .visibility import WALL_KIND
 from .world_model import Walk
 
@@ -62,6 +63,30 @@ class Danger:
     point: tuple[float, float]
     obstacle: str
     time_to_collision: float
+
+    def to_wire(self) -> dict[str, Any]:
+        """A msgpack-friendly dict."""
+        return {
+            "person": self.person,
+            "target": self.target,
+            "path": [list(p) for p in self.path],
+            "point": list(self.point),
+            "obstacle": self.obstacle,
+            "time_to_collision": self.time_to_collision,
+        }
+
+    @classmethod
+    def from_fields(cls, f: Fields) -> Danger:
+        """Parse :meth:`to_wire` output nested in a larger message."""
+        x, y = f.numbers("point", 2)
+        return cls(
+            f.string("person"),
+            f.string("target"),
+            f.pairs("path"),
+            (x, y),
+            f.string("obstacle"),
+            f.number("time_to_collision", positive=True),
+        )
 
 
 def travel_direction(path: tuple[tuple[float, float], ...], point: tuple[float, float]) -> tuple[float, float]:
@@ -189,24 +214,39 @@ class SearchSpec:
             for walks in self.walk_sets()
         ]
 
+    def to_wire(self) -> dict[str, Any]:
+        """A msgpack-friendly dict."""
+        return {
+            "dangers": [d.to_wire() for d in self.dangers],
+            "gazes": {p: list(g) for p, g in self.gazes.items()},
+            "known": {p: list(k) for p, k in self.known.items()},
+            "bystanders": [walk_to_wire(w) for w in self.bystanders],
+            "current": self.current.to_wire() if self.current else None,
+            "delay": self.delay,
+        }
 
-@dataclass(frozen=True)
-class Verdict:
-    """A move judged over every walk set: whether everyone imagined walks clear, the sampled risk, the arrival."""
-
-    move: RobotMove | None
-    clear: bool
-    risk: float
-    arrival: float | None
-    reason: str
-
-    def safe(self, threshold: float) -> bool:
-        """Clear in every walk set, and the sampled risk under ``threshold``."""
-        return self.clear and self.risk < threshold
-
-    def in_time(self, danger: Danger) -> bool:
-        """Whether the robot is imagined at rest at the pose before the danger's predicted collision."""
-        return self.arrival is not None and self.arrival < danger.time_to_collision
+    @classmethod
+    def from_fields(cls, f: Fields, max_delay: float) -> SearchSpec:
+        """Parse :meth:`to_wire` output nested in a larger message; every endangered person needs a gaze."""
+        dangers = tuple(Danger.from_fields(d) for d in f.children("dangers"))
+        if not dangers:
+            raise f.fail("dangers", "expected at least one danger")
+        gazes_f, known_f = f.child("gazes"), f.child("known", {})
+        gazes: dict[str, tuple[float, ...]] = {}
+        for d in dangers:
+            values = gazes_f.number_list(d.person)
+            if not values or not all(-math.pi / 2 <= g <= math.pi / 2 for g in values):
+                raise gazes_f.fail(d.person, "expected one or more pitches in [-pi/2, pi/2] rad")
+            gazes[d.person] = values
+        current = f.optional_child("current")
+        return cls(
+            dangers,
+            gazes,
+            {p: known_f.strings(p) for p in known_f.keys()},
+            tuple(walk_from_fields(w) for w in f.children("bystanders", [])),
+            RobotMove.from_fields(current) if current is not None else None,
+            f.number("delay", 0.0, non_negative=True, at_most=max_delay),
+        )
 
 
 def judge(move: RobotMove | None, answers: list[Answer]) -> Verdict:
@@ -260,38 +300,39 @@ def choose(verdicts: list[Verdict], threshold: float, idle_risk: float) -> Verdi
     return min(clear, key=lambda v: v.risk) if clear else None
 
 
-#: Judges a round of candidate moves (in the simulator, or in this process) and returns their verdicts in order.
-JudgeMoves = Callable[[list[RobotMove]], Awaitable[list[Verdict]]]
+#: Answers one simulator item (see :mod:`agents.caregiving.model.service`); the search's only way to imagine.
+Imagine = Callable[[dict[str, Any]], Answer]
 
 
-async def search_move(
+def judge_move(spec: SearchSpec, move: RobotMove, imagine: Imagine, uncertainty: dict[str, Any]) -> Verdict:
+    """Judge one move: the first walk set alone (most candidates fail there), then the others if it is clear."""
+    items = spec.items(move, uncertainty)
+    first = [imagine(items[0])]
+    verdict = judge(move, first)
+    if not verdict.clear or len(items) == 1:
+        return verdict
+    return judge(move, first + [imagine(item) for item in items[1:]])
+
+
+def search(
     scene: Scene,
     spec: SearchSpec,
-    judge_moves: JudgeMoves,
+    imagine: Imagine,
+    uncertainty: dict[str, Any],
     threshold: float,
     max_moves: int,
     idle_risk: float = 1.0,
-    batch: int = 3,
-) -> tuple[Verdict | None, list[Verdict]]:
-    """Algorithm 2's search: the move to send (see :func:`choose`) and every verdict on the way.
+    judging: float = 0.0,
+) -> SearchResult:
+    """Algorithm 2's search: judge the candidates one at a time, likeliest first, and stop at the first safe one.
 
-    The likeliest candidate is judged alone, then ``batch`` at a time, up to the first safe one or ``max_moves``.
+    Each candidate is imagined with the robot starting ``judging`` seconds later than the one before, since
+    the move is sent only once the search has judged it: the k-th candidate (from 1) after
+    ``spec.delay + judging * k``. The result holds every verdict and the move to send (see :func:`choose`).
     """
-    moves = islice(candidates(scene, spec.dangers), max_moves)
     verdicts: list[Verdict] = []
-    size = 1
-    while chunk := list(islice(moves, size)):
-        verdicts += await judge_moves(chunk)
-        if any(v.safe(threshold) for v in verdicts):
+    for k, move in enumerate(islice(candidates(scene, spec.dangers), max_moves), start=1):
+        verdicts.append(judge_move(replace(spec, delay=spec.delay + judging * k), move, imagine, uncertainty))
+        if verdicts[-1].safe(threshold):
             break
-        size = batch
-    return choose(verdicts, threshold, idle_risk), verdicts
-
-
-def judge_here(scene: Scene, spec: SearchSpec, uncertainty: dict[str, Any]) -> JudgeMoves:
-    """A :data:`JudgeMoves` that imagines in this process, every walk set of each move (no simulator needed)."""
-
-    async def judge_moves(moves: list[RobotMove]) -> list[Verdict]:
-        return [judge(m, [serve_one(scene, item) for item in spec.items(m, uncertainty)]) for m in moves]
-
-    return judge_moves
+    return SearchResult(choose(verdicts, threshold, idle_risk), tuple(verdicts))

@@ -69,6 +69,7 @@ class GridPlanner:
             int(math.ceil((bounds[3] - bounds[1]) / resolution)),
         )
         self._cache: OrderedDict[tuple[Shape, float], _Mask] = OrderedDict()
+        self._rings: OrderedDict[tuple[Shape, float], NDArray[np.intp]] = OrderedDict()
         self._cache_size = cache_size
         self.cache_hits = 0
         self.cache_misses = 0
@@ -85,8 +86,9 @@ class GridPlanner:
         return (np.asarray(cells, dtype=np.float64) + 0.5) * self.resolution + self.bounds[:2]
 
     def clear_cache(self) -> None:
-        """Forget every cached inflated mask."""
+        """Forget every cached inflated mask and goal ring."""
         self._cache.clear()
+        self._rings.clear()
 
     def _inflated(self, shape: Shape, inflate: float) -> _Mask:
         key = (shape, round(inflate, 6))
@@ -123,15 +125,27 @@ class GridPlanner:
         """Shortest walk from ``start`` to a free cell touching the target's inflated footprint."""
         others = [o for o in obstacles if o.name != target.name]
         grid = self.blocked([*others, target], radius)
-        tm = self._inflated(target.shape, radius + self.margin)
-        pad = np.zeros(self.shape, dtype=bool)
-        pad[tm.i0 : tm.i0 + tm.cells.shape[0], tm.j0 : tm.j0 + tm.cells.shape[1]] = tm.cells
-        lo_i, lo_j = max(tm.i0 - 1, 0), max(tm.j0 - 1, 0)
-        hi_i, hi_j = tm.i0 + tm.cells.shape[0] + 1, tm.j0 + tm.cells.shape[1] + 1
-        window = pad[lo_i:hi_i, lo_j:hi_j]
-        ring = np.zeros(self.shape, dtype=bool)
-        ring[lo_i:hi_i, lo_j:hi_j] = ndimage.binary_dilation(window, _EIGHT) & ~window
-        return self._search(start, grid, ring)
+        return self._search(start, grid, self._ring(target.shape, radius + self.margin))
+
+    def _ring(self, shape: Shape, inflate: float) -> NDArray[np.intp]:
+        """The cells just outside the shape's inflated footprint (the goals of a walk to it), cached with its mask."""
+        key = (shape, round(inflate, 6))
+        ring = self._rings.get(key)
+        if ring is None:
+            tm = self._inflated(shape, inflate)
+            lo_i, lo_j = max(tm.i0 - 1, 0), max(tm.j0 - 1, 0)
+            hi_i = min(tm.i0 + tm.cells.shape[0] + 1, self.shape[0])
+            hi_j = min(tm.j0 + tm.cells.shape[1] + 1, self.shape[1])
+            window = np.zeros((hi_i - lo_i, hi_j - lo_j), dtype=bool)
+            ci, cj = tm.i0 - lo_i, tm.j0 - lo_j
+            window[ci : ci + tm.cells.shape[0], cj : cj + tm.cells.shape[1]] = tm.cells  # masks lie inside the grid
+            ring = np.argwhere(ndimage.binary_dilation(window, _EIGHT) & ~window) + (lo_i, lo_j)
+            self._rings[key] = ring
+            if len(self._rings) > self._cache_size:
+                self._rings.popitem(last=False)
+        else:
+            self._rings.move_to_end(key)
+        return ring
 
     def plan_to_point(
         self, start: tuple[float, float], goal: tuple[float, float], obstacles: Sequence[Obstacle], radius: float
@@ -147,9 +161,7 @@ class GridPlanner:
             # What A* and string pulling would return, without the search: the straight drive.
             path = np.array([start, goal], dtype=np.float64)
             return Plan(True, path, polyline_length(path))
-        goals = np.zeros(self.shape, dtype=bool)
-        goals[goal_cell] = True
-        plan = self._search(start, grid, goals)
+        plan = self._search(start, grid, np.array([goal_cell]))
         if plan.reachable:
             path = plan.path.copy()
             path[-1] = goal  # end exactly on the goal rather than on its cell centre
@@ -158,7 +170,8 @@ class GridPlanner:
             return Plan(True, path, polyline_length(path))
         return plan
 
-    def _search(self, start: tuple[float, float], grid: NDArray[np.bool_], goals: NDArray[np.bool_]) -> Plan:
+    def _search(self, start: tuple[float, float], grid: NDArray[np.bool_], goals: NDArray[np.intp]) -> Plan:
+        """The string-pulled shortest walk from ``start`` to the nearest of the ``goals`` cells (an ``(N, 2)`` array)."""
         start_cell = self._free_cell_near(start, grid)
         if start_cell is None:
             return UNREACHABLE
@@ -170,11 +183,12 @@ class GridPlanner:
         return Plan(True, path, polyline_length(path))
 
     def _astar(
-        self, grid: NDArray[np.bool_], goals: NDArray[np.bool_], start_cell: tuple[int, int]
+        self, grid: NDArray[np.bool_], goals: NDArray[np.intp], start_cell: tuple[int, int]
     ) -> NDArray[np.integer] | None:
         """Cells after ``start_cell`` to the nearest goal (A* from every goal at once), None if unreachable."""
         labels, _ = ndimage.label(~grid, structure=_EIGHT)
-        goal_cells = np.argwhere(goals & ~grid & (labels == labels[start_cell]))
+        gi, gj = goals[:, 0], goals[:, 1]
+        goal_cells = goals[~grid[gi, gj] & (labels[gi, gj] == labels[start_cell])]
         if goal_cells.size == 0:
             return None
         cost = (~grid).astype(np.int8)

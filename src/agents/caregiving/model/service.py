@@ -7,6 +7,10 @@ A request is a msgpack map ``{"items": [ITEM, ...], "scene": SCENE?}``. An ITEM 
 * ``{"kind": "joint", "walks": [{"person", "target", "gaze", "known"?}, ...],
   "move": MOVE | null, "current"?: MOVE, "delay"?: s, "uncertainty"?}``: the robot's
   move imagined in time with those walks (Algorithm 2, :func:`agents.caregiving.model.joint.imagine_joint`);
+* ``{"kind": "search", "spec": SPEC, "uncertainty", "threshold", "max_moves", "idle_risk"?, "judging"?}``:
+  Algorithm 2's whole move search (:func:`agents.caregiving.model.move_search.search`), each
+  candidate judged here with the joint items above, one at a time, up to the first safe one;
+  ``SPEC`` is a :class:`~agents.caregiving.model.move_search.SearchSpec` in its wire form;
 
 with ``uncertainty = {"size_error", "sigma": {name: metres}, "samples", "seed"}``.
 Each item's answer is an :class:`~agents.caregiving.model.imagine_reply.Answer`
@@ -23,15 +27,19 @@ from .fields import Fields
 from .imagine import imagine_person
 from .imagine_reply import Answer
 from .joint import JointImagination, imagine_joint, walk_from_fields
+from .move_search import SearchSpec, search
 from .robot_moves import RobotMove
 from .rollout import Rollout
 from .scene import Scene
 from .uncertainty import NO_RISK, Risk, Uncertainty, collision_risk
+from .verdict import SearchResult
 
 MAX_ITEMS = 512
 #: Seconds a joint item may ask the robot to go on with its current move before the new one.
 MAX_DELAY = 5.0
-KINDS = frozenset({"person", "joint"})
+#: Candidate moves one search may judge at most.
+MAX_MOVES = 256
+KINDS = frozenset({"person", "joint", "search"})
 
 
 def uncertainty_from_fields(u: Fields) -> Uncertainty:
@@ -51,6 +59,8 @@ def serve_item(scene: Scene, item: Any, rollout: Rollout | None = None) -> Answe
     kind = f.string("kind", choices=KINDS)
     u = f.optional_child("uncertainty")
     uncertainty = uncertainty_from_fields(u) if u is not None else None
+    if kind == "search":
+        return Answer(search=_search(scene, f, item, rollout))
     if kind == "person":
         walk = walk_from_fields(f)
         im = imagine_person(scene, walk.person, walk.target, walk.gaze, rollout, known=walk.known)
@@ -68,6 +78,22 @@ def serve_item(scene: Scene, item: Any, rollout: Rollout | None = None) -> Answe
         current=RobotMove.from_fields(current) if current is not None else None,
     )
     return Answer(joint=joint, risk=joint_risk(scene, joint, uncertainty) if uncertainty is not None else None)
+
+
+def _search(scene: Scene, f: Fields, item: Any, rollout: Rollout | None) -> SearchResult:
+    """Run a ``search`` item: every field is checked before the first candidate is imagined."""
+    uncertainty = f.child("uncertainty")
+    uncertainty_from_fields(uncertainty)
+    return search(
+        scene,
+        SearchSpec.from_fields(f.child("spec"), MAX_DELAY),
+        lambda joint: serve_one(scene, joint, rollout),
+        item["uncertainty"],
+        f.number("threshold", positive=True, at_most=1.0),
+        int(f.number("max_moves", positive=True, at_most=MAX_MOVES)),
+        f.number("idle_risk", 1.0, non_negative=True, at_most=1.0),
+        f.number("judging", 0.0, non_negative=True, at_most=MAX_DELAY),
+    )
 
 
 def joint_risk(scene: Scene, joint: JointImagination, u: Uncertainty) -> Risk:

@@ -1,0 +1,82 @@
+"""What Algorithm 2's move search decides: a verdict on each move it judged, and the move it chose.
+
+Both are plain dataclasses with a wire form (msgpack-friendly dicts), so the
+simulator can run the whole search next to its imagination and answer with them
+(:mod:`agents.caregiving.model.imagine_reply`). A search result names its
+chosen move by position among its verdicts, so the two cannot disagree.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from .fields import Fields
+from .robot_moves import RobotMove
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """A move judged over every walk set: whether everyone imagined walks clear, the sampled risk, the arrival."""
+
+    move: RobotMove | None
+    clear: bool
+    risk: float
+    arrival: float | None
+    reason: str
+
+    def safe(self, threshold: float) -> bool:
+        """Clear in every walk set, and the sampled risk under ``threshold``."""
+        return self.clear and self.risk < threshold
+
+    def in_time(self, time_to_collision: float) -> bool:
+        """Whether the robot is imagined at rest at the pose before the predicted collision."""
+        return self.arrival is not None and self.arrival < time_to_collision
+
+    def to_wire(self) -> dict[str, Any]:
+        """A msgpack-friendly dict."""
+        return {
+            "move": self.move.to_wire() if self.move else None,
+            "clear": self.clear,
+            "risk": self.risk,
+            "arrival": self.arrival,
+            "reason": self.reason,
+        }
+
+    @classmethod
+    def from_fields(cls, f: Fields) -> Verdict:
+        """Parse :meth:`to_wire` output nested in a larger message."""
+        move = f.optional_child("move")
+        return cls(
+            RobotMove.from_fields(move) if move is not None else None,
+            f.boolean("clear"),
+            f.number("risk", non_negative=True, at_most=1.0),
+            f.optional_number("arrival"),
+            f.string("reason"),
+        )
+
+
+@dataclass(frozen=True)
+class SearchResult:
+    """Every move a search judged, in order, and the one it chose (``None``: no move removes the danger)."""
+
+    chosen: Verdict | None
+    verdicts: tuple[Verdict, ...]
+
+    def to_wire(self) -> dict[str, Any]:
+        """A msgpack-friendly dict; the chosen move is an index into the verdicts."""
+        index = next((k for k, v in enumerate(self.verdicts) if v is self.chosen), None)
+        if self.chosen is not None and index is None:
+            raise ValueError("the chosen verdict is not one of the verdicts")
+        return {"chosen": index, "verdicts": [v.to_wire() for v in self.verdicts]}
+
+    @classmethod
+    def from_fields(cls, f: Fields) -> SearchResult:
+        """Parse :meth:`to_wire` output nested in a larger message."""
+        verdicts = tuple(Verdict.from_fields(v) for v in f.children("verdicts"))
+        index = f.optional_number("chosen")
+        if index is None:
+            return cls(None, verdicts)
+        if not index.is_integer() or not 0 <= index < len(verdicts):
+            raise f.fail("chosen", f"expected the index of one of {len(verdicts)} verdicts, got {index!r}")
+        return cls(verdicts[int(index)], verdicts)
