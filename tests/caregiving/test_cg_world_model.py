@@ -139,3 +139,44 @@ def test_a_walk_that_knows_the_robot_plans_around_it_from_the_start() -> None:
     scene = load_scenario("paper_experiment1").scene()
     world = World(scene, [Walk("person", "couch", 0.1, known=("robot",))])
     assert scene.robot is not None and world.walker("person").known["robot"] == scene.robot.body()
+
+
+@pytest.mark.parametrize("scenario", ["paper_experiment1", "box_obstacle", "cluttered_room", "two_people"])
+def test_advancing_in_bulk_ends_as_stepping_does(scenario: str) -> None:
+    """World.advance walks a lone person past a resting robot in one pass; every step must be as World.step's."""
+
+    class Counted(World):
+        steps = 0
+
+        def step(self) -> None:
+            self.steps += 1
+            super().step()
+
+    s = load_scenario(scenario)
+    rng = np.random.default_rng(17)
+    checked = bulk_steps = single_steps = 0
+    for _ in range(8):
+        trial = sample_trial(s, rng)
+        moves: list[RobotMove | None] = [None, *standoff_moves(trial.scene(), s.people[0].target)[:2]]
+        for move in moves:
+            bulk, stepped = Counted.from_scenario(trial), World.from_scenario(trial)
+            bulk.advance(0.3)
+            for _ in range(6):
+                stepped.step()
+            bulk.command_robot(move)
+            stepped.command_robot(move)
+            bulk.advance(40.0)
+            while not stepped.done and stepped.time < 40.0 - 1e-9:
+                stepped.step()
+            a, b = bulk.outcome(), stepped.outcome()
+            assert [(c.person, c.obstacle) for c in a.collisions] == [(c.person, c.obstacle) for c in b.collisions]
+            assert [c.time for c in a.collisions] == pytest.approx([c.time for c in b.collisions], abs=1e-9)
+            assert a.arrival == pytest.approx(b.arrival, abs=1e-9) and a.closest == b.closest
+            assert a.min_clearance == pytest.approx(b.min_clearance, abs=1e-12)
+            assert bulk.robot_seen == pytest.approx(stepped.robot_seen, abs=1e-9)
+            for p in s.people:
+                assert np.allclose(bulk.walker(p.name).track, stepped.walker(p.name).track, atol=1e-9, rtol=0)
+            checked += 1
+            bulk_steps += bulk.steps
+            single_steps += round(stepped.time / stepped.dt)
+    assert checked == 24 and bulk_steps < 0.8 * single_steps  # many steps went in bulk

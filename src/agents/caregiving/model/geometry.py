@@ -119,7 +119,7 @@ def corners(box: Box) -> FloatArray:
 def displacement(before: Shape, after: Shape) -> float:
     """How far a body moved between two poses: its farthest-moved corner for boxes (so turning counts), else its centre."""
     if isinstance(before, Box) and isinstance(after, Box):
-        return float(np.hypot(*(corners(after) - corners(before)).T).max())
+        return max(math.dist(a, b) for a, b in zip(corner_points(before), corner_points(after), strict=True))
     return math.hypot(after.x - before.x, after.y - before.y)
 
 

@@ -183,11 +183,10 @@ def imagine_joint(
     start = scene.time
     if current is not None:
         world.resume_robot(current)
-    while world.time < start + delay - 1e-9 and not world.done:
-        world.step()
+    world.advance(start + delay)
     reachable = True if current is not None and move == current else world.command_robot(move)
-    while not world.done and world.time < start + horizon - 1e-9 and (reachable or move is None):
-        world.step()
+    if reachable or move is None:
+        world.advance(start + horizon)
     arrival = world.robot_arrival - start if move is not None and world.robot_arrival is not None else None
     return JointImagination(move, reachable, arrival, tuple(_outcome(world, w, start) for w in walks))
 

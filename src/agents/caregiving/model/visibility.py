@@ -15,7 +15,10 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
-from .geometry import Circle, bounding_radius, corner_points, point_distance
+import numpy as np
+from numpy.typing import NDArray
+
+from .geometry import Circle, FloatArray, bounding_radius, corner_points, point_distance, signed_distance
 from .scene import Obstacle, PersonState
 
 WALL_KIND = "wall"
@@ -66,6 +69,37 @@ def can_see(person: PersonState, obstacle: Obstacle, gaze: float) -> bool:
     """Whether the person, gazing at pitch ``gaze`` (rad), sees the obstacle."""
     interval = gaze_interval(person, obstacle)
     return interval is not None and interval[0] <= gaze <= interval[1]
+
+
+def _wrap_all(angles: FloatArray) -> FloatArray:
+    return np.mod(angles + math.pi, 2 * math.pi) - math.pi
+
+
+def seen_along(
+    person: PersonState, xs: FloatArray, ys: FloatArray, headings: FloatArray, obstacle: Obstacle, gaze: float
+) -> NDArray[np.bool_]:
+    """:func:`can_see` for the person standing at each of many poses (``xs``, ``ys``, ``headings``) at once."""
+    if obstacle.kind == WALL_KIND:
+        return np.ones(len(xs), dtype=bool)
+    shape = obstacle.shape
+    pts = np.stack((xs, ys), axis=1)
+    inside = signed_distance(shape, pts)
+    centre = np.arctan2(shape.y - ys, shape.x - xs)
+    if isinstance(shape, Circle):
+        dist = np.hypot(shape.x - xs, shape.y - ys)
+        half = np.arcsin(np.minimum(1.0, shape.r / np.maximum(dist, 1e-12)))
+        lo, hi = -half, half
+    else:
+        rel = np.stack([_wrap_all(np.arctan2(cy - ys, cx - xs) - centre) for cx, cy in corner_points(shape)])
+        lo, hi = rel.min(axis=0), rel.max(axis=0)
+    offset = _wrap_all(centre - headings)
+    in_cone = (inside <= 0.0) | ((offset + hi >= -person.hfov / 2) & (offset + lo <= person.hfov / 2))
+    near = np.maximum(inside, 1e-3)
+    far = np.hypot(shape.x - xs, shape.y - ys) + bounding_radius(shape)
+    top = obstacle.height - person.eye_height
+    low = np.arctan2(-person.eye_height, near) - person.vfov / 2
+    high = np.arctan2(top, far if top < 0.0 else near) + person.vfov / 2
+    return in_cone & (low <= gaze) & (gaze <= high)
 
 
 def visible(person: PersonState, obstacles: Iterable[Obstacle], gaze: float) -> tuple[Obstacle, ...]:
