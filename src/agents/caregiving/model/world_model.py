@@ -26,9 +26,9 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
-from .errors import CaregivingError
 import numpy as np
 
+from .errors import CaregivingError
 from .geometry import Polyline, closest_boundary_point, displacement, point_distance, signed_distance
 from .planner import GridPlanner
 from .robot_moves import RobotMove, robot_fits
