@@ -3,7 +3,9 @@
 Reports grid planning time with cached inflated masks versus a cold cache, a
 person rollout in PyBullet versus the numpy fast path (and their ratio),
 imagine_person latency and that of the joint imagination in time (robot driving,
-person walking, as the world model steps them), and the ground-truth risky rate
+person walking, as the world model advances them) beside the same imagination
+stepped one 50 ms step at a time (``World.step`` only, the baseline that
+``World.advance``'s bulk pass must match), and the ground-truth risky rate
 (robot idle, exact geometry) over sampled trials of ``paper_experiment1.yaml``.
 Latencies are medians and 95th percentiles of repeated calls in this process.
 
@@ -22,12 +24,12 @@ import numpy as np
 
 import benchlib
 from agents.caregiving.model.imagine import imagine_person
-from agents.caregiving.model.joint import imagine_joint
+from agents.caregiving.model.joint import HORIZON, imagine_joint
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.robot_moves import standoff_moves
 from agents.caregiving.model.rollout import BulletRollout, NumpyRollout
 from agents.caregiving.model.scenario import load_scenario, sample_trial
-from agents.caregiving.model.world_model import Walk, run_idle
+from agents.caregiving.model.world_model import Walk, World, run_idle
 
 
 def timings(call: Callable[[], object], repeat: int) -> dict[str, float]:
@@ -80,6 +82,14 @@ def main() -> None:
     walk = [Walk(person.name, couch.name, gaze)]
     joint_latency = timings(lambda: imagine_joint(scene, walk, move, planner=warm), args.repeat)
 
+    def stepped_joint() -> None:
+        world = World(scene, walk, planner=warm)
+        world.command_robot(move)
+        while not world.done and world.time < scene.time + HORIZON - 1e-9:
+            world.step()
+
+    joint_stepped = timings(stepped_joint, args.repeat)
+
     rng = np.random.default_rng(args.seed)
     planner = GridPlanner(scene.bounds)
     risky = 0
@@ -105,6 +115,8 @@ def main() -> None:
         "imagine_person": person_latency,
         "imagine_person_pybullet": person_bullet,
         "imagine_joint": joint_latency,
+        "imagine_joint_stepped": joint_stepped,
+        "joint_stepped_over_advanced": joint_stepped["median_ms"] / joint_latency["median_ms"],
         "ground_truth": {
             "trials": args.trials,
             "seed": args.seed,
@@ -123,7 +135,11 @@ def main() -> None:
         f"imagine_person (ms): median {person_latency['median_ms']:.2f}  p95 {person_latency['p95_ms']:.2f}  "
         f"(pybullet median {person_bullet['median_ms']:.2f})"
     )
-    print(f"imagine_joint (ms): median {joint_latency['median_ms']:.2f}  p95 {joint_latency['p95_ms']:.2f}")
+    print(
+        f"imagine_joint (ms): median {joint_latency['median_ms']:.2f}  p95 {joint_latency['p95_ms']:.2f}  "
+        f"(stepped one by one: median {joint_stepped['median_ms']:.2f}, "
+        f"{report['joint_stepped_over_advanced']:.1f}x)"
+    )
     print(f"ground truth: {risky}/{args.trials} risky ({risky / args.trials:.1%}), {per_trial:.0f} ms per trial")
 
 

@@ -78,8 +78,8 @@ class Action(Agent):
         parser.add_argument(
             "--retry",
             type=float,
-            default=1.0,
-            help="simulated seconds before a danger no move removed is searched again",
+            default=0.5,
+            help="simulated seconds before a danger no move removed is searched again (at its next update after that)",
         )
         parser.add_argument(
             "--dispatch",
