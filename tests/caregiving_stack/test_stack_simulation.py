@@ -12,6 +12,7 @@ from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.imagine_reply import ImagineReply
 from agents.caregiving.model.joint import imagine_joint
+from agents.caregiving.model.move_search import Danger
 from agents.caregiving.model.robot_moves import standoff_moves
 from agents.caregiving.model.rollout import BulletRollout
 from agents.caregiving.model.scenario import load_scenario
@@ -107,7 +108,8 @@ def test_uncertainty_gives_a_collision_probability(sim_endpoint) -> None:
 
 def test_malformed_requests_get_errors_and_the_service_carries_on(sim_endpoint) -> None:
     ep, proc = sim_endpoint
-    scene = load_scenario("paper_experiment1").scene().to_wire()
+    paper = load_scenario("paper_experiment1").scene()
+    scene = paper.to_wire()
     with pytest.raises(RemoteError, match="request.items"):
         ask(ep, {"items": "nope", "scene": scene})
     with pytest.raises(RemoteError, match="RequestError"):
@@ -115,6 +117,12 @@ def test_malformed_requests_get_errors_and_the_service_carries_on(sim_endpoint) 
     with pytest.raises(RemoteError, match="no context"):
         ask(ep, {"items": [{"kind": "person"}]})
     walk = {"person": "person", "target": "couch", "gaze": 0.1}
+    walked = imagine_person(paper, "person", "couch", GAZES[0])
+    assert walked.collision_point and walked.collision_object and walked.collision_time
+    danger = Danger(
+        "person", "couch", walked.path, walked.collision_point, walked.collision_object, walked.collision_time
+    ).to_wire()
+    search = {"kind": "search", "uncertainty": {"samples": 16}, "threshold": 0.2, "max_moves": 4}
     reply = ask(
         ep,
         {
@@ -126,11 +134,13 @@ def test_malformed_requests_get_errors_and_the_service_carries_on(sim_endpoint) 
                 {"kind": "joint", "walks": [walk], "move": None, "delay": 1e9},
                 {"kind": "person", "person": "person", "target": "couch", "gaze": 0.1},
                 {"kind": "joint", "walks": [walk], "move": None},
+                {**search, "spec": {"dangers": [danger], "gazes": {}}},
+                {**search, "spec": {"dangers": [danger], "gazes": {"person": [GAZES[0]]}}},
             ],
             "scene": scene,
         },
     )
-    bad_kind, unknown, bad_walks, bad_move, bad_delay, good, braking = reply.results
+    bad_kind, unknown, bad_walks, bad_move, bad_delay, good, braking, bad_search, searched = reply.results
     assert "kind" in (bad_kind.error or "")
     assert "unknown person 'nobody'" in (unknown.error or "")
     assert "request.walks: expected a list" in (bad_walks.error or "")
@@ -138,4 +148,6 @@ def test_malformed_requests_get_errors_and_the_service_carries_on(sim_endpoint) 
     assert "request.delay: expected at most" in (bad_delay.error or "")
     assert good.imagination is not None and good.imagination.reachable
     assert braking.joint is not None and braking.joint.walks[0].status == "collided"
+    assert "request.spec.gazes.person: is required" in (bad_search.error or "")
+    assert searched.search is not None and searched.search.chosen is not None and searched.search.chosen.clear
     assert proc.popen.poll() is None

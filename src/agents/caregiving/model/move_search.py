@@ -20,7 +20,10 @@ cheap tests prune before any imagination: the robot must fit at the pose, and a
 straight drive (the travel-time lower bound, from the robot's current speed)
 must come within :data:`REACH` of it before the person passes it (path poses)
 or before the collision (stand-offs). The joint imagination in time
-(:mod:`agents.caregiving.model.joint`) judges the rest.
+(:mod:`agents.caregiving.model.joint`) judges the rest: :func:`search` judges
+the candidates one at a time, each with its robot starting later by the time
+the search has spent, and stops at the first safe one. A :class:`SearchSpec`
+travels to the simulator in its wire form, and the :class:`SearchResult` comes back.
 """
 
 from __future__ import annotations
