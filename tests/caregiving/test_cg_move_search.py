@@ -145,3 +145,17 @@ def test_a_search_and_its_spec_survive_the_wire(scene: Scene) -> None:
 
     back = decode_answer(Fields(encode_answer(Answer(search=found)), "answer", ReplyError))
     assert back.search == found and (back.search.chosen is None) == (found.chosen is None)
+
+
+def test_a_search_given_moves_judges_those_in_order(scene: Scene) -> None:
+    spec = SearchSpec((danger_of(scene),), {"person": (GAZE,)}, {})
+    inside_the_couch, front = RobotMove("couch", 3.5, 0.0, 0.0), RobotMove("ball", -0.46, 0.0, 0.0)
+    found = search(
+        scene, spec, lambda item: serve_one(scene, item), UNCERTAINTY, 0.2, 5, moves=[inside_the_couch, front]
+    )
+    assert [v.move for v in found.verdicts] == [inside_the_couch, front]
+    assert found.chosen is found.verdicts[1] and not found.verdicts[0].clear
+    wire = {"kind": "search", "spec": spec.to_wire(), "uncertainty": UNCERTAINTY, "threshold": 0.2, "max_moves": 1}
+    served = serve_one(scene, {**wire, "moves": [front.to_wire()]}).search
+    assert served is not None and [v.move for v in served.verdicts] == [front]
+    assert "request.moves[0].x: is required" in (serve_one(scene, {**wire, "moves": [{"target": "ball"}]}).error or "")

@@ -31,15 +31,14 @@ import argparse
 import math
 import time
 from dataclasses import replace
-from itertools import count, islice
+from itertools import count
 from typing import Any
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
-from agents.caregiving.model.imagine_reply import Answer
-from agents.caregiving.model.move_search import Danger, SearchSpec, judge
+from agents.caregiving.model.move_search import Danger, SearchSpec
 from agents.caregiving.model.robot_moves import RobotMove
-from agents.caregiving.model.verdict import Verdict
+from agents.caregiving.model.verdict import SearchResult, Verdict
 from agents.caregiving.model.visibility import GazeClass, gaze_classes
 from agents.caregiving.model.world_model import Walk
 from wm import Edge, Event, Node
@@ -126,11 +125,10 @@ class Action(Agent):
         self.rpc_ms = self.sim_ms = 0.0
         current = self._current()
         spec = self._spec(ctx, dangers, current)
-        keep = replace(spec, delay=self._delay(ctx) + self.judging * self._rate())
-        if current is not None and (await self._judge(keep, [self._move_of(current)]))[0].safe(
-            self.args.risk_threshold
-        ):
-            return  # the move under way still keeps everyone safe
+        if current is not None:
+            kept = await self._search(ctx, spec, 1.0, [self._move_of(current)])
+            if kept is not None and kept.verdicts[0].safe(self.args.risk_threshold):
+                return  # the move under way still keeps everyone safe
         idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
         self.tried = []
         chosen, unsaved = await self._find(ctx, spec, idle_risk), ""
@@ -223,60 +221,49 @@ class Action(Agent):
         return RobotMove(str(node.get("target")), x, y, heading)
 
     # -- asking the simulator ------------------------------------------------------------------
-    async def _judge(self, spec: SearchSpec, moves: list[RobotMove]) -> list[Verdict]:
-        """Imagine and judge each move: first with the likeliest walk set, then the rest for the moves still clear.
+    async def _search(
+        self, ctx: Context, spec: SearchSpec, idle_risk: float, moves: list[RobotMove] | None = None
+    ) -> SearchResult | None:
+        """One search, run by the simulator; each candidate imagines the robot starting when its command would arrive.
 
-        Most candidates fail at once with the walk set that was found risky, so that set goes alone first.
+        ``moves`` judges those moves instead of the generated candidates. None when the simulator refused.
         """
-        uncertainty = self._uncertainty()
-        items = [spec.items(m, uncertainty) for m in moves]
-        first = await self._imagine([x[:1] for x in items])
-        verdicts = [judge(m, a) for m, a in zip(moves, first, strict=True)]
-        rest = [k for k, v in enumerate(verdicts) if v.clear and len(items[k]) > 1]
-        if rest:
-            more = await self._imagine([items[k][1:] for k in rest])
-            for k, answers in zip(rest, more, strict=True):
-                verdicts[k] = judge(moves[k], first[k] + answers)
-        return verdicts
-
-    async def _imagine(self, groups: list[list[dict[str, Any]]]) -> list[list[Answer]]:
-        """One request to the simulator for every group of items; the answers, grouped the same way."""
+        a = self.args
+        item: dict[str, Any] = {
+            "kind": "search",
+            "spec": replace(spec, delay=self._delay(ctx)).to_wire(),
+            "uncertainty": self._uncertainty(),
+            "threshold": a.risk_threshold,
+            "max_moves": len(moves) if moves else a.max_moves,
+            "idle_risk": idle_risk,
+            "judging": self.judging * self._rate(),
+        }
+        if moves:
+            item["moves"] = [m.to_wire() for m in moves]
         sent = time.perf_counter()
-        reply = await self.ask(
-            keys.imagine(self.args.graph), {"items": [i for g in groups for i in g]}, decode=imagine_reply.decode
-        )
+        reply = await self.ask(keys.imagine(self.args.graph), {"items": [item]}, decode=imagine_reply.decode)
         self.rpc_ms += (time.perf_counter() - sent) * 1e3
         self.sim_ms += reply.compute_ms
-        answers = iter(reply.results)
-        return [list(islice(answers, len(g))) for g in groups]
+        found = reply.results[0].search if len(reply.results) == 1 else None
+        if found is None:
+            self.log.error("the simulator refused the search", error=reply.results[0].error if reply.results else None)
+            return None
+        if found.verdicts:
+            per_move = reply.compute_ms / 1e3 / len(found.verdicts)
+            self.judging += JUDGING_WEIGHT * (per_move - self.judging)
+        return found
 
     def _uncertainty(self) -> dict[str, Any]:
         sigma = {n.name: n.get("position_sigma", 0.0) for t in (PERSON, OBJECT) for n in self.g.nodes(t)}
         return {"size_error": self.size_error, "sigma": sigma, "samples": self.args.samples, "seed": 0}
 
     async def _find(self, ctx: Context, spec: SearchSpec, idle_risk: float) -> Verdict | None:
-        """One search, run by the simulator; each candidate imagines the robot starting when its command would arrive."""
-        a = self.args
-        item = {
-            "kind": "search",
-            "spec": replace(spec, delay=self._delay(ctx)).to_wire(),
-            "uncertainty": self._uncertainty(),
-            "threshold": a.risk_threshold,
-            "max_moves": a.max_moves,
-            "idle_risk": idle_risk,
-            "judging": self.judging * self._rate(),
-        }
-        sim_ms = self.sim_ms
-        [[answer]] = await self._imagine([[item]])
-        if answer.search is None:
-            self.log.error("the simulator refused the search", error=answer.error)
+        """The move the search chose for ``spec``, if any; every verdict on the way joins :attr:`tried`."""
+        found = await self._search(ctx, spec, idle_risk)
+        if found is None:
             return None
-        judged = len(answer.search.verdicts)
-        if judged:
-            per_move = (self.sim_ms - sim_ms) / 1e3 / judged
-            self.judging += JUDGING_WEIGHT * (per_move - self.judging)
-        self.tried += answer.search.verdicts
-        return answer.search.chosen
+        self.tried += found.verdicts
+        return found.chosen
 
     # -- writing W -----------------------------------------------------------------------------
     def _write(

@@ -29,7 +29,7 @@ travels to the simulator in its wire form, and the :class:`SearchResult` comes b
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from itertools import islice
 from typing import Any
@@ -326,15 +326,18 @@ def search(
     max_moves: int,
     idle_risk: float = 1.0,
     judging: float = 0.0,
+    moves: Sequence[RobotMove] | None = None,
 ) -> SearchResult:
     """Algorithm 2's search: judge the candidates one at a time, likeliest first, and stop at the first safe one.
 
     Each candidate is imagined with the robot starting ``judging`` seconds later than the one before, since
     the move is sent only once the search has judged it: the k-th candidate (from 1) after
     ``spec.delay + judging * k``. The result holds every verdict and the move to send (see :func:`choose`).
+    ``moves`` replaces the generated candidates (to judge the move under way again, for instance).
     """
     verdicts: list[Verdict] = []
-    for k, move in enumerate(islice(candidates(scene, spec.dangers), max_moves), start=1):
+    pool = candidates(scene, spec.dangers) if moves is None else iter(moves)
+    for k, move in enumerate(islice(pool, max_moves), start=1):
         verdicts.append(judge_move(replace(spec, delay=spec.delay + judging * k), move, imagine, uncertainty))
         if verdicts[-1].safe(threshold):
             break

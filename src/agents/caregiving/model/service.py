@@ -7,9 +7,10 @@ A request is a msgpack map ``{"items": [ITEM, ...], "scene": SCENE?}``. An ITEM 
 * ``{"kind": "joint", "walks": [{"person", "target", "gaze", "known"?}, ...],
   "move": MOVE | null, "current"?: MOVE, "delay"?: s, "uncertainty"?}``: the robot's
   move imagined in time with those walks (Algorithm 2, :func:`agents.caregiving.model.joint.imagine_joint`);
-* ``{"kind": "search", "spec": SPEC, "uncertainty", "threshold", "max_moves", "idle_risk"?, "judging"?}``:
-  Algorithm 2's whole move search (:func:`agents.caregiving.model.move_search.search`), each
-  candidate judged here with the joint items above, one at a time, up to the first safe one;
+* ``{"kind": "search", "spec": SPEC, "uncertainty", "threshold", "max_moves", "idle_risk"?, "judging"?,
+  "moves"?: [MOVE, ...]}``: Algorithm 2's whole move search
+  (:func:`agents.caregiving.model.move_search.search`), each candidate (or each of ``moves``, when
+  given) judged here with the joint items above, one at a time, up to the first safe one;
   ``SPEC`` is a :class:`~agents.caregiving.model.move_search.SearchSpec` in its wire form;
 
 with ``uncertainty = {"size_error", "sigma": {name: metres}, "samples", "seed"}``.
@@ -93,6 +94,7 @@ def _search(scene: Scene, f: Fields, item: Any, rollout: Rollout | None) -> Sear
         int(f.number("max_moves", positive=True, at_most=MAX_MOVES)),
         f.number("idle_risk", 1.0, non_negative=True, at_most=1.0),
         f.number("judging", 0.0, non_negative=True, at_most=MAX_DELAY),
+        [RobotMove.from_fields(m) for m in f.children("moves")] if f.has("moves") else None,
     )
 
 
