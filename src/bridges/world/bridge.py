@@ -172,8 +172,7 @@ class WorldBridge:
         trial = self.trial
         if trial is None or int(f.number("trial")) != trial.number or not self._running():
             raise RequestError(f"command: trial {f.number('trial'):g} is not running")
-        move_fields = f.optional_child("move")
-        move = RobotMove.from_fields(move_fields) if move_fields is not None else None
+        move = RobotMove.optional_from(f, "move")
         accepted = trial.world.command_robot(move)
         trial.commands.append(
             {"time": trial.world.time, "move": move.to_wire() if move else None, "accepted": accepted}

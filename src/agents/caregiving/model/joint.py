@@ -141,9 +141,8 @@ class JointImagination:
     @classmethod
     def from_fields(cls, f: Fields) -> JointImagination:
         """Parse a joint imagination nested in a larger message."""
-        move = f.optional_child("move")
         return cls(
-            RobotMove.from_fields(move) if move is not None else None,
+            RobotMove.optional_from(f, "move"),
             f.boolean("robot_reachable"),
             f.optional_number("robot_arrival"),
             tuple(WalkOutcome.from_fields(w) for w in f.children("walks")),

@@ -241,13 +241,12 @@ class SearchSpec:
             if not values or not all(-math.pi / 2 <= g <= math.pi / 2 for g in values):
                 raise gazes_f.fail(d.person, "expected one or more pitches in [-pi/2, pi/2] rad")
             gazes[d.person] = values
-        current = f.optional_child("current")
         return cls(
             dangers,
             gazes,
             {p: known_f.strings(p) for p in known_f.keys()},
             tuple(walk_from_fields(w) for w in f.children("bystanders", [])),
-            RobotMove.from_fields(current) if current is not None else None,
+            RobotMove.optional_from(f, "current"),
             f.number("delay", 0.0, non_negative=True, at_most=max_delay),
         )
 

@@ -43,6 +43,12 @@ class RobotMove:
         """Parse a move nested in a larger message."""
         return cls(f.string("target"), f.number("x"), f.number("y"), f.number("heading", 0.0))
 
+    @classmethod
+    def optional_from(cls, f: Fields, key: str) -> RobotMove | None:
+        """The move nested at ``key``, or ``None`` when it is absent or null (braking, no move under way)."""
+        nested = f.optional_child(key)
+        return cls.from_fields(nested) if nested is not None else None
+
 
 def travel_time(distance: float, max_speed: float, max_accel: float, v0: float = 0.0) -> float:
     """Time to cover ``distance`` from speed ``v0`` and stop, under speed and acceleration limits."""

@@ -69,14 +69,12 @@ def serve_item(scene: Scene, item: Any, rollout: Rollout | None = None) -> Answe
     walks = tuple(walk_from_fields(w) for w in f.children("walks"))
     if not walks:
         raise f.fail("walks", "expected at least one walk")
-    move = f.optional_child("move")
-    current = f.optional_child("current")
     joint = imagine_joint(
         scene,
         walks,
-        RobotMove.from_fields(move) if move is not None else None,
+        RobotMove.optional_from(f, "move"),
         delay=f.number("delay", 0.0, non_negative=True, at_most=MAX_DELAY),
-        current=RobotMove.from_fields(current) if current is not None else None,
+        current=RobotMove.optional_from(f, "current"),
     )
     return Answer(joint=joint, risk=joint_risk(scene, joint, uncertainty) if uncertainty is not None else None)
 

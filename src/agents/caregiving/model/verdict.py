@@ -46,9 +46,8 @@ class Verdict:
     @classmethod
     def from_fields(cls, f: Fields) -> Verdict:
         """Parse :meth:`to_wire` output nested in a larger message."""
-        move = f.optional_child("move")
         return cls(
-            RobotMove.from_fields(move) if move is not None else None,
+            RobotMove.optional_from(f, "move"),
             f.boolean("clear"),
             f.number("risk", non_negative=True, at_most=1.0),
             f.optional_number("arrival"),
