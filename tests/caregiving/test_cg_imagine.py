@@ -12,7 +12,7 @@ from agents.caregiving.model.robot_moves import RobotMove, standoff_moves
 from agents.caregiving.model.rollout import BulletRollout
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene
-from agents.caregiving.model.service import serve_item
+from agents.caregiving.model.service import judges_robot_moves, serve_item
 
 GAZE = math.radians(8)
 
@@ -90,6 +90,13 @@ DANGER = {
 }
 SPEC = {"dangers": [DANGER], "gazes": {"person": [GAZE]}, "known": {}, "bystanders": [], "delay": 0.2}
 SEARCH = {"kind": "search", "spec": SPEC, "uncertainty": {"samples": 16}, "threshold": 0.2, "max_moves": 4}
+
+
+def test_searches_and_joint_imaginations_are_served_first() -> None:
+    person = {"kind": "person", "person": "person", "target": "couch", "gaze": GAZE}
+    joint = {"kind": "joint", "walks": [], "move": None}
+    assert judges_robot_moves([SEARCH]) and judges_robot_moves([person, joint])
+    assert not judges_robot_moves([person, person]) and not judges_robot_moves(["not an item"])
 
 
 @pytest.mark.parametrize(

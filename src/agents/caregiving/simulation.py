@@ -12,8 +12,8 @@ arrives, frozen for the whole batch. The reply is an
 
 A malformed item gets its own error entry; a malformed request an error reply.
 Items are served one at a time, by one request handler at a time: it serves the
-queued batches' items, batches holding robot moves (Algorithm 2, where the
-reaction time is spent) before batches of person-only imaginations, until its
+queued batches' items, batches that judge robot moves (searches and joint
+imaginations: Algorithm 2, where the reaction time is spent) before batches of person-only imaginations, until its
 own batch is done, and hands over to the next.
 """
 
@@ -31,7 +31,7 @@ from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.imagine_reply import Answer, ImagineReply
 from agents.caregiving.model.rollout import BulletRollout, NumpyRollout, Rollout
 from agents.caregiving.model.scene import Scene
-from agents.caregiving.model.service import batch_scene, serve_one
+from agents.caregiving.model.service import batch_scene, judges_robot_moves, serve_one
 from wm import Event
 
 from ..runtime import Agent, main, on
@@ -99,8 +99,7 @@ class Simulation(Agent):
         start = time.perf_counter()
         ctx = self._context()
         scene, items = batch_scene(request, ctx.scene if ctx else None)
-        joint = any(isinstance(i, dict) and i.get("kind") == "joint" for i in items)
-        job = _Job(0 if joint else 1, next(self._seq), scene, items)
+        job = _Job(0 if judges_robot_moves(items) else 1, next(self._seq), scene, items)
         self.jobs.append(job)
         async with self._serving:
             await self._serve_until(job)

@@ -41,6 +41,8 @@ MAX_DELAY = 5.0
 #: Candidate moves one search may judge at most.
 MAX_MOVES = 256
 KINDS = frozenset({"person", "joint", "search"})
+#: The kinds that judge robot moves (Algorithm 2, where the reaction time is spent).
+ROBOT_MOVE_KINDS = frozenset({"joint", "search"})
 
 
 def uncertainty_from_fields(u: Fields) -> Uncertainty:
@@ -105,6 +107,11 @@ def joint_risk(scene: Scene, joint: JointImagination, u: Uncertainty) -> Risk:
     without_robot = scene.with_robot(None)
     risks = [collision_risk(without_robot, w.as_imagination(), u) for w in joint.walks]
     return max(risks, key=lambda r: r.probability, default=NO_RISK)
+
+
+def judges_robot_moves(items: list[Any]) -> bool:
+    """Whether a batch holds an item of a kind that judges robot moves, so it is served before the others."""
+    return any(isinstance(i, dict) and i.get("kind") in ROBOT_MOVE_KINDS for i in items)
 
 
 def serve_one(scene: Scene, item: Any, rollout: Rollout | None = None) -> Answer:
