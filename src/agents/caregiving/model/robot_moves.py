@@ -16,7 +16,7 @@ from typing import Any
 
 from .errors import RequestError
 from .fields import Fields
-from .geometry import Box, Circle, corners, shapes_overlap, signed_distance
+from .geometry import Box, Circle, corners, point_distance, shapes_overlap, signed_distance
 from .scene import RobotState, Scene
 
 
@@ -79,7 +79,7 @@ def standoff_poses(scene: Scene, target: str, gap: float = 0.1, count: int = 8) 
         dx, dy = math.cos(angle), math.sin(angle)
         t = shape.r + gap + half if isinstance(shape, Circle) else 0.0  # a circle's offset is exact at once
         for _ in range(20):  # march out to the offset boundary (signed distance is 1-Lipschitz)
-            d = float(signed_distance(shape, (shape.x + dx * t, shape.y + dy * t))[0])
+            d = point_distance(shape, shape.x + dx * t, shape.y + dy * t)
             if abs(d - (gap + half)) < 1e-4:
                 break
             t += (gap + half) - d

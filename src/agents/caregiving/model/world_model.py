@@ -234,10 +234,10 @@ class World:
         if self._drive is None:
             self._speed = max(self._speed - r.max_accel * self.dt, 0.0)
             if self._speed > 0.0:
-                self.robot = replace(
-                    r,
-                    x=r.x + math.cos(r.heading) * self._speed * self.dt,
-                    y=r.y + math.sin(r.heading) * self._speed * self.dt,
+                self.robot = r.moved(
+                    r.x + math.cos(r.heading) * self._speed * self.dt,
+                    r.y + math.sin(r.heading) * self._speed * self.dt,
+                    r.heading,
                 )
             return
         d = self._drive
@@ -248,12 +248,12 @@ class World:
         d.walked = min(d.walked + self._speed * self.dt, d.route.length)
         if d.route.length - d.walked < 1e-3 or self._speed < 1e-6:
             end = d.route.points[-1]
-            self.robot = replace(r, x=float(end[0]), y=float(end[1]), heading=d.heading)
+            self.robot = r.moved(float(end[0]), float(end[1]), d.heading)
             self._speed, self._drive = 0.0, None
             self.robot_arrival = self.time + self.dt
             return
         x, y = d.route.point_at(d.walked)
-        self.robot = replace(r, x=x, y=y, heading=math.atan2(y - r.y, x - r.x))
+        self.robot = r.moved(x, y, math.atan2(y - r.y, x - r.x))
 
     # -- people --------------------------------------------------------------------------------
     def _others(self, me: str) -> tuple[Obstacle, ...]:
@@ -311,7 +311,7 @@ class World:
         x, y = w.route.point_at(w.walked)
         s = w.state
         heading = math.atan2(y - s.y, x - s.x) if math.hypot(x - s.x, y - s.y) > 1e-9 else s.heading
-        w.state = replace(s, x=x, y=y, heading=heading)
+        w.state = s.moved(x, y, heading)
         w.track.append((w.state.x, w.state.y))
         if w.walked >= length - 1e-9:
             w.status, w.arrival = "arrived", self.time + self.dt
@@ -427,7 +427,7 @@ class World:
         if nearest[best] < w.min_clearance:
             w.min_clearance, w.closest = float(nearest[best]), bodies[int(np.argmin(clear[best]))].name
         w.walked = float(walked[last - 1])
-        w.state = replace(s, x=float(xs[last - 1]), y=float(ys[last - 1]), heading=headings[last - 1])
+        w.state = s.moved(float(xs[last - 1]), float(ys[last - 1]), headings[last - 1])
         w.track.extend(zip(xs[:last].tolist(), ys[:last].tolist(), strict=True))
         end = starts[last - 1] + self.dt
         if w.walked >= route.length - 1e-9:
