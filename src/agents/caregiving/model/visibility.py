@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .geometry import Circle, FloatArray, bounding_radius, corner_points, point_distance, signed_distance
+from .geometry import Circle, FloatArray, Shape, bounding_radius, corner_points, point_distance, signed_distance
 from .scene import Obstacle, PersonState
 
 WALL_KIND = "wall"
@@ -30,24 +30,36 @@ def _wrap(angle: float) -> float:
 
 def in_horizontal_fov(person: PersonState, obstacle: Obstacle) -> bool:
     """Whether any part of the footprint lies inside the person's horizontal cone."""
-    shape = obstacle.shape
-    if point_distance(shape, person.x, person.y) <= 0.0:
+    return _in_cone(person, obstacle.shape, point_distance(obstacle.shape, person.x, person.y))
+
+
+def _in_cone(person: PersonState, shape: Shape, inside: float) -> bool:
+    """:func:`in_horizontal_fov`, given the person's signed distance to the shape."""
+    if inside <= 0.0:
         return True
     centre = math.atan2(shape.y - person.y, shape.x - person.x)
+    offset = _wrap(centre - person.heading)
+    half_fov = person.hfov / 2
+    if -half_fov <= offset <= half_fov:
+        return True  # the centre itself is in view (the footprint's span holds its direction)
+    dist = math.hypot(shape.x - person.x, shape.y - person.y)
     if isinstance(shape, Circle):
-        dist = math.hypot(shape.x - person.x, shape.y - person.y)
         half = math.asin(min(1.0, shape.r / dist))
         lo, hi = -half, half
     else:
         rel = [_wrap(math.atan2(y - person.y, x - person.x) - centre) for x, y in corner_points(shape)]
         lo, hi = min(rel), max(rel)
-    offset = _wrap(centre - person.heading)
-    return offset + hi >= -person.hfov / 2 and offset + lo <= person.hfov / 2
+    return offset + hi >= -half_fov and offset + lo <= half_fov
 
 
 def elevation_span(person: PersonState, obstacle: Obstacle) -> tuple[float, float]:
     """Lowest and highest elevation (rad, up positive) of the object seen from the eyes."""
-    near = max(point_distance(obstacle.shape, person.x, person.y), 1e-3)
+    return _elevations(person, obstacle, point_distance(obstacle.shape, person.x, person.y))
+
+
+def _elevations(person: PersonState, obstacle: Obstacle, inside: float) -> tuple[float, float]:
+    """:func:`elevation_span`, given the person's signed distance to the footprint."""
+    near = max(inside, 1e-3)
     far = math.hypot(obstacle.shape.x - person.x, obstacle.shape.y - person.y) + bounding_radius(obstacle.shape)
     top = obstacle.height - person.eye_height
     low = math.atan2(-person.eye_height, near)
@@ -59,9 +71,10 @@ def gaze_interval(person: PersonState, obstacle: Obstacle) -> tuple[float, float
     """The gaze pitches for which the object is seen, or ``None`` if it is outside the cone."""
     if obstacle.kind == WALL_KIND:
         return (-math.pi / 2, math.pi / 2)
-    if not in_horizontal_fov(person, obstacle):
+    inside = point_distance(obstacle.shape, person.x, person.y)
+    if not _in_cone(person, obstacle.shape, inside):
         return None
-    low, high = elevation_span(person, obstacle)
+    low, high = _elevations(person, obstacle, inside)
     return low - person.vfov / 2, high + person.vfov / 2
 
 
