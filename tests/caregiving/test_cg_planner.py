@@ -105,6 +105,20 @@ def test_a_plan_does_not_depend_on_what_was_planned_before() -> None:
         assert not used.plan_to_object((-2.5, 0.0), COUCH, boxed, 0.25).reachable
 
 
+def test_a_repeated_walk_is_remembered_read_only_and_any_other_input_plans_anew() -> None:
+    planner = GridPlanner(BOUNDS)
+    first = planner.plan_to_object((-2.5, 0.0), COUCH, [*walls(), BALL], 0.25)
+    assert planner.plan_to_object((-2.5, 0.0), COUCH, [*walls(), BALL], 0.25) is first
+    with pytest.raises(ValueError, match="read-only"):
+        first.path[0, 0] = 9.0
+    moved = Obstacle("ball", "ball", Circle(-1.0, 0.0, 0.11), 0.22)
+    around = planner.plan_to_object((-2.5, 0.0), COUCH, [*walls(), moved], 0.25)
+    assert around is not first and not np.array_equal(around.path, first.path)
+    assert planner.plan_to_object((-2.5, 0.0), COUCH, [*walls(), BALL], 0.3) is not first
+    planner.clear_cache()
+    assert planner.plan_to_object((-2.5, 0.0), COUCH, [*walls(), BALL], 0.25) is not first
+
+
 def test_a_point_goal_in_line_of_sight_gets_the_path_the_search_would_return() -> None:
     planner = GridPlanner(BOUNDS)
     obstacles = [*walls(), BALL, COUCH]

@@ -11,6 +11,11 @@ the start at once, so a plan depends only on the grid, the goals and the start
 plan alike. The cell path is string-pulled into a short
 polyline in metres. A point goal in clear line of sight from the start skips
 the search: the string-pulled path would be that straight segment anyway.
+
+Since a plan depends only on its inputs, walks to objects are also remembered
+by their exact inputs (start, target, obstacles, radius): the candidates of one
+move search imagine the same person from the same start many times over, and
+about a third of their plans repeat one already made.
 """
 
 from __future__ import annotations
@@ -70,6 +75,7 @@ class GridPlanner:
         )
         self._cache: OrderedDict[tuple[Shape, float], _Mask] = OrderedDict()
         self._rings: OrderedDict[tuple[Shape, float], NDArray[np.intp]] = OrderedDict()
+        self._plans: OrderedDict[tuple[object, ...], Plan] = OrderedDict()
         self._cache_size = cache_size
         self.cache_hits = 0
         self.cache_misses = 0
@@ -86,9 +92,14 @@ class GridPlanner:
         return (np.asarray(cells, dtype=np.float64) + 0.5) * self.resolution + self.bounds[:2]
 
     def clear_cache(self) -> None:
-        """Forget every cached inflated mask and goal ring."""
+        """Forget every cached inflated mask, goal ring and plan."""
         self._cache.clear()
         self._rings.clear()
+        self.forget_plans()
+
+    def forget_plans(self) -> None:
+        """Forget the remembered walks only (the masks stay warm)."""
+        self._plans.clear()
 
     def _inflated(self, shape: Shape, inflate: float) -> _Mask:
         key = (shape, round(inflate, 6))
@@ -122,10 +133,20 @@ class GridPlanner:
     def plan_to_object(
         self, start: tuple[float, float], target: Obstacle, obstacles: Sequence[Obstacle], radius: float
     ) -> Plan:
-        """Shortest walk from ``start`` to a free cell touching the target's inflated footprint."""
+        """Shortest walk from ``start`` to a free cell touching the target's inflated footprint (read-only path)."""
+        key = (float(start[0]), float(start[1]), target, tuple(obstacles), radius)
+        plan = self._plans.get(key)
+        if plan is not None:
+            self._plans.move_to_end(key)
+            return plan
         others = [o for o in obstacles if o.name != target.name]
         grid = self.blocked([*others, target], radius)
-        return self._search(start, grid, self._ring(target.shape, radius + self.margin))
+        plan = self._search(start, grid, self._ring(target.shape, radius + self.margin))
+        plan.path.flags.writeable = False  # shared by every caller that asks the same
+        self._plans[key] = plan
+        if len(self._plans) > self._cache_size:
+            self._plans.popitem(last=False)
+        return plan
 
     def _ring(self, shape: Shape, inflate: float) -> NDArray[np.intp]:
         """The cells just outside the shape's inflated footprint (the goals of a walk to it), cached with its mask."""
