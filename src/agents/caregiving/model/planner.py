@@ -24,6 +24,7 @@ import math
 from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Generic, TypeVar
 
 import numpy as np
 import tcod.path
@@ -34,6 +35,8 @@ from .geometry import FloatArray, Shape, aabb, polyline_length, signed_distance
 from .scene import Obstacle
 
 _EIGHT = np.ones((3, 3), dtype=bool)
+K = TypeVar("K")
+V = TypeVar("V")
 _CARDINAL, _DIAGONAL = 70, 99
 
 
@@ -56,6 +59,31 @@ class _Mask:
     cells: NDArray[np.bool_]
 
 
+class _Recent(Generic[K, V]):
+    """A bounded map that forgets its least recently used entry first."""
+
+    def __init__(self, size: int) -> None:
+        self._items: OrderedDict[K, V] = OrderedDict()
+        self._size = size
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def get(self, key: K) -> V | None:
+        value = self._items.get(key)
+        if value is not None:
+            self._items.move_to_end(key)
+        return value
+
+    def put(self, key: K, value: V) -> None:
+        self._items[key] = value
+        if len(self._items) > self._size:
+            self._items.popitem(last=False)
+
+    def clear(self) -> None:
+        self._items.clear()
+
+
 class GridPlanner:
     """Occupancy-grid planner over fixed room bounds with a per-obstacle inflation cache."""
 
@@ -73,10 +101,9 @@ class GridPlanner:
             int(math.ceil((bounds[2] - bounds[0]) / resolution)),
             int(math.ceil((bounds[3] - bounds[1]) / resolution)),
         )
-        self._cache: OrderedDict[tuple[Shape, float], _Mask] = OrderedDict()
-        self._rings: OrderedDict[tuple[Shape, float], NDArray[np.intp]] = OrderedDict()
-        self._plans: OrderedDict[tuple[object, ...], Plan] = OrderedDict()
-        self._cache_size = cache_size
+        self._cache: _Recent[tuple[Shape, float], _Mask] = _Recent(cache_size)
+        self._rings: _Recent[tuple[Shape, float], NDArray[np.intp]] = _Recent(cache_size)
+        self._plans: _Recent[tuple[object, ...], Plan] = _Recent(cache_size)
         self.cache_hits = 0
         self.cache_misses = 0
 
@@ -106,7 +133,6 @@ class GridPlanner:
         mask = self._cache.get(key)
         if mask is not None:
             self.cache_hits += 1
-            self._cache.move_to_end(key)
             return mask
         self.cache_misses += 1
         x0, y0, x1, y1 = aabb(shape)
@@ -116,9 +142,7 @@ class GridPlanner:
         pts = self.centres(np.stack((ii.ravel(), jj.ravel()), axis=1))
         cells = (signed_distance(shape, pts) <= inflate).reshape(ii.shape)
         mask = _Mask(i0, j0, cells)
-        self._cache[key] = mask
-        if len(self._cache) > self._cache_size:
-            self._cache.popitem(last=False)
+        self._cache.put(key, mask)
         return mask
 
     def blocked(self, obstacles: Sequence[Obstacle], radius: float) -> NDArray[np.bool_]:
@@ -137,15 +161,12 @@ class GridPlanner:
         key = (float(start[0]), float(start[1]), target, tuple(obstacles), radius)
         plan = self._plans.get(key)
         if plan is not None:
-            self._plans.move_to_end(key)
             return plan
         others = [o for o in obstacles if o.name != target.name]
         grid = self.blocked([*others, target], radius)
         plan = self._search(start, grid, self._ring(target.shape, radius + self.margin))
         plan.path.flags.writeable = False  # shared by every caller that asks the same
-        self._plans[key] = plan
-        if len(self._plans) > self._cache_size:
-            self._plans.popitem(last=False)
+        self._plans.put(key, plan)
         return plan
 
     def _ring(self, shape: Shape, inflate: float) -> NDArray[np.intp]:
@@ -161,11 +182,7 @@ class GridPlanner:
             ci, cj = tm.i0 - lo_i, tm.j0 - lo_j
             window[ci : ci + tm.cells.shape[0], cj : cj + tm.cells.shape[1]] = tm.cells  # masks lie inside the grid
             ring = np.argwhere(ndimage.binary_dilation(window, _EIGHT) & ~window) + (lo_i, lo_j)
-            self._rings[key] = ring
-            if len(self._rings) > self._cache_size:
-                self._rings.popitem(last=False)
-        else:
-            self._rings.move_to_end(key)
+            self._rings.put(key, ring)
         return ring
 
     def plan_to_point(
