@@ -330,13 +330,13 @@ class Action(Agent):
         far: the robot's odometry in W says by how much), and the executor and the world take ``--dispatch``
         more. The search adds the time it spends judging, candidate by candidate.
         """
-        robot = next(iter(self.g.nodes(ROBOT)), None)
+        robot = self._robot_node()
         lag = (robot.get("stamp", ctx.scene.time) if robot is not None else ctx.scene.time) - ctx.scene.time
         return max(lag, 0.0) + self.args.dispatch
 
     def _rate(self) -> float:
         """Simulated seconds per wall second, as the robot's odometry in W shows them (1 until it has)."""
-        robot = next(iter(self.g.nodes(ROBOT)), None)
+        robot = self._robot_node()
         if robot is None or robot.get("stamp") is None or robot.get("written_at") is None:
             return 1.0
         now = (float(robot.get("stamp")), float(robot.get("written_at")))
@@ -344,6 +344,10 @@ class Action(Agent):
             self.clock = now
         sim, wall = now[0] - self.clock[0], now[1] - self.clock[1]
         return sim / wall if wall > 0.5 and sim > 0.0 else 1.0
+
+    def _robot_node(self) -> Node | None:
+        """The robot as W holds it, with its odometry (``stamp``, ``written_at``)."""
+        return next(iter(self.g.nodes(ROBOT)), None)
 
     @staticmethod
     def _ms(started: float) -> float:

@@ -13,8 +13,8 @@ arrives, frozen for the whole batch. The reply is an
 A malformed item gets its own error entry; a malformed request an error reply.
 Items are served one at a time, by one request handler at a time: it serves the
 queued batches' items, batches that judge robot moves (searches and joint
-imaginations: Algorithm 2, where the reaction time is spent) before batches of person-only imaginations, until its
-own batch is done, and hands over to the next.
+imaginations: Algorithm 2, where the reaction time is spent) before batches of
+person-only imaginations, until its own batch is done, and hands over to the next.
 """
 
 from __future__ import annotations

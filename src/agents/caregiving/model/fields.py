@@ -81,18 +81,13 @@ class Fields:
             raise self.fail(key, f"expected true or false, got {_show(value)}")
         return value
 
-    def numbers(self, key: str, count: int, default: Any = _MISSING) -> tuple[float, ...]:
-        """A list of exactly ``count`` numbers."""
+    def numbers(self, key: str, count: int | None = None, default: Any = _MISSING) -> tuple[float, ...]:
+        """A list of exactly ``count`` numbers (of any length when ``count`` is None)."""
         value = self._get(key, default)
-        if not isinstance(value, (list, tuple)) or len(value) != count:
-            raise self.fail(key, f"expected a list of {count} numbers, got {_show(value)}")
-        return tuple(self.check_number(f"{key}[{i}]", v) for i, v in enumerate(value))
-
-    def number_list(self, key: str) -> tuple[float, ...]:
-        """A list of numbers, of any length."""
-        value = self._get(key, _MISSING)
-        if not isinstance(value, (list, tuple)):
-            raise self.fail(key, f"expected a list of numbers, got {_show(value)}")
+        if not isinstance(value, (list, tuple)) or count is not None and len(value) != count:
+            raise self.fail(
+                key, f"expected a list of {'' if count is None else f'{count} '}numbers, got {_show(value)}"
+            )
         return tuple(self.check_number(f"{key}[{i}]", v) for i, v in enumerate(value))
 
     def has(self, key: str) -> bool:

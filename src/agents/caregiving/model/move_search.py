@@ -237,7 +237,7 @@ class SearchSpec:
         gazes_f, known_f = f.child("gazes"), f.child("known", {})
         gazes: dict[str, tuple[float, ...]] = {}
         for d in dangers:
-            values = gazes_f.number_list(d.person)
+            values = gazes_f.numbers(d.person)
             if not values or not all(-math.pi / 2 <= g <= math.pi / 2 for g in values):
                 raise gazes_f.fail(d.person, "expected one or more pitches in [-pi/2, pi/2] rad")
             gazes[d.person] = values
