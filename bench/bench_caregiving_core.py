@@ -29,16 +29,17 @@ from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.joint import HORIZON, imagine_joint
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.robot_moves import standoff_moves
-from agents.caregiving.model.rollout import BulletRollout, NumpyRollout, Rollout
+from agents.caregiving.model.rollout import BulletRollout, NumpyRollout
 from agents.caregiving.model.scenario import load_scenario, sample_trial
 from agents.caregiving.model.world_model import Walk, World, run_idle
 
 
-def timings(call: Callable[[], object], repeat: int) -> dict[str, float]:
-    """Median and p95 of ``call()`` in milliseconds, after one warm-up call."""
+def timings(call: Callable[[], object], repeat: int, before: Callable[[], object] = lambda: None) -> dict[str, float]:
+    """Median and p95 of ``call()`` in milliseconds, after one warm-up call; ``before()`` runs untimed before each."""
     call()
     samples = []
     for _ in range(repeat):
+        before()
         start = time.perf_counter()
         call()
         samples.append((time.perf_counter() - start) * 1e3)
@@ -61,12 +62,10 @@ def main() -> None:
     gaze = math.radians(scenario.people[0].gaze_deg)
 
     warm = GridPlanner(scene.bounds)
-
-    def cached() -> None:
-        warm.forget_plans()  # the masks stay warm; the same walk is not simply remembered
-        warm.plan_to_object((person.x, person.y), couch, everything, person.radius)
-
-    plan_cached = timings(cached, args.repeat)
+    fresh = warm.forget_plans  # the masks stay warm; no call simply gets the walk the one before planned
+    plan_cached = timings(
+        lambda: warm.plan_to_object((person.x, person.y), couch, everything, person.radius), args.repeat, fresh
+    )
 
     def cold() -> None:
         warm.clear_cache()
@@ -81,29 +80,23 @@ def main() -> None:
     roll_bullet = timings(lambda: bullet_rollout.walk(path, person.radius, person.speed, walk_obstacles), args.repeat)
     walked = numpy_rollout.walk(path, person.radius, person.speed, walk_obstacles)
 
-    def person_walk(rollout: Rollout | None = None) -> None:
-        warm.forget_plans()
-        imagine_person(scene, person.name, couch.name, gaze, rollout, planner=warm)
-
-    person_latency = timings(person_walk, args.repeat)
-    person_bullet = timings(lambda: person_walk(bullet_rollout), args.repeat)
+    person_latency = timings(
+        lambda: imagine_person(scene, person.name, couch.name, gaze, planner=warm), args.repeat, fresh
+    )
+    person_bullet = timings(
+        lambda: imagine_person(scene, person.name, couch.name, gaze, bullet_rollout, planner=warm), args.repeat, fresh
+    )
     move = standoff_moves(scene, "ball")[4]
     walk = [Walk(person.name, couch.name, gaze)]
-
-    def joint() -> None:
-        warm.forget_plans()  # each call is a search's first imagination: no walk of it remembered yet
-        imagine_joint(scene, walk, move, planner=warm)
-
-    joint_latency = timings(joint, args.repeat)
+    joint_latency = timings(lambda: imagine_joint(scene, walk, move, planner=warm), args.repeat, fresh)
 
     def stepped_joint() -> None:
-        warm.forget_plans()
         world = World(scene, walk, planner=warm)
         world.command_robot(move)
         while not world.done and world.time < scene.time + HORIZON - 1e-9:
             world.step()
 
-    joint_stepped = timings(stepped_joint, args.repeat)
+    joint_stepped = timings(stepped_joint, args.repeat, fresh)
 
     rng = np.random.default_rng(args.seed)
     planner = GridPlanner(scene.bounds)
