@@ -15,12 +15,15 @@ Items are served one at a time, by one request handler at a time: it serves the
 queued batches' items, batches that judge robot moves (searches and joint
 imaginations: Algorithm 2, where the reaction time is spent) before batches of
 person-only imaginations, until its own batch is done, and hands over to the next.
+With ``--judge-ahead`` (on with two or more cores) a search judges its next
+candidate in a helper process meanwhile (:mod:`agents.caregiving.model.judge_ahead`).
 """
 
 from __future__ import annotations
 
 import argparse
 import asyncio
+import os
 import time
 from dataclasses import dataclass, field
 from itertools import count
@@ -29,6 +32,7 @@ from typing import Any
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.imagine_reply import Answer, ImagineReply
+from agents.caregiving.model.judge_ahead import JudgeAhead
 from agents.caregiving.model.rollout import BulletRollout, NumpyRollout, Rollout
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import batch_scene, judges_robot_moves, serve_one
@@ -67,10 +71,17 @@ class Simulation(Agent):
             default="numpy",
             help="walk rollouts with the vectorised numpy path or with PyBullet (default: %(default)s)",
         )
+        parser.add_argument(
+            "--judge-ahead",
+            action=argparse.BooleanOptionalAction,
+            default=(os.cpu_count() or 1) > 1,
+            help="judge a search's next candidate in a helper process meanwhile (default: on with two or more cores)",
+        )
 
     async def setup(self) -> None:
         self.bullet = BulletRollout.shared() if self.args.rollout == "bullet" else None
         self.rollout: Rollout = self.bullet or NumpyRollout()
+        self.ahead = JudgeAhead() if self.args.judge_ahead else None
         self.context: Context | None = None
         self.dirty = True
         self.served = 0
@@ -78,7 +89,13 @@ class Simulation(Agent):
         self._seq = count()
         self._serving = asyncio.Lock()
         self.serve(keys.imagine(self.args.graph), self.imagine)
-        self.log.info("serving", key=keys.imagine(self.args.graph), rollout=self.args.rollout)
+        self.log.info(
+            "serving", key=keys.imagine(self.args.graph), rollout=self.args.rollout, judge_ahead=self.ahead is not None
+        )
+
+    async def teardown(self) -> None:
+        if self.ahead is not None:
+            self.ahead.close()
 
     @on(type=[PERSON, OBJECT, ROBOT, WORLD, RT], coalesce=True)
     async def changed(self, _events: list[Event]) -> None:
@@ -123,7 +140,7 @@ class Simulation(Agent):
         """
         while not mine.done:
             job = min(self.jobs, key=lambda j: (j.priority, j.seq))
-            job.results.append(serve_one(job.scene, job.items[len(job.results)], self.rollout))
+            job.results.append(serve_one(job.scene, job.items[len(job.results)], self.rollout, self.ahead))
             if job.done:
                 self.jobs.remove(job)
             await asyncio.sleep(0)

@@ -32,7 +32,7 @@ import math
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from itertools import islice
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -47,6 +47,9 @@ from .verdict import SearchResult, Verdict
 from .visibility import WALL_KIND
 from .world_model import Walk
 
+if TYPE_CHECKING:
+    from .judge_ahead import JudgeAhead
+
 #: Lateral offsets (m) of path poses from the person's path, on the path first.
 LATERAL = (0.0, 0.3, -0.3)
 #: Spacing (m) of path poses along the path.
@@ -54,6 +57,8 @@ SPACING = 0.25
 #: A pose the robot cannot come this close to (m) before the person passes it is pruned: a robot
 #: farther off when the person goes by is beside their way, not in it.
 REACH = 1.0
+#: Candidates lent to the helper process at a time (see :mod:`agents.caregiving.model.judge_ahead`).
+AHEAD_DEPTH = 2
 
 
 @dataclass(frozen=True)
@@ -326,18 +331,84 @@ def search(
     idle_risk: float = 1.0,
     judging: float = 0.0,
     moves: Sequence[RobotMove] | None = None,
+    ahead: JudgeAhead | None = None,
 ) -> SearchResult:
     """Algorithm 2's search: judge the candidates one at a time, likeliest first, and stop at the first safe one.
 
     Each candidate is imagined with the robot starting ``judging`` seconds later than the one before, since
     the move is sent only once the search has judged it: the k-th candidate (from 1) after
     ``spec.delay + judging * k``. The result holds every verdict and the move to send (see :func:`choose`).
-    ``moves`` replaces the generated candidates (to judge the move under way again, for instance).
+    ``moves`` replaces the generated candidates (to judge the move under way again, for instance). With
+    ``ahead``, a helper process judges candidates meanwhile (same verdicts, less wall time).
     """
-    verdicts: list[Verdict] = []
-    pool = candidates(scene, spec.dangers) if moves is None else iter(moves)
-    for k, move in enumerate(islice(pool, max_moves), start=1):
-        verdicts.append(judge_move(replace(spec, delay=spec.delay + judging * k), move, imagine, uncertainty))
-        if verdicts[-1].safe(threshold):
-            break
+    pool = islice(candidates(scene, spec.dangers) if moves is None else iter(moves), max_moves)
+    verdicts = _Judging(scene, spec, imagine, uncertainty, judging, ahead).in_order(pool, threshold)
     return SearchResult(choose(verdicts, threshold, idle_risk), tuple(verdicts))
+
+
+@dataclass(eq=False)  # compared by identity: it tags the moves it lends the helper
+class _Judging:
+    """Judges a search's candidates, the k-th (from 1) with the robot starting ``judging * k`` seconds later.
+
+    Alone, each candidate is judged in turn. With ``ahead``, the helper is lent the next candidates not
+    yet handed out, :data:`AHEAD_DEPTH` at a time, while this process judges the others; the verdicts
+    are gathered in candidate order, so the search sees what it would see alone.
+    """
+
+    scene: Scene
+    spec: SearchSpec
+    imagine: Imagine
+    uncertainty: dict[str, Any]
+    judging: float
+    ahead: JudgeAhead | None
+
+    def spec_at(self, k: int) -> SearchSpec:
+        return replace(self.spec, delay=self.spec.delay + self.judging * k)
+
+    def in_order(self, moves: Iterator[RobotMove], threshold: float) -> list[Verdict]:
+        """The verdicts in candidate order, up to the first safe one."""
+        positions = enumerate(moves, start=1)
+        verdicts: list[Verdict] = []
+        judged: dict[int, Verdict] = {}
+        lent: dict[int, RobotMove] = {}  # the candidates the helper is judging, by position
+
+        def exchange(wait: bool = False) -> None:
+            """Take the helper's verdicts, then lend it the next candidates up to :data:`AHEAD_DEPTH`."""
+            ahead = self.ahead
+            if ahead is None:
+                return
+            for (owner, k), verdict in ahead.answers(wait):
+                if owner is self:
+                    move = lent.pop(k)
+                    judged[k] = verdict or self.judge(k, move)
+            while ahead.outstanding < AHEAD_DEPTH:
+                k, move = next(positions, (0, None))
+                if move is None:
+                    return
+                if ahead.lend((self, k), self.scene, self.spec_at(k), move, self.uncertainty):
+                    lent[k] = move
+                else:
+                    judged[k] = self.judge(k, move)
+
+        def gather() -> bool:
+            """Move the judged prefix into ``verdicts``; True once it ends with a safe verdict."""
+            while (k := len(verdicts) + 1) in judged:
+                verdicts.append(judged.pop(k))
+                if verdicts[-1].safe(threshold):
+                    return True
+            return False
+
+        for k, move in positions:
+            exchange()
+            judged[k] = self.judge(k, move)
+            exchange()
+            if gather():
+                return verdicts
+        while lent:
+            exchange(wait=True)
+            if gather():
+                return verdicts
+        return verdicts
+
+    def judge(self, k: int, move: RobotMove) -> Verdict:
+        return judge_move(self.spec_at(k), move, self.imagine, self.uncertainty)

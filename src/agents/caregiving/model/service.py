@@ -28,6 +28,7 @@ from .fields import Fields
 from .imagine import imagine_person
 from .imagine_reply import Answer
 from .joint import JointImagination, imagine_joint, walk_from_fields
+from .judge_ahead import JudgeAhead
 from .move_search import SearchSpec, search
 from .robot_moves import RobotMove
 from .rollout import Rollout
@@ -56,14 +57,14 @@ def uncertainty_from_fields(u: Fields) -> Uncertainty:
     )
 
 
-def serve_item(scene: Scene, item: Any, rollout: Rollout | None = None) -> Answer:
-    """Answer one item, with the sampled collision risk when it asks for one."""
+def serve_item(scene: Scene, item: Any, rollout: Rollout | None = None, ahead: JudgeAhead | None = None) -> Answer:
+    """Answer one item, with the sampled collision risk when it asks for one; a search may use the ``ahead`` helper."""
     f = Fields(item, "request", RequestError)
     kind = f.string("kind", choices=KINDS)
     u = f.optional_child("uncertainty")
     uncertainty = uncertainty_from_fields(u) if u is not None else None
     if kind == "search":
-        return Answer(search=_search(scene, f, item, rollout))
+        return Answer(search=_search(scene, f, item, rollout, ahead))
     if kind == "person":
         walk = walk_from_fields(f)
         im = imagine_person(scene, walk.person, walk.target, walk.gaze, rollout, known=walk.known)
@@ -81,7 +82,7 @@ def serve_item(scene: Scene, item: Any, rollout: Rollout | None = None) -> Answe
     return Answer(joint=joint, risk=joint_risk(scene, joint, uncertainty) if uncertainty is not None else None)
 
 
-def _search(scene: Scene, f: Fields, item: Any, rollout: Rollout | None) -> SearchResult:
+def _search(scene: Scene, f: Fields, item: Any, rollout: Rollout | None, ahead: JudgeAhead | None) -> SearchResult:
     """Run a ``search`` item: every field is checked before the first candidate is imagined."""
     f.child("uncertainty")  # required here; serve_item has checked its fields
     return search(
@@ -94,6 +95,7 @@ def _search(scene: Scene, f: Fields, item: Any, rollout: Rollout | None) -> Sear
         f.number("idle_risk", 1.0, non_negative=True, at_most=1.0),
         f.number("judging", 0.0, non_negative=True, at_most=MAX_DELAY),
         [RobotMove.from_fields(m) for m in f.children("moves")] if f.has("moves") else None,
+        ahead,
     )
 
 
@@ -113,10 +115,10 @@ def judges_robot_moves(items: list[Any]) -> bool:
     return any(isinstance(i, dict) and i.get("kind") in ROBOT_MOVE_KINDS for i in items)
 
 
-def serve_one(scene: Scene, item: Any, rollout: Rollout | None = None) -> Answer:
+def serve_one(scene: Scene, item: Any, rollout: Rollout | None = None, ahead: JudgeAhead | None = None) -> Answer:
     """One item's answer; a malformed or unanswerable item gets an error answer."""
     try:
-        return serve_item(scene, item, rollout)
+        return serve_item(scene, item, rollout, ahead)
     except (CaregivingError, ValueError, TypeError, KeyError) as exc:
         return Answer(error=f"{type(exc).__name__}: {exc}")
 

@@ -1,0 +1,96 @@
+"""The helper process that judges candidates alongside a search: same verdicts as a lone search, any failure absorbed."""
+
+import math
+import os
+import signal
+from collections.abc import Iterator
+from functools import partial
+
+import pytest
+
+from agents.caregiving.model.imagine import imagine_person
+from agents.caregiving.model.judge_ahead import JudgeAhead
+from agents.caregiving.model.move_search import Danger, SearchSpec, search
+from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.service import serve_one
+from agents.caregiving.model.verdict import SearchResult
+from agents.caregiving.model.visibility import gaze_classes
+from agents.caregiving.model.world_model import World
+from bridges.world.bridge import trial_for
+
+GAZE = math.radians(8)
+UNCERTAINTY = {"size_error": 0.2, "sigma": {"person": 0.03, "person_55": 0.03}, "samples": 64, "seed": 0}
+
+
+@pytest.fixture(scope="module")
+def ahead() -> Iterator[JudgeAhead]:
+    helper = JudgeAhead()
+    yield helper
+    helper.close()
+
+
+@pytest.fixture(scope="module")
+def hard_case() -> tuple[Scene, SearchSpec]:
+    """A trial of the paper's room 1.5 s before its collision, where no candidate saves the person."""
+    trial = trial_for(load_scenario("paper_experiment1"), 2024, 55)
+    truth = World.from_scenario(trial)
+    hit = truth.run(60.0).collisions[0]
+    world = World.from_scenario(trial, planner=truth.planner)
+    world.advance(hit.time - 1.5)
+    scene, walker = world.scene(), truth.walker(hit.person)
+    track = world.walker(hit.person).track
+    danger = Danger(hit.person, walker.target, tuple(walker.track[len(track) - 1 :]), hit.point, hit.obstacle, 1.5)
+    gazes = tuple(c.gaze for c in gaze_classes(scene.person(hit.person), scene.bodies_around(hit.person)))
+    return scene, SearchSpec((danger,), {hit.person: gazes}, {hit.person: ()}, (), None, 0.05)
+
+
+def lone(
+    scene: Scene,
+    spec: SearchSpec,
+    moves: list[RobotMove] | None = None,
+    ahead: JudgeAhead | None = None,
+    judging: float = 0.03,
+) -> SearchResult:
+    imagine = partial(serve_one, scene)
+    return search(scene, spec, imagine, UNCERTAINTY, 0.2, 24, judging=judging, moves=moves, ahead=ahead)
+
+
+def test_a_search_with_the_helper_finds_what_a_lone_search_finds(
+    ahead: JudgeAhead, hard_case: tuple[Scene, SearchSpec]
+) -> None:
+    scene, spec = hard_case
+    alone = lone(scene, spec)
+    assert len(alone.verdicts) >= 4
+    assert lone(scene, spec, ahead=ahead) == alone
+
+
+def test_the_search_stops_at_the_first_safe_move_and_leftovers_stay_out_of_the_next(
+    ahead: JudgeAhead, hard_case: tuple[Scene, SearchSpec]
+) -> None:
+    scene = load_scenario("paper_experiment1").scene()
+    im = imagine_person(scene, "person", "couch", GAZE)
+    assert im.collision_point is not None and im.collision_object is not None and im.collision_time is not None
+    danger = Danger("person", "couch", im.path, im.collision_point, im.collision_object, im.collision_time)
+    spec = SearchSpec((danger,), {"person": (GAZE,)}, {})
+    inside_the_couch = [RobotMove("couch", 3.5, y, 0.0) for y in (0.0, 0.2, 0.4, 0.6, 0.8)]  # unreachable
+    moves = [*inside_the_couch, RobotMove("ball", -0.46, 0.0, 0.0), *inside_the_couch]
+    alone = lone(scene, spec, moves, judging=0.0)
+    assert len(alone.verdicts) == 6 and alone.chosen is alone.verdicts[-1]
+
+    assert lone(scene, spec, moves, ahead, judging=0.0) == alone
+    assert lone(*hard_case, ahead=ahead) == lone(*hard_case)  # the verdicts left over from the last search are dropped
+
+
+def test_a_search_outlives_its_helper(hard_case: tuple[Scene, SearchSpec]) -> None:
+    scene, spec = hard_case
+    alone = lone(scene, spec)
+    helper = JudgeAhead()
+    assert helper.pid is not None
+    os.kill(helper.pid, signal.SIGKILL)
+    try:
+        assert lone(scene, spec, ahead=helper) == alone  # every lent move judged here instead
+        assert lone(scene, spec, ahead=helper) == alone
+    finally:
+        helper.close()
