@@ -15,13 +15,14 @@ from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import serve_one
+from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import SearchResult
 from agents.caregiving.model.visibility import gaze_classes
 from agents.caregiving.model.world_model import World
 from bridges.world.bridge import trial_for
 
 GAZE = math.radians(8)
-UNCERTAINTY = {"size_error": 0.2, "sigma": {"person": 0.03, "person_55": 0.03}, "samples": 64, "seed": 0}
+UNCERTAINTY = Uncertainty(0.2, {"person": 0.03, "person_55": 0.03}, 64)
 
 
 @pytest.fixture(scope="module")

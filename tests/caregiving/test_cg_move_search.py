@@ -1,7 +1,7 @@
 """Algorithm 2's move search: candidate order and pruning, walk sets, verdicts, and the move it picks."""
 
 import math
-from typing import Any
+from dataclasses import replace
 
 import pytest
 
@@ -9,6 +9,7 @@ from agents.caregiving.model.errors import ReplyError, RequestError
 from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.imagine_reply import Answer, decode_answer, encode_answer
+from agents.caregiving.model.imagine_request import JointItem, uncertainty_to_wire
 from agents.caregiving.model.move_search import (
     Danger,
     SearchSpec,
@@ -22,11 +23,12 @@ from agents.caregiving.model.robot_moves import RobotMove, robot_fits
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import serve_one
+from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import Verdict
 from agents.caregiving.model.world_model import Walk, World
 
 GAZE = math.radians(8)
-UNCERTAINTY = {"size_error": 0.2, "sigma": {"person": 0.03}, "samples": 64, "seed": 0}
+UNCERTAINTY = Uncertainty(0.2, {"person": 0.03}, 64)
 
 
 @pytest.fixture(scope="module")
@@ -80,7 +82,8 @@ def test_walk_sets_cover_every_gaze_class_of_every_endangered_person() -> None:
     assert {(s[0].gaze, s[1].gaze) for s in sets} == {(0.1, 0.1), (0.2, 0.1), (0.1, 0.2), (0.1, 0.3)}
     assert sets[0][0].known == ("plant",)
     items = spec.items(None, UNCERTAINTY)
-    assert len(items) == 4 and items[0]["move"] is None and items[0]["kind"] == "joint"
+    assert len(items) == 4 and items[0].move is None and items[0].walks == sets[0]
+    assert items[0].to_wire()["kind"] == "joint" and items[0].uncertainty == UNCERTAINTY
 
 
 def test_verdicts_say_why_a_move_is_refused(scene: Scene) -> None:
@@ -126,9 +129,9 @@ def test_each_candidate_is_imagined_starting_later_by_the_time_judging_takes(sce
     spec = SearchSpec((danger_of(scene),), {"person": (GAZE,)}, {}, delay=0.1)
     delays: list[float] = []
 
-    def imagine(item: dict[str, Any]) -> Answer:
-        delays.append(item["delay"])
-        return serve_one(scene, {**item, "move": {"target": "couch", "x": 3.5, "y": 0.0}})  # never reachable
+    def imagine(item: JointItem) -> Answer:
+        delays.append(item.delay)
+        return serve_one(scene, replace(item, move=RobotMove("couch", 3.5, 0.0, 0.0)))  # never reachable
 
     found = search(scene, spec, imagine, UNCERTAINTY, 0.2, 3, judging=0.04)
     assert found.chosen is None and len(found.verdicts) == 3
@@ -140,7 +143,7 @@ def test_a_search_and_its_spec_survive_the_wire(scene: Scene) -> None:
         (danger_of(scene),), {"person": (GAZE, 0.1)}, {"person": ("door",)}, (Walk("bob", "door", 0.1),), None, 0.3
     )
 
-    assert SearchSpec.from_fields(Fields(spec.to_wire(), "spec", RequestError), 5.0) == spec
+    assert SearchSpec.from_fields(Fields(spec.to_wire(), "spec", RequestError)) == spec
     found = search(scene, spec, lambda item: serve_one(scene, item), UNCERTAINTY, 0.2, 4)
 
     back = decode_answer(Fields(encode_answer(Answer(search=found)), "answer", ReplyError))
@@ -155,7 +158,13 @@ def test_a_search_given_moves_judges_those_in_order(scene: Scene) -> None:
     )
     assert [v.move for v in found.verdicts] == [inside_the_couch, front]
     assert found.chosen is found.verdicts[1] and not found.verdicts[0].clear
-    wire = {"kind": "search", "spec": spec.to_wire(), "uncertainty": UNCERTAINTY, "threshold": 0.2, "max_moves": 1}
+    wire = {
+        "kind": "search",
+        "spec": spec.to_wire(),
+        "uncertainty": uncertainty_to_wire(UNCERTAINTY),
+        "threshold": 0.2,
+        "max_moves": 1,
+    }
     served = serve_one(scene, {**wire, "moves": [front.to_wire()]}).search
     assert served is not None and [v.move for v in served.verdicts] == [front]
     assert "request.moves[0].x: is required" in (serve_one(scene, {**wire, "moves": [{"target": "ball"}]}).error or "")

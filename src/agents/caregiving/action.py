@@ -32,12 +32,12 @@ import math
 import time
 from dataclasses import replace
 from itertools import count
-from typing import Any
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
-from agents.caregiving.model.move_search import Danger, SearchSpec
+from agents.caregiving.model.move_search import Danger, SearchItem, SearchSpec
 from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import SearchResult, Verdict
 from agents.caregiving.model.visibility import GazeClass, gaze_classes
 from agents.caregiving.model.world_model import Walk
@@ -228,20 +228,17 @@ class Action(Agent):
 
         ``moves`` judges those moves instead of the generated candidates. None when the simulator refused.
         """
-        a = self.args
-        item: dict[str, Any] = {
-            "kind": "search",
-            "spec": replace(spec, delay=self._delay(ctx)).to_wire(),
-            "uncertainty": self._uncertainty(),
-            "threshold": a.risk_threshold,
-            "max_moves": len(moves) if moves else a.max_moves,
-            "idle_risk": idle_risk,
-            "judging": self.judging * self._rate(),
-        }
-        if moves:
-            item["moves"] = [m.to_wire() for m in moves]
+        item = SearchItem(
+            replace(spec, delay=self._delay(ctx)),
+            self._uncertainty(),
+            self.args.risk_threshold,
+            len(moves) if moves else self.args.max_moves,
+            idle_risk,
+            self.judging * self._rate(),
+            tuple(moves) if moves else None,
+        )
         sent = time.perf_counter()
-        reply = await self.ask(keys.imagine(self.args.graph), {"items": [item]}, decode=imagine_reply.decode)
+        reply = await self.ask(keys.imagine(self.args.graph), {"items": [item.to_wire()]}, decode=imagine_reply.decode)
         self.rpc_ms += (time.perf_counter() - sent) * 1e3
         self.sim_ms += reply.compute_ms
         found = reply.results[0].search if len(reply.results) == 1 else None
@@ -253,9 +250,9 @@ class Action(Agent):
             self.judging += JUDGING_WEIGHT * (per_move - self.judging)
         return found
 
-    def _uncertainty(self) -> dict[str, Any]:
+    def _uncertainty(self) -> Uncertainty:
         sigma = {n.name: n.get("position_sigma", 0.0) for t in (PERSON, OBJECT) for n in self.g.nodes(t)}
-        return {"size_error": self.size_error, "sigma": sigma, "samples": self.args.samples, "seed": 0}
+        return Uncertainty(self.size_error, sigma, self.args.samples)
 
     async def _find(self, ctx: Context, spec: SearchSpec, idle_risk: float) -> Verdict | None:
         """The move the search chose for ``spec``, if any; every verdict on the way joins :attr:`tried`."""

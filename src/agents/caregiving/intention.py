@@ -42,8 +42,10 @@ from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.geometry import resample_by_distance
 from agents.caregiving.model.imagine import Imagination
 from agents.caregiving.model.imagine_reply import Answer
-from agents.caregiving.model.uncertainty import NO_RISK
+from agents.caregiving.model.imagine_request import PersonItem
+from agents.caregiving.model.uncertainty import NO_RISK, Uncertainty
 from agents.caregiving.model.visibility import GazeClass, candidate_targets, gaze_classes
+from agents.caregiving.model.world_model import Walk
 from wm import Event
 
 from ..runtime import Agent, main, on
@@ -179,12 +181,12 @@ class Intention(Agent):
     def _evaluate_person(self, ctx: Context, person: str) -> Awaitable[None]:
         """Look up ``person``'s imaginations in the cache now; the returned awaitable imagines the rest and writes."""
         a = self.args
-        uncertainty = {"size_error": self.size_error, "sigma": ctx.sigma, "samples": a.samples, "seed": 0}
+        uncertainty = Uncertainty(self.size_error, ctx.sigma, a.samples)
         p = ctx.scene.person(person)
         classes = gaze_classes(p, ctx.scene.bodies_around(person))
         known = self._remember(ctx, person, classes)
         now = footing(ctx.scene, person, ctx.sigma)
-        items: list[dict[str, Any]] = []
+        items: list[PersonItem] = []
         answers: list[tuple[Answer, float] | None] = []
         pending: list[tuple[int, Key]] = []  # (index in items, cache key) of what must be imagined
         for t in candidate_targets(p, ctx.scene.obstacles):
@@ -193,22 +195,15 @@ class Intention(Agent):
                 cached = self.cache.lookup(key, now)
                 if cached is None:
                     pending.append((len(items), key))
-                items.append(
-                    {
-                        "kind": "person",
-                        "person": person,
-                        "target": t.name,
-                        "gaze": c.gaze,
-                        "known": known,
-                        "uncertainty": uncertainty,
-                    }
-                )
+                items.append(PersonItem(Walk(person, t.name, c.gaze, tuple(known)), uncertainty))
                 answers.append(cached)
 
         async def finish() -> None:
             if pending:
                 reply = await self.ask(
-                    keys.imagine(a.graph), {"items": [items[i] for i, _ in pending]}, decode=imagine_reply.decode
+                    keys.imagine(a.graph),
+                    {"items": [items[i].to_wire() for i, _ in pending]},
+                    decode=imagine_reply.decode,
                 )
                 walking = ctx.speed(person) > a.moving_speed
                 for (i, key), res in zip(pending, reply.results, strict=True):
@@ -247,11 +242,11 @@ class Intention(Agent):
                     self.g.insert_or_assign_edge(pid, ctx.ids[name], KNOWS, {"updated_at": time.time()})
         return sorted(known | set(fresh))
 
-    def _guesses(self, ctx: Context, items: list[dict[str, Any]], results: list[tuple[Answer, float]]) -> list[Guess]:
+    def _guesses(self, ctx: Context, items: list[PersonItem], results: list[tuple[Answer, float]]) -> list[Guess]:
         grouped: dict[tuple[str, str], list[tuple[Answer, float]]] = {}
         for item, (res, advance) in zip(items, results, strict=True):
             if res.imagination is not None and res.imagination.reachable:
-                grouped.setdefault((item["person"], item["target"]), []).append((res, advance))
+                grouped.setdefault((item.walk.person, item.walk.target), []).append((res, advance))
         guesses = []
         gate = math.radians(self.args.heading_gate_deg)
         for (person, target), answers in grouped.items():

@@ -25,10 +25,11 @@ from collections import deque
 from collections.abc import Hashable
 from functools import partial
 from multiprocessing.connection import Connection
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from .robot_moves import RobotMove
 from .scene import Scene
+from .uncertainty import Uncertainty
 from .verdict import Verdict
 
 if TYPE_CHECKING:
@@ -57,7 +58,7 @@ class JudgeAhead:
         """How many lent moves the helper has not answered yet (or whose answers are unread)."""
         return len(self._tags)
 
-    def lend(self, tag: Hashable, scene: Scene, spec: SearchSpec, move: RobotMove, uncertainty: dict[str, Any]) -> bool:
+    def lend(self, tag: Hashable, scene: Scene, spec: SearchSpec, move: RobotMove, uncertainty: Uncertainty) -> bool:
         """Hand ``move`` over to be judged for ``spec``, its answer labelled ``tag``; False when the helper is gone."""
         if not self._alive:
             return False

@@ -39,10 +39,11 @@ import numpy as np
 from .fields import Fields
 from .geometry import Polyline, bounding_radius
 from .imagine_reply import Answer
+from .imagine_request import MAX_DELAY, JointItem, uncertainty_from_fields, uncertainty_to_wire
 from .joint import walk_from_fields, walk_to_wire
 from .robot_moves import RobotMove, robot_fits, standoff_poses, travel_time
 from .scene import Scene
-from .uncertainty import NO_RISK
+from .uncertainty import NO_RISK, Uncertainty
 from .verdict import SearchResult, Verdict
 from .visibility import WALL_KIND
 from .world_model import Walk
@@ -57,6 +58,8 @@ SPACING = 0.25
 #: A pose the robot cannot come this close to (m) before the person passes it is pruned: a robot
 #: farther off when the person goes by is beside their way, not in it.
 REACH = 1.0
+#: Candidate moves one search may judge at most.
+MAX_MOVES = 256
 #: Candidates lent to the helper process at a time (see :mod:`agents.caregiving.model.judge_ahead`).
 AHEAD_DEPTH = 2
 
@@ -208,19 +211,9 @@ class SearchSpec:
                 sets.append(tuple(walks.values()) + self.bystanders)
         return sets
 
-    def items(self, move: RobotMove | None, uncertainty: dict[str, Any]) -> list[dict[str, Any]]:
-        """The simulator items that judge one move (see :mod:`agents.caregiving.model.service`)."""
-        return [
-            {
-                "kind": "joint",
-                "walks": [walk_to_wire(w) for w in walks],
-                "move": move.to_wire() if move else None,
-                "current": self.current.to_wire() if self.current else None,
-                "delay": self.delay,
-                "uncertainty": uncertainty,
-            }
-            for walks in self.walk_sets()
-        ]
+    def items(self, move: RobotMove | None, uncertainty: Uncertainty) -> list[JointItem]:
+        """The simulator items that judge one move, one per walk set."""
+        return [JointItem(walks, move, self.current, self.delay, uncertainty) for walks in self.walk_sets()]
 
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict."""
@@ -234,7 +227,7 @@ class SearchSpec:
         }
 
     @classmethod
-    def from_fields(cls, f: Fields, max_delay: float) -> SearchSpec:
+    def from_fields(cls, f: Fields) -> SearchSpec:
         """Parse :meth:`to_wire` output nested in a larger message; every endangered person needs a gaze."""
         dangers = tuple(Danger.from_fields(d) for d in f.children("dangers"))
         if not dangers:
@@ -252,7 +245,7 @@ class SearchSpec:
             {p: known_f.strings(p) for p in known_f.keys()},
             tuple(walk_from_fields(w) for w in f.children("bystanders", [])),
             RobotMove.optional_from(f, "current"),
-            f.number("delay", 0.0, non_negative=True, at_most=max_delay),
+            f.number("delay", 0.0, non_negative=True, at_most=MAX_DELAY),
         )
 
 
@@ -307,11 +300,11 @@ def choose(verdicts: list[Verdict], threshold: float, idle_risk: float) -> Verdi
     return min(clear, key=lambda v: v.risk) if clear else None
 
 
-#: Answers one simulator item (see :mod:`agents.caregiving.model.service`); the search's only way to imagine.
-Imagine = Callable[[dict[str, Any]], Answer]
+#: Answers one joint item (see :mod:`agents.caregiving.model.service`); the search's only way to imagine.
+Imagine = Callable[[JointItem], Answer]
 
 
-def judge_move(spec: SearchSpec, move: RobotMove, imagine: Imagine, uncertainty: dict[str, Any]) -> Verdict:
+def judge_move(spec: SearchSpec, move: RobotMove, imagine: Imagine, uncertainty: Uncertainty) -> Verdict:
     """Judge one move: the first walk set alone (most candidates fail there), then the others if it is clear."""
     items = spec.items(move, uncertainty)
     first = [imagine(items[0])]
@@ -325,7 +318,7 @@ def search(
     scene: Scene,
     spec: SearchSpec,
     imagine: Imagine,
-    uncertainty: dict[str, Any],
+    uncertainty: Uncertainty,
     threshold: float,
     max_moves: int,
     idle_risk: float = 1.0,
@@ -358,7 +351,7 @@ class _Judging:
     scene: Scene
     spec: SearchSpec
     imagine: Imagine
-    uncertainty: dict[str, Any]
+    uncertainty: Uncertainty
     judging: float
     ahead: JudgeAhead | None
 
@@ -412,3 +405,60 @@ class _Judging:
 
     def judge(self, k: int, move: RobotMove) -> Verdict:
         return judge_move(self.spec_at(k), move, self.imagine, self.uncertainty)
+
+
+@dataclass(frozen=True)
+class SearchItem:
+    """Run the whole search for ``spec`` in the simulator (judging ``moves`` instead of the candidates, if given)."""
+
+    spec: SearchSpec
+    uncertainty: Uncertainty
+    threshold: float
+    max_moves: int
+    idle_risk: float = 1.0
+    judging: float = 0.0
+    moves: tuple[RobotMove, ...] | None = None
+
+    def to_wire(self) -> dict[str, Any]:
+        """``{"kind": "search", "spec", "uncertainty", "threshold", "max_moves", "idle_risk", "judging", "moves"?}``."""
+        out: dict[str, Any] = {
+            "kind": "search",
+            "spec": self.spec.to_wire(),
+            "uncertainty": uncertainty_to_wire(self.uncertainty),
+            "threshold": self.threshold,
+            "max_moves": self.max_moves,
+            "idle_risk": self.idle_risk,
+            "judging": self.judging,
+        }
+        if self.moves is not None:
+            out["moves"] = [m.to_wire() for m in self.moves]
+        return out
+
+    @classmethod
+    def from_fields(cls, f: Fields) -> SearchItem:
+        """Parse :meth:`to_wire` output: every field is checked before the first candidate is imagined."""
+        uncertainty = uncertainty_from_fields(f.child("uncertainty"))
+        return cls(
+            SearchSpec.from_fields(f.child("spec")),
+            uncertainty,
+            f.number("threshold", positive=True, at_most=1.0),
+            int(f.number("max_moves", positive=True, at_most=MAX_MOVES)),
+            f.number("idle_risk", 1.0, non_negative=True, at_most=1.0),
+            f.number("judging", 0.0, non_negative=True, at_most=MAX_DELAY),
+            tuple(RobotMove.from_fields(m) for m in f.children("moves")) if f.has("moves") else None,
+        )
+
+    def run(self, scene: Scene, imagine: Imagine, ahead: JudgeAhead | None = None) -> SearchResult:
+        """:func:`search` with this item's parameters."""
+        return search(
+            scene,
+            self.spec,
+            imagine,
+            self.uncertainty,
+            self.threshold,
+            self.max_moves,
+            self.idle_risk,
+            self.judging,
+            self.moves,
+            ahead,
+        )

@@ -1,0 +1,107 @@
+"""The simulator's "imagine" items as typed values, with their wire forms.
+
+* :class:`PersonItem`: one person's walk alone (Algorithm 1);
+* :class:`JointItem`: a robot move imagined in time with the walks it concerns (Algorithm 2);
+* Algorithm 2's whole move search is :class:`agents.caregiving.model.move_search.SearchItem`.
+
+Agents build these and send ``to_wire()``; the simulator parses them back
+(:func:`agents.caregiving.model.service.item_from_wire`) and a search inside it
+hands its joint items over as they are, without a wire round trip. Each item
+may ask for the collision risk sampled under perception's uncertainty
+(:class:`~agents.caregiving.model.uncertainty.Uncertainty`, whose wire form is here too).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from .fields import Fields
+from .joint import walk_from_fields, walk_to_wire
+from .robot_moves import RobotMove
+from .uncertainty import Uncertainty
+from .world_model import Walk
+
+#: Seconds a joint item may ask the robot to go on with its current move before the new one.
+MAX_DELAY = 5.0
+
+
+def uncertainty_to_wire(u: Uncertainty) -> dict[str, Any]:
+    """``{"size_error", "sigma": {name: metres}, "samples", "seed"}``."""
+    return {"size_error": u.size_error, "sigma": dict(u.sigma), "samples": u.samples, "seed": u.seed}
+
+
+def uncertainty_from_fields(u: Fields) -> Uncertainty:
+    """Parse an item's ``uncertainty`` map."""
+    sigma = u.child("sigma", {})
+    return Uncertainty(
+        u.number("size_error", 0.0, non_negative=True, at_most=0.9),
+        {k: sigma.number(k, non_negative=True) for k in sigma.keys()},
+        int(u.number("samples", 64, positive=True, at_most=4096)),
+        int(u.number("seed", 0)),
+    )
+
+
+def optional_uncertainty(f: Fields) -> Uncertainty | None:
+    """An item's ``uncertainty``, if it asks for one."""
+    u = f.optional_child("uncertainty")
+    return uncertainty_from_fields(u) if u is not None else None
+
+
+@dataclass(frozen=True)
+class PersonItem:
+    """Imagine one person's walk to a target at a gaze, knowing of some objects already."""
+
+    walk: Walk
+    uncertainty: Uncertainty | None = None
+
+    def to_wire(self) -> dict[str, Any]:
+        """``{"kind": "person", "person", "target", "gaze", "known", "uncertainty"?}``."""
+        out = {"kind": "person", **walk_to_wire(self.walk)}
+        if self.uncertainty is not None:
+            out["uncertainty"] = uncertainty_to_wire(self.uncertainty)
+        return out
+
+    @classmethod
+    def from_fields(cls, f: Fields) -> PersonItem:
+        """Parse :meth:`to_wire` output."""
+        return cls(walk_from_fields(f), optional_uncertainty(f))
+
+
+@dataclass(frozen=True)
+class JointItem:
+    """Imagine ``move`` in time with ``walks``, after ``delay`` seconds more of the ``current`` move (if any)."""
+
+    walks: tuple[Walk, ...]
+    move: RobotMove | None
+    current: RobotMove | None = None
+    delay: float = 0.0
+    uncertainty: Uncertainty | None = None
+
+    def to_wire(self) -> dict[str, Any]:
+        """``{"kind": "joint", "walks", "move", "current", "delay", "uncertainty"?}``."""
+        out: dict[str, Any] = {
+            "kind": "joint",
+            "walks": [walk_to_wire(w) for w in self.walks],
+            "move": self.move.to_wire() if self.move else None,
+            "current": self.current.to_wire() if self.current else None,
+            "delay": self.delay,
+        }
+        if self.uncertainty is not None:
+            out["uncertainty"] = uncertainty_to_wire(self.uncertainty)
+        return out
+
+    @classmethod
+    def from_fields(cls, f: Fields) -> JointItem:
+        """Parse :meth:`to_wire` output; at least one walk."""
+        uncertainty = optional_uncertainty(f)
+        walks = tuple(walk_from_fields(w) for w in f.children("walks"))
+        if not walks:
+            raise f.fail("walks", "expected at least one walk")
+        return cls(
+            walks,
+            RobotMove.optional_from(f, "move"),
+            RobotMove.optional_from(f, "current"),
+            f.number("delay", 0.0, non_negative=True, at_most=MAX_DELAY),
+            uncertainty,
+        )

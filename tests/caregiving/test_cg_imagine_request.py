@@ -1,0 +1,54 @@
+"""Typed imagine items: what an agent builds is what the simulator parses back, and bad fields are named."""
+
+import math
+
+import pytest
+
+from agents.caregiving.model.errors import RequestError
+from agents.caregiving.model.imagine_request import JointItem, PersonItem
+from agents.caregiving.model.move_search import Danger, SearchItem, SearchSpec
+from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.service import item_from_wire
+from agents.caregiving.model.uncertainty import Uncertainty
+from agents.caregiving.model.world_model import Walk
+
+U = Uncertainty(0.2, {"person": 0.05, "ball": 0.02}, 32, 7)
+WALK = Walk("person", "couch", math.radians(8), ("door",))
+MOVE = RobotMove("ball", -0.5, 0.1, math.pi)
+
+
+@pytest.mark.parametrize(
+    "item",
+    [
+        PersonItem(WALK),
+        PersonItem(WALK, U),
+        JointItem((WALK, Walk("bob", "door", 0.1)), MOVE, RobotMove("couch", 1.0, 2.0, 0.0), 0.3, U),
+        JointItem((WALK,), None),
+        SearchItem(
+            SearchSpec((Danger("person", "couch", ((0, 0), (1, 0)), (0.5, 0.0), "ball", 2.0),), {"person": (0.1,)}, {}),
+            U,
+            0.2,
+            24,
+            0.9,
+            0.03,
+            (MOVE,),
+        ),
+    ],
+)
+def test_an_item_survives_the_wire(item: PersonItem | JointItem | SearchItem) -> None:
+    assert item_from_wire(item.to_wire()) == item
+
+
+@pytest.mark.parametrize(
+    ("wire", "message"),
+    [
+        ({"kind": "dance"}, "request.kind"),
+        ({**JointItem((WALK,), MOVE).to_wire(), "walks": []}, "request.walks: expected at least one walk"),
+        ({**JointItem((WALK,), MOVE).to_wire(), "delay": 60.0}, "request.delay"),
+        ({**PersonItem(WALK, U).to_wire(), "uncertainty": {"samples": -1}}, "request.uncertainty.samples"),
+        ({**PersonItem(WALK).to_wire(), "gaze": 3.0}, "request.gaze: expected a pitch"),
+    ],
+)
+def test_a_malformed_item_names_its_bad_field(wire: dict[str, object], message: str) -> None:
+    with pytest.raises(RequestError, match=message.replace(".", r"\.")):
+        item_from_wire(wire)
