@@ -343,9 +343,10 @@ def search(
 class _Judging:
     """Judges a search's candidates, the k-th (from 1) with the robot starting ``judging * k`` seconds later.
 
-    Alone, each candidate is judged in turn. With ``ahead``, the helper is lent the next candidates not
-    yet handed out, :data:`AHEAD_DEPTH` at a time, while this process judges the others; the verdicts
-    are gathered in candidate order, so the search sees what it would see alone.
+    Alone, each candidate is judged in turn. With ``ahead``, once the first candidate has failed, the
+    helper is lent the next candidates not yet handed out, :data:`AHEAD_DEPTH` at a time, while this
+    process judges the others; the verdicts are gathered in candidate order, so the search sees what it
+    would see alone.
     """
 
     scene: Scene
@@ -366,7 +367,11 @@ class _Judging:
         lent: dict[int, RobotMove] = {}  # the candidates the helper is judging, by position
 
         def exchange(wait: bool = False) -> None:
-            """Take the helper's verdicts, then lend it the next candidates up to :data:`AHEAD_DEPTH`."""
+            """Take the helper's verdicts, then lend it the next candidates up to :data:`AHEAD_DEPTH`.
+
+            Nothing is lent before the first candidate has failed: most searches end with it, and a helper
+            judging the next ones meanwhile would only take the second core from the rest of the stack.
+            """
             ahead = self.ahead
             if ahead is None:
                 return
@@ -374,14 +379,14 @@ class _Judging:
                 if owner is self:
                     move = lent.pop(k)
                     judged[k] = verdict or self.judge(k, move)
-            while ahead.outstanding < AHEAD_DEPTH:
+            while verdicts and ahead.outstanding < AHEAD_DEPTH:
                 k, move = next(positions, (0, None))
                 if move is None:
                     return
-                if ahead.lend((self, k), self.scene, self.spec_at(k), move, self.uncertainty):
-                    lent[k] = move
-                else:
+                if not ahead.lend((self, k), self.scene, self.spec_at(k), move, self.uncertainty):
                     judged[k] = self.judge(k, move)
+                    return
+                lent[k] = move
 
         def gather() -> bool:
             """Move the judged prefix into ``verdicts``; True once it ends with a safe verdict."""
@@ -391,16 +396,19 @@ class _Judging:
                     return True
             return False
 
-        for k, move in positions:
-            exchange()
-            judged[k] = self.judge(k, move)
+        mine = next(positions, None)  # the next candidate this process judges: always the first not lent
+        while mine is not None:
+            judged[mine[0]] = self.judge(*mine)
             exchange()
             if gather():
                 return verdicts
+            mine = next(positions, None)
+            exchange()
         while lent:
             exchange(wait=True)
             if gather():
                 return verdicts
+        gather()
         return verdicts
 
     def judge(self, k: int, move: RobotMove) -> Verdict:
