@@ -2,13 +2,13 @@
 
 Algorithm 2's search (:func:`agents.caregiving.model.move_search.search`) judges its
 candidates in order and stops at the first safe one. On a machine with a second
-core, it lends the helper the next candidates not yet handed out and judges the
-others itself, then reads the verdicts in candidate order. Every candidate is judged
-with exactly the inputs it would have in a lone search (scene, walks, the
-robot's start delay), so the verdicts and the chosen move are those of the lone
-search; only the wall time differs.
+core, once the first candidate has failed, it judges the next one in order itself
+and lends the helper the ones after it, then reads the verdicts in candidate
+order. Every candidate is judged with exactly the inputs it would have in a lone
+search (scene, walks, the robot's start delay), so the verdicts and the chosen
+move are those of the lone search; only the wall time differs.
 
-The search keeps the helper two candidates deep, so that it is never idle while
+The search keeps the helper two candidates deep, so that it is rarely idle while
 this process judges. Verdicts the search no longer needs (it found a safe move
 first) are read and dropped by the next search; until then they count against
 the helper's depth, so a search never waits behind another's leftovers.
