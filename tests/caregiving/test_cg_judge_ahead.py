@@ -3,6 +3,9 @@
 import math
 import os
 import signal
+import subprocess
+import sys
+import time
 from collections.abc import Iterator
 from functools import partial
 
@@ -95,3 +98,29 @@ def test_a_search_outlives_its_helper(hard_case: tuple[Scene, SearchSpec]) -> No
         assert lone(scene, spec, ahead=helper) == alone
     finally:
         helper.close()
+
+
+def test_the_helper_does_not_outlive_a_killed_simulator() -> None:
+    code = "from agents.caregiving.model.judge_ahead import JudgeAhead\nimport time\nif __name__ == '__main__':\n    print(JudgeAhead().pid, flush=True)\n    time.sleep(60)\n"
+    parent = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    try:
+        assert parent.stdout is not None
+        helper = int(parent.stdout.readline())
+    finally:
+        parent.kill()
+        parent.wait()
+    for _ in range(100):  # the helper sees its pipe close and leaves
+        if not _alive(helper):
+            return
+        time.sleep(0.1)
+    os.kill(helper, signal.SIGKILL)
+    raise AssertionError("the helper process outlived its parent")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    with open(f"/proc/{pid}/stat") as stat:  # a zombie (reaped by init later) counts as gone
+        return stat.read().split()[2] != "Z"
