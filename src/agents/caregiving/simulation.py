@@ -15,8 +15,9 @@ Items are served one at a time, by one request handler at a time: it serves the
 queued batches' items, batches that judge robot moves (searches and joint
 imaginations: Algorithm 2, where the reaction time is spent) before batches of
 person-only imaginations, until its own batch is done, and hands over to the next.
-With ``--judge-ahead`` (on with two or more cores) a search judges its next
-candidate in a helper process meanwhile (:mod:`agents.caregiving.model.judge_ahead`).
+With ``--judge-ahead`` (on with two or more cores), once a search's first
+candidate has failed, a helper process judges later candidates beside it
+(:mod:`agents.caregiving.model.judge_ahead`).
 """
 
 from __future__ import annotations
@@ -75,7 +76,8 @@ class Simulation(Agent):
             "--judge-ahead",
             action=argparse.BooleanOptionalAction,
             default=(os.cpu_count() or 1) > 1,
-            help="judge a search's next candidate in a helper process meanwhile (default: on with two or more cores)",
+            help="once a search's first candidate has failed, judge later ones in a helper process beside it "
+            "(default: on with two or more cores)",
         )
 
     async def setup(self) -> None:

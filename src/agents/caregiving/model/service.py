@@ -70,7 +70,7 @@ def serve(scene: Scene, item: Item, rollout: Rollout | None = None, ahead: Judge
 
 def serve_item(scene: Scene, item: object, rollout: Rollout | None = None, ahead: JudgeAhead | None = None) -> Answer:
     """Answer one item, typed or in its wire form; raises when it is malformed or unanswerable."""
-    typed = item if isinstance(item, PersonItem | JointItem | SearchItem) else item_from_wire(item)
+    typed = item if isinstance(item, Item) else item_from_wire(item)
     return serve(scene, typed, rollout, ahead)
 
 
