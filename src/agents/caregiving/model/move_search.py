@@ -15,7 +15,7 @@ object they would hit, where and when. The robot's moves are ``move_to`` a pose:
 :func:`ordered_moves` yields them lazily in the order the search tries them:
 the stand-offs straight behind and straight in front of the obstacle along the
 person's way (a robot there is in view, and the detour around it also clears
-the obstacle); then the beyond poses just past the obstacle; then the
+the obstacle); then the beyond poses, nearest the obstacle first; then the
 other stand-offs around the obstacle; then the path poses, those where the
 robot has the most seconds in hand first; then the stand-offs around the other
 objects by distance to the collision point. Two cheap tests prune before any
@@ -61,9 +61,8 @@ SPACING = 0.25
 #: A pose the robot cannot come this close to (m) before the person passes it is pruned: a robot
 #: farther off when the person goes by is beside their way, not in it.
 REACH = 1.0
-#: Rows of poses past the obstacle, :data:`SPACING` apart (see :func:`beyond_poses`). Rows farther than the first
-#: rarely save a person the first row does not, and a failing search would judge them all.
-BEYOND_STEPS = 1
+#: Rows of poses past the obstacle, :data:`SPACING` apart (see :func:`beyond_poses`).
+BEYOND_STEPS = 4
 #: Stand-offs around the obstacle tried before the poses past it: the one straight behind it and the one in front.
 AHEAD_OF_BEYOND = 2
 #: Candidate moves one search may judge at most.
@@ -164,7 +163,7 @@ def path_poses(scene: Scene, danger: Danger) -> Iterator[tuple[RobotMove, float]
 def beyond_poses(scene: Scene, danger: Danger) -> Iterator[tuple[RobotMove, float]]:
     """Free poses on and beside the person's way past the obstacle, nearest it first.
 
-    The first row stands just clear of the person where they would touch the obstacle, any others
+    The first row stands just clear of the person where they would touch the obstacle, the others
     :data:`SPACING` apart on along their planned path. Each comes with the seconds until the person
     would reach it: a robot standing there is in view ahead of them well before they reach the
     obstacle, and the detour they start around it early also clears the obstacle they do not see.
