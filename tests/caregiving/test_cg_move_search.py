@@ -3,26 +3,18 @@
 import math
 from dataclasses import replace
 
-import numpy as np
 import pytest
 
 from agents.caregiving.model.errors import ReplyError, RequestError
 from agents.caregiving.model.fields import Fields
-from agents.caregiving.model.geometry import Polyline
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.imagine_reply import Answer, decode_answer, encode_answer
 from agents.caregiving.model.imagine_request import JointItem, uncertainty_to_wire
 from agents.caregiving.model.move_search import (
-    BEYOND_STEPS,
-    LATERAL,
-    REACH,
     Danger,
     SearchSpec,
-    arc_length_nearest,
-    beyond_poses,
     candidates,
     choose,
-    drive_time,
     judge,
     ordered_moves,
     search,
@@ -61,28 +53,10 @@ def test_candidates_start_behind_the_obstacle_fit_and_include_poses_on_the_path(
     assert len({(m.x, m.y, m.heading) for m in moves}) == len(moves)
 
 
-def test_a_danger_due_sooner_than_any_drive_leaves_only_poses_the_person_passes_later(scene: Scene) -> None:
+def test_a_danger_due_sooner_than_any_drive_has_no_candidates(scene: Scene) -> None:
     danger = danger_of(scene)
     hurried = Danger(danger.person, danger.target, danger.path, danger.point, danger.obstacle, 0.3)
-    ball = scene.obstacle("ball").shape
-    moves = list(ordered_moves(scene, hurried))
-    assert moves == [m for m, until in beyond_poses(scene, hurried) if drive_time(scene, m.x, m.y, REACH) < until]
-    assert all(m.x > ball.x for m in moves)  # past the obstacle: no stand-off or path pose is reachable in time
-
-
-def test_beyond_poses_stand_past_the_contact_on_and_beside_the_way(scene: Scene) -> None:
-    danger = danger_of(scene)
-    route = Polyline.of(danger.path)
-    contact = arc_length_nearest(route, danger.point)
-    rows = list(beyond_poses(scene, danger))
-    assert len(rows) == BEYOND_STEPS * len(LATERAL)
-    for k, (move, until) in enumerate(rows):
-        along = arc_length_nearest(route, (move.x, move.y))
-        beside = math.hypot(*(np.asarray(route.point_at(along)) - (move.x, move.y)))
-        assert along > contact and beside == pytest.approx(abs(LATERAL[k % len(LATERAL)]), abs=1e-6)
-        assert until > danger.time_to_collision
-        assert abs(abs(move.heading) - math.pi / 2) < 0.2  # broadside across the way (the person walks along x)
-    assert [u for _, u in rows] == sorted(u for _, u in rows)  # nearest the obstacle first
+    assert list(ordered_moves(scene, hurried)) == []
 
 
 def test_candidates_of_several_dangers_interleave_without_repeats(scene: Scene) -> None:
