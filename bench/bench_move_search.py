@@ -1,0 +1,213 @@
+"""Algorithm 2's move search with perfect belief, on every truly risky trial of recorded experiment runs.
+
+For each truly risky trial of the runs named (the ``wm experiment`` JSON files in
+``docs/results/``), the ground truth is stepped to the moment the run first saw
+the danger (its ``risk_at_time``). The danger is imagined as the intention agent
+imagines it (the person's planned walk at their true gaze), and the search runs
+on the exact scene: no sensor noise, the robot starting ``--delay`` seconds later
+and ``--judging`` seconds later per candidate judged. A chosen move is then
+commanded in the ground truth at that time, and the trial counts as saved when
+nobody touches anything. This separates what the move set and its order can do
+from what perception's noise costs: the live runs lose both.
+
+With ``--every``, every candidate of every danger is judged (not only up to the
+first safe one), by kind: the stand-offs straight behind and in front of the
+obstacle, the other stand-offs and the path poses, and for the dangers whose
+first two stand-offs fail, which kinds still hold a safe move.
+
+    python bench/bench_move_search.py [--every] [--json PATH] [RUN ...]
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections import Counter
+from collections.abc import Iterator
+from dataclasses import dataclass
+from functools import partial
+from pathlib import Path
+
+import benchlib
+from agents.caregiving.model import move_search
+from agents.caregiving.model.imagine import imagine_person
+from agents.caregiving.model.move_search import Danger, SearchSpec
+from agents.caregiving.model.planner import GridPlanner
+from agents.caregiving.model.robot_moves import RobotMove, robot_fits
+from agents.caregiving.model.scenario import Scenario, load_scenario
+from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.service import serve_one
+from agents.caregiving.model.uncertainty import Uncertainty
+from agents.caregiving.model.visibility import gaze_classes
+from agents.caregiving.model.world_model import World
+from bridges.experiment.oracle import saves, world_at
+from bridges.world.bridge import trial_for
+
+RECORDED = Path(__file__).resolve().parent.parent / "docs" / "results"
+RUNS = (
+    "experiment1",
+    "scenario_side_wall_diagonal",
+    "scenario_box_obstacle",
+    "experiment1_seed4242",
+    "scenario_doubled_noise",
+    "scenario_paper_fast_robot",
+    "scenario_paper_fast_robot_seed2718",
+    "scenario_two_people_two_obstacles",
+)
+EXACT = Uncertainty(0.0, {}, 1)
+THRESHOLD = 0.2
+#: The stand-offs straight behind and straight in front of the obstacle, the search's first two candidates.
+FIRST_STANDOFFS = 2
+
+
+@dataclass(frozen=True)
+class Case:
+    """One truly risky trial of a recorded run, at the moment the run saw its danger."""
+
+    run: str
+    index: int
+    saveable: bool
+    trial: Scenario
+    planner: GridPlanner
+    at: float
+
+
+def cases(runs: list[str]) -> Iterator[Case]:
+    for run in runs:
+        recorded = json.loads((RECORDED / f"{run}.json").read_text())
+        scenario = load_scenario(recorded["scenario"])
+        planner = GridPlanner(scenario.scene().bounds)
+        for t in recorded["per_trial"]:
+            if t["truly_risky"] and t["risk_at_time"] is not None:
+                trial = trial_for(scenario, recorded["seed"], t["index"])
+                yield Case(run, t["index"], bool(t["saveable"]), trial, planner, t["risk_at_time"])
+
+
+def search_spec(case: Case, delay: float) -> tuple[Scene, SearchSpec] | None:
+    """The exact scene at the case's moment and the spec of its dangers, imagined as Algorithm 1 does."""
+    idle = World.from_scenario(case.trial, planner=case.planner)
+    outcome = idle.run(60.0)
+    scene = world_at(case.trial, case.at, case.planner).scene()
+    dangers: list[Danger] = []
+    gazes: dict[str, tuple[float, ...]] = {}
+    for c in outcome.collisions:
+        walker = idle.walker(c.person)
+        if c.person in gazes:
+            continue
+        im = imagine_person(scene, c.person, walker.target, walker.gaze)
+        if not im.collided or im.collision_point is None or im.collision_object is None or im.collision_time is None:
+            continue
+        dangers.append(
+            Danger(c.person, walker.target, im.path, im.collision_point, im.collision_object, im.collision_time)
+        )
+        classes = gaze_classes(scene.person(c.person), scene.bodies_around(c.person))
+        gazes[c.person] = tuple(sorted((g.gaze for g in classes), key=lambda g: abs(g - walker.gaze)))
+    if not dangers:
+        return None
+    return scene, SearchSpec(tuple(dangers), gazes, {p: () for p in gazes}, (), None, delay)
+
+
+def first_safe(runs: list[str], delay: float, judging: float) -> dict[str, object]:
+    """Search each case up to its first safe move and check that move in the ground truth."""
+    risky = saveable = chosen = saved = saved_of_saveable = judged = judged_when_chosen = 0
+    lost: list[str] = []
+    spent = 0.0
+    for case in cases(runs):
+        found = search_spec(case, delay)
+        if found is None:
+            continue
+        scene, spec = found
+        started = time.perf_counter()
+        result = move_search.search(scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 24, judging=judging)
+        spent += time.perf_counter() - started
+        ok = False
+        if result.chosen is not None and result.chosen.move is not None:
+            chosen += 1
+            judged_when_chosen += len(result.verdicts)
+            when = case.at + delay + judging * len(result.verdicts)
+            ok = saves(world_at(case.trial, when, case.planner), result.chosen.move)
+        risky += 1
+        saveable += case.saveable
+        judged += len(result.verdicts)
+        saved += ok
+        saved_of_saveable += ok and case.saveable
+        if case.saveable and not ok:
+            lost.append(f"{case.run}#{case.index}")
+    return {
+        "truly_risky": risky,
+        "oracle_saveable": saveable,
+        "chosen": chosen,
+        "saved": saved,
+        "saved_of_saveable": saved_of_saveable,
+        "judged": judged,
+        "judged_when_chosen": judged_when_chosen,
+        "search_s": round(spent, 3),
+        "saveable_lost": lost,
+    }
+
+
+def kinds(scene: Scene, danger: Danger) -> list[tuple[str, RobotMove]]:
+    """Every candidate of one danger, pruned as the search prunes, with its kind."""
+
+    def reachable(move: RobotMove, until: float) -> bool:
+        return move_search.drive_time(scene, move.x, move.y, move_search.REACH) < until and robot_fits(scene, move)
+
+    ttc = danger.time_to_collision
+    near = [m for m in move_search.standoffs(scene, danger, danger.obstacle) if reachable(m, ttc)]
+    out = [("first stand-offs" if k < FIRST_STANDOFFS else "other stand-offs", m) for k, m in enumerate(near)]
+    out += [("path poses", m) for m, until in move_search.path_poses(scene, danger) if reachable(m, until)]
+    return out
+
+
+def every_candidate(runs: list[str], delay: float) -> dict[str, object]:
+    """Judge every candidate of every case's first danger; what each kind saves, alone and after the first two fail."""
+    judged, safe, rescues = Counter[str](), Counter[str](), Counter[str]()
+    dangers = after_first = still_saveable = 0
+    for case in cases(runs):
+        found = search_spec(case, delay)
+        if found is None:
+            continue
+        scene, spec = found
+        danger = spec.dangers[0]
+        alone = SearchSpec((danger,), {danger.person: spec.gazes[danger.person]}, {danger.person: ()}, (), None, delay)
+        verdicts = [
+            (kind, move_search.judge_move(alone, m, partial(serve_one, scene), EXACT).safe(THRESHOLD))
+            for kind, m in kinds(scene, danger)
+        ]
+        dangers += 1
+        for kind, ok in verdicts:
+            judged[kind] += 1
+            safe[kind] += ok
+        if not any(ok for kind, ok in verdicts if kind == "first stand-offs"):
+            after_first += 1
+            still_saveable += any(ok for _, ok in verdicts)
+            for kind in {kind for kind, ok in verdicts if ok}:
+                rescues[kind] += 1
+    return {
+        "dangers": dangers,
+        "by_kind": {k: {"judged": judged[k], "safe": safe[k]} for k in judged},
+        "first_two_stand_offs_fail": after_first,
+        "of_those_some_move_safe": still_saveable,
+        "of_those_safe_by_kind": dict(rescues),
+    }
+
+
+def main() -> None:
+    p = benchlib.parser("bench_move_search", __doc__.splitlines()[0])
+    p.add_argument("runs", nargs="*", default=list(RUNS), help="recorded runs (docs/results/RUN.json)")
+    p.add_argument("--delay", type=float, default=0.15, help="seconds from the danger to the robot's start")
+    p.add_argument("--judging", type=float, default=0.02, help="seconds more per candidate judged")
+    p.add_argument("--every", action="store_true", help="judge every candidate of every danger, by kind")
+    args = p.parse_args()
+    found = first_safe(args.runs, args.delay, args.judging)
+    benchlib.print_table("Move search with perfect belief", list(found.items()))
+    figures: dict[str, object] = {"runs": args.runs, "delay": args.delay, "judging": args.judging, "first_safe": found}
+    if args.every:
+        every = every_candidate(args.runs, args.delay)
+        benchlib.print_table("Every candidate judged", list(every.items()))
+        figures["every_candidate"] = every
+    benchlib.write_json(args.json, figures)
+
+
+if __name__ == "__main__":
+    main()
