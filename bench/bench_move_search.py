@@ -24,7 +24,7 @@ import json
 import time
 from collections import Counter
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
 
@@ -150,7 +150,7 @@ def kinds(scene: Scene, danger: Danger) -> list[tuple[str, RobotMove]]:
     """Every candidate of one danger, pruned as the search prunes, with its kind."""
 
     def reachable(move: RobotMove, until: float) -> bool:
-        return move_search.drive_time(scene, move.x, move.y, move_search.REACH) < until and robot_fits(scene, move)
+        return move_search.in_reach(scene, move, until) and robot_fits(scene, move)
 
     ttc = danger.time_to_collision
     near = [m for m in move_search.standoffs(scene, danger, danger.obstacle) if reachable(m, ttc)]
@@ -169,7 +169,7 @@ def every_candidate(runs: list[str], delay: float) -> dict[str, object]:
             continue
         scene, spec = found
         danger = spec.dangers[0]
-        alone = SearchSpec((danger,), {danger.person: spec.gazes[danger.person]}, {danger.person: ()}, (), None, delay)
+        alone = replace(spec, dangers=(danger,))
         verdicts = [
             (kind, move_search.judge_move(alone, m, partial(serve_one, scene), EXACT).safe(THRESHOLD))
             for kind, m in kinds(scene, danger)

@@ -45,7 +45,7 @@ from wm import Edge, Event, Node
 
 from ..runtime import Agent, main, on
 from .context import Context, read_context
-from .names import HAS, HAS_INTENTION, INTENTION, KNOWS, OBJECT, PERSON, ROBOT, WORLD
+from .names import HAS, HAS_INTENTION, INTENTION, KNOWS, ROBOT, WORLD
 from .risk_options import add_risk_arguments, size_error
 
 LIVE = ("proposed", "active")
@@ -230,7 +230,7 @@ class Action(Agent):
         """
         item = SearchItem(
             replace(spec, delay=self._delay(ctx)),
-            self._uncertainty(),
+            self._uncertainty(ctx),
             self.args.risk_threshold,
             len(moves) if moves else self.args.max_moves,
             idle_risk,
@@ -250,9 +250,8 @@ class Action(Agent):
             self.judging += JUDGING_WEIGHT * (per_move - self.judging)
         return found
 
-    def _uncertainty(self) -> Uncertainty:
-        sigma = {n.name: n.get("position_sigma", 0.0) for t in (PERSON, OBJECT) for n in self.g.nodes(t)}
-        return Uncertainty(self.size_error, sigma, self.args.samples)
+    def _uncertainty(self, ctx: Context) -> Uncertainty:
+        return Uncertainty(self.size_error, ctx.sigma, self.args.samples)
 
     async def _find(self, ctx: Context, spec: SearchSpec, idle_risk: float) -> Verdict | None:
         """The move the search chose for ``spec``, if any; every verdict on the way joins :attr:`tried`."""

@@ -119,6 +119,11 @@ def drive_time(scene: Scene, x: float, y: float, within: float = 0.0) -> float:
     return travel_time(gap, robot.max_speed, robot.max_accel, robot.speed)
 
 
+def in_reach(scene: Scene, move: RobotMove, until: float) -> bool:
+    """Whether a straight drive can bring the robot within :data:`REACH` of the move's pose before ``until`` s."""
+    return drive_time(scene, move.x, move.y, REACH) < until
+
+
 def path_poses(scene: Scene, danger: Danger) -> Iterator[tuple[RobotMove, float]]:
     """Free poses on and beside the path, from just before the obstacle back towards the person.
 
@@ -161,15 +166,14 @@ def ordered_moves(scene: Scene, danger: Danger) -> Iterator[RobotMove]:
     """Every candidate move for ``danger``, likeliest first (see the module documentation), generated lazily."""
     deadline = danger.time_to_collision
 
-    def reachable(m: RobotMove, until: float) -> bool:
-        return drive_time(scene, m.x, m.y, REACH) < until
-
-    yield from (m for m in standoffs(scene, danger, danger.obstacle) if reachable(m, deadline) and robot_fits(scene, m))
+    yield from (
+        m for m in standoffs(scene, danger, danger.obstacle) if in_reach(scene, m, deadline) and robot_fits(scene, m)
+    )
     # Seconds the robot has in hand at each path pose: the more, the likelier the person sees it in time.
     slack = [
         (until - drive_time(scene, m.x, m.y), k, m)
         for k, (m, until) in enumerate(path_poses(scene, danger))
-        if reachable(m, until)
+        if in_reach(scene, m, until)
     ]
     yield from (m for _, _, m in sorted(slack, key=lambda t: (-t[0], t[1])) if robot_fits(scene, m))
     point = danger.point
@@ -178,7 +182,9 @@ def ordered_moves(scene: Scene, danger: Danger) -> Iterator[RobotMove]:
         key=lambda o: math.hypot(o.shape.x - point[0], o.shape.y - point[1]),
     )
     for o in others:
-        yield from (m for m in standoffs(scene, danger, o.name) if reachable(m, deadline) and robot_fits(scene, m))
+        yield from (
+            m for m in standoffs(scene, danger, o.name) if in_reach(scene, m, deadline) and robot_fits(scene, m)
+        )
 
 
 @dataclass(frozen=True)
