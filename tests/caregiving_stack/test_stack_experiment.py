@@ -25,6 +25,8 @@ KEYS = {
     "action_rate",
     "prevention_rate",
     "action_in_time_rate",
+    "action_rate_saveable",
+    "action_in_time_rate_saveable",
     "oracle_saveable",
     "oracle_standoff_saveable",
     "prevention_rate_of_saveable",

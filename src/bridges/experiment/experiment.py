@@ -12,7 +12,9 @@ false-negative rates (shares of valid trials, as the paper's Table I).
 ``action_rate`` is the share of predicted-risky trials in which Algorithm 2
 wrote a move its joint imagination says removes the danger (the paper's
 definition), ``action_in_time_rate`` the share whose move was also imagined to
-be in place before the predicted collision; ``prevention_rate`` the share of
+be in place before the predicted collision, and ``action_rate_saveable`` and
+``action_in_time_rate_saveable`` the same shares where the oracle allows a move
+(over the predicted-risky trials it finds saveable); ``prevention_rate`` the share of
 truly risky trials in which nobody collided in the closed loop. Since some
 trials cannot be saved by any move of a robot with these limits (the person
 starts next to the ball), the physical oracle (:mod:`bridges.experiment.oracle`)
@@ -105,6 +107,12 @@ def percentile(values: list[float], q: float) -> float | None:
     return float(np.percentile(values, q)) if values else None
 
 
+def action_rate(detected: list[Scored], in_time: bool = False) -> float | None:
+    """The share of ``detected`` trials with a move written (``in_time``: one imagined in place in time)."""
+    acted = [s.record.action for s in detected if s.record.action is not None]
+    return _ratio(sum(a.get("in_time", True) for a in acted) if in_time else len(acted), len(detected))
+
+
 def metrics(scored: list[Scored]) -> dict[str, Any]:
     """The figures of Table I, plus ours (see the module documentation)."""
     valid = [s for s in scored if not s.discarded]
@@ -120,6 +128,7 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
     reactions = finite([s.record.reaction_ms for s in scored])
     e2e = finite([s.record.e2e_ms for s in scored])
     detected = [s for s in scored if s.predicted]
+    saveable_detected = [s for s in detected if s.saveable]
     risky = [s for s in scored if s.truly_risky]
     return {
         "trials": len(scored),
@@ -143,10 +152,10 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "e2e_ms_p50": percentile(e2e, 50),
         "e2e_ms_p99": percentile(e2e, 99),
         "e2e_ms_mean": statistics.fmean(e2e) if e2e else None,
-        "action_rate": _ratio(sum(s.record.action is not None for s in detected), len(detected)),
-        "action_in_time_rate": _ratio(
-            sum(s.record.action is not None and s.record.action.get("in_time", True) for s in detected), len(detected)
-        ),
+        "action_rate": action_rate(detected),
+        "action_in_time_rate": action_rate(detected, in_time=True),
+        "action_rate_saveable": action_rate(saveable_detected),
+        "action_in_time_rate_saveable": action_rate(saveable_detected, in_time=True),
         "prevention_rate": _ratio(sum(not s.record.collided for s in risky), len(risky)),
         "prevented": sum(not s.record.collided for s in risky),
         "prevented_saveable": sum(not s.record.collided for s in risky if s.saveable),
@@ -172,6 +181,8 @@ def _fmt(key: str, value: Any) -> str:
         "fn_rate",
         "action_rate",
         "action_in_time_rate",
+        "action_rate_saveable",
+        "action_in_time_rate_saveable",
         "prevention_rate",
         "prevention_rate_of_saveable",
     ):
@@ -196,6 +207,8 @@ ROWS = [
     ("Reaction time (deviation)", "reaction_ms_sd"),
     ("Detected collision and action generated", "action_rate"),
     ("... with a move imagined in place in time", "action_in_time_rate"),
+    ("Action generated where the oracle allows a move", "action_rate_saveable"),
+    ("... with a move imagined in place in time", "action_in_time_rate_saveable"),
     ("Truly risky trials", "truly_risky"),
     ("Prevented (truly risky trials)", "prevention_rate"),
     ("Truly risky trials some move could save (oracle)", "oracle_saveable"),
