@@ -222,9 +222,14 @@ class Polyline:
         return (float(pts[k, 0] + t * (pts[k + 1, 0] - pts[k, 0])), float(pts[k, 1] + t * (pts[k + 1, 1] - pts[k, 1])))
 
     def remaining(self, distance: float, step: float) -> FloatArray:
-        """Points every ``step`` metres from ``distance`` to the end (both ends included)."""
+        """Points every ``step`` metres from ``distance`` to the end (both ends included).
+
+        The same points as :func:`resample_by_distance` of :attr:`points`, from the arc lengths already known.
+        """
         n = max(2, int(math.ceil(max(self.length - distance, 0.0) / step)) + 1)
-        return resample_by_distance(self.points, np.linspace(min(distance, self.length), self.length, n))
+        cum, pts = self.cumulative, self.points
+        s = np.clip(np.linspace(min(distance, self.length), self.length, n), 0.0, cum[-1])
+        return np.stack((np.interp(s, cum, pts[:, 0]), np.interp(s, cum, pts[:, 1])), axis=1)
 
 
 def swept_clearance(shape: Shape, path: ArrayLike, radius: float, step: float) -> tuple[float, FloatArray]:

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .errors import CaregivingError
-from .geometry import Polyline, closest_boundary_point, displacement, point_distance, signed_distance
+from .geometry import Polyline, bounding_radius, closest_boundary_point, displacement, point_distance, signed_distance
 from .planner import GridPlanner
 from .robot_moves import RobotMove, robot_fits
 from .rollout import DT
@@ -318,15 +318,24 @@ class World:
         self._check_contacts(w, [o for o in around if o.name != w.target])
 
     def _check_contacts(self, w: _Walker, bodies: list[Obstacle]) -> None:
-        x, y = w.state.x, w.state.y
-        clear = [point_distance(o.shape, x, y) - w.state.radius for o in bodies]
-        k = min(range(len(clear)), key=clear.__getitem__)
-        if clear[k] < w.min_clearance:
-            w.min_clearance, w.closest = clear[k], bodies[k].name
-        if clear[k] <= 0.0:
-            point = closest_boundary_point(bodies[k].shape, (x, y))[0]
+        x, y, radius = w.state.x, w.state.y, w.state.radius
+        nearest, clear = None, w.min_clearance
+        for o in bodies:
+            shape = o.shape
+            # A body whose bounding circle keeps it at least the closest approach so far away can neither be
+            # the new closest nor touch (the closest approach stays positive while the walker walks).
+            if math.hypot(x - shape.x, y - shape.y) - bounding_radius(shape) - radius - 1e-9 >= clear:
+                continue
+            c = point_distance(shape, x, y) - radius
+            if c < clear:
+                nearest, clear = o, c
+        if nearest is None:
+            return
+        w.min_clearance, w.closest = clear, nearest.name
+        if clear <= 0.0:
+            point = closest_boundary_point(nearest.shape, (x, y))[0]
             self._collisions.append(
-                Collision(self.time + self.dt, w.state.name, bodies[k].name, (float(point[0]), float(point[1])))
+                Collision(self.time + self.dt, w.state.name, nearest.name, (float(point[0]), float(point[1])))
             )
             w.status = "collided"
 
