@@ -127,52 +127,18 @@ class _Transaction:
             self.store.current_origin, self.store._txn = self.outer
 
 
-def _is_panic(exc: BaseException) -> bool:
-    return type(exc).__name__ == "PanicException"
+class _Recorder:
+    """The document's observers: the keys each transaction touched, until :meth:`CrdtStore.take_changes`.
 
+    Not the store's own methods: pycrdt keeps observers alive from the
+    document, out of sight of Python's collector, so observers bound to the
+    store would keep it and its whole document alive for good.
+    """
 
-class CrdtStore:
-    """One pycrdt document holding one graph."""
+    __slots__ = ("changes",)
 
-    def __init__(self, doc: Doc[Any] | None = None) -> None:
-        self.doc = doc if doc is not None else Doc()
-        self.nodes: Map[Any] = self.doc.get("nodes", type=Map)
-        self.edges: Map[Any] = self.doc.get("edges", type=Map)
-        self.edge_attrs: Map[Any] = self.doc.get("edge_attrs", type=Map)
-        self.deleted: Map[Any] = self.doc.get("deleted", type=Map)
-        self.pending = RawChanges()
-        self.current_origin: Any = None
-        self._txn: Any = None  # pycrdt's raw transaction while :meth:`transaction` is open
-        self._full: bytes | None = None  # the whole state as one update, kept until the next transaction
-        self._subscriptions: list[Any] = []
-        self._observe()
-
-    def _observe(self) -> None:
-        # the raw events: pycrdt's wrappers would convert every field of every event first
-        self._subscriptions = [
-            self.nodes.integrated.observe_deep(self._on_nodes),
-            self.edges.integrated.observe(self._on_edges),
-            self.edge_attrs.integrated.observe(self._on_edge_attrs),
-        ]
-
-    def _unobserve(self) -> None:
-        for subscription in self._subscriptions:
-            subscription.drop()
-        self._subscriptions = []
-
-    def is_empty(self) -> bool:
-        """Whether nothing was ever written to or applied on this document."""
-        return self.doc.get_state() == EMPTY_STATE_VECTOR
-
-    # -- change capture ------------------------------------------------------
-
-    def take_changes(self) -> RawChanges:
-        changes, self.pending = self.pending, RawChanges()
-        return changes
-
-    def transaction(self, origin: Any) -> AbstractContextManager[None]:
-        """A document transaction whose changes are attributed to ``origin`` (a replica id)."""
-        return _Transaction(self, origin)
+    def __init__(self) -> None:
+        self.changes = RawChanges()
 
     def _keys(self, event: Any) -> dict[str, Any]:
         """The keys a map event changed; none, and the change marked unreliable, if pycrdt cannot say.
@@ -186,41 +152,95 @@ class CrdtStore:
         except BaseException as exc:  # pyo3 raises a Rust panic as PanicException, a BaseException
             if type(exc).__name__ != "PanicException":
                 raise
-            self.pending.unreliable = True
+            self.changes.unreliable = True
             return {}
         return keys
 
-    def _on_nodes(self, events: list[Any]) -> None:
+    def on_nodes(self, events: list[Any]) -> None:
         for event in events:
             path = event.path
             if not path:
                 for key, change in self._keys(event).items():
                     action = change["action"]
                     if action in ("delete", "update"):
-                        self.pending.nodes_removed.append(key)
+                        self.changes.nodes_removed.append(key)
                     if action in ("add", "update"):
-                        self.pending.nodes_added.append(key)
+                        self.changes.nodes_added.append(key)
             else:
                 # a change inside an attribute's value (only a peer writes shared types there) touches that attribute
                 changed = set(self._keys(event)) if len(path) == 1 else {str(path[1])}
                 if not changed:
-                    self.pending.unreliable = True
-                self.pending.node_attrs.setdefault(str(path[0]), set()).update(changed)
+                    self.changes.unreliable = True
+                self.changes.node_attrs.setdefault(str(path[0]), set()).update(changed)
 
-    def _on_edges(self, event: Any) -> None:
+    def on_edges(self, event: Any) -> None:
         for key, change in self._keys(event).items():
             if change["action"] == "delete":
-                self.pending.edges_removed.append(key)
+                self.changes.edges_removed.append(key)
             else:  # "add", or "update" when a peer overwrote a marker
-                self.pending.edges_added.append(key)
+                self.changes.edges_added.append(key)
 
-    def _on_edge_attrs(self, event: Any) -> None:
+    def on_edge_attrs(self, event: Any) -> None:
         for flat_key in self._keys(event):
             key, dot, attr = flat_key.rpartition(".")
             if dot:
-                self.pending.edge_attrs.setdefault(key, set()).add(attr)
+                self.changes.edge_attrs.setdefault(key, set()).add(attr)
             else:
-                self.pending.malformed_edge_attrs.append(flat_key)
+                self.changes.malformed_edge_attrs.append(flat_key)
+
+
+def _is_panic(exc: BaseException) -> bool:
+    return type(exc).__name__ == "PanicException"
+
+
+class CrdtStore:
+    """One pycrdt document holding one graph."""
+
+    def __init__(self, doc: Doc[Any] | None = None) -> None:
+        self.doc = doc if doc is not None else Doc()
+        self.nodes: Map[Any] = self.doc.get("nodes", type=Map)
+        self.edges: Map[Any] = self.doc.get("edges", type=Map)
+        self.edge_attrs: Map[Any] = self.doc.get("edge_attrs", type=Map)
+        self.deleted: Map[Any] = self.doc.get("deleted", type=Map)
+        self.recorder = _Recorder()
+        self.current_origin: Any = None
+        self._txn: Any = None  # pycrdt's raw transaction while :meth:`transaction` is open
+        self._full: bytes | None = None  # the whole state as one update, kept until the next transaction
+        self._subscriptions: list[Any] = []
+        self._observe()
+
+    def _observe(self) -> None:
+        # the raw events: pycrdt's wrappers would convert every field of every event first
+        self._subscriptions = [
+            self.nodes.integrated.observe_deep(self.recorder.on_nodes),
+            self.edges.integrated.observe(self.recorder.on_edges),
+            self.edge_attrs.integrated.observe(self.recorder.on_edge_attrs),
+        ]
+
+    def _unobserve(self) -> None:
+        for subscription in self._subscriptions:
+            subscription.drop()
+        self._subscriptions = []
+
+    def is_empty(self) -> bool:
+        """Whether nothing was ever written to or applied on this document."""
+        return self.doc.get_state() == EMPTY_STATE_VECTOR
+
+    # -- change capture ------------------------------------------------------
+
+    @property
+    def pending(self) -> RawChanges:
+        """The changes recorded since the last :meth:`take_changes`."""
+        return self.recorder.changes
+
+    def take_changes(self) -> RawChanges:
+        recorder = self.recorder
+        changes, recorder.changes = recorder.changes, RawChanges()
+        return changes
+
+    def transaction(self, origin: Any) -> AbstractContextManager[None]:
+        """A document transaction whose changes are attributed to ``origin`` (a replica id)."""
+        return _Transaction(self, origin)
 
     # -- reads ---------------------------------------------------------------
 
@@ -279,7 +299,10 @@ class CrdtStore:
                 if type(node) is not raw_map:
                     heads[key] = None
                     continue
-                heads[key] = _head(raw_txn, node)
+                try:
+                    heads[key] = node.get(raw_txn, TYPE_KEY), node.get(raw_txn, NAME_KEY)
+                except ValueError:  # one of them is missing
+                    heads[key] = _head(raw_txn, node)
         return heads
 
     def node_values(self, key: str) -> dict[str, Any] | None:
@@ -418,7 +441,7 @@ class CrdtStore:
             self.apply(update, origin)
         finally:
             self._observe()
-            self.pending = RawChanges()
+            self.recorder.changes = RawChanges()
 
     def observe_updates(self, callback: Callable[[bytes, Any], None]) -> Any:
         """Call ``callback(update, origin)`` after every transaction that changed the document."""
