@@ -203,6 +203,7 @@ class CrdtStore:
         self.edge_attrs: Map[Any] = self.doc.get("edge_attrs", type=Map)
         self.deleted: Map[Any] = self.doc.get("deleted", type=Map)
         self.recorder = _Recorder()
+        self.pending = self.recorder.changes  # the recorder's, kept here too: every write reads it
         self.current_origin: Any = None
         self._txn: Any = None  # pycrdt's raw transaction while :meth:`transaction` is open
         self._full: bytes | None = None  # the whole state as one update, kept until the next transaction
@@ -228,14 +229,9 @@ class CrdtStore:
 
     # -- change capture ------------------------------------------------------
 
-    @property
-    def pending(self) -> RawChanges:
-        """The changes recorded since the last :meth:`take_changes`."""
-        return self.recorder.changes
-
     def take_changes(self) -> RawChanges:
-        recorder = self.recorder
-        changes, recorder.changes = recorder.changes, RawChanges()
+        changes = self.pending
+        self.pending = self.recorder.changes = RawChanges()
         return changes
 
     def transaction(self, origin: Any) -> AbstractContextManager[None]:
@@ -441,7 +437,7 @@ class CrdtStore:
             self.apply(update, origin)
         finally:
             self._observe()
-            self.recorder.changes = RawChanges()
+            self.take_changes()
 
     def observe_updates(self, callback: Callable[[bytes, Any], None]) -> Any:
         """Call ``callback(update, origin)`` after every transaction that changed the document."""
