@@ -23,9 +23,9 @@ class _KeysPanic:
 
 def test_a_panic_listing_an_events_keys_marks_the_change_unreliable() -> None:
     store = CrdtStore()
-    store._on_edges(_KeysPanic())
-    store._on_edge_attrs(_KeysPanic())
-    store._on_nodes([_KeysPanic()])
+    store.recorder.on_edges(_KeysPanic())
+    store.recorder.on_edge_attrs(_KeysPanic())
+    store.recorder.on_nodes([_KeysPanic()])
     changes = store.take_changes()
     assert changes.unreliable and not changes.edges_added and not changes.edge_attrs
 
@@ -39,4 +39,4 @@ def test_other_errors_in_an_observer_are_not_swallowed() -> None:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        CrdtStore()._on_edges(Broken())
+        CrdtStore().recorder.on_edges(Broken())

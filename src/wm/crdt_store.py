@@ -127,6 +127,68 @@ class _Transaction:
             self.store.current_origin, self.store._txn = self.outer
 
 
+class _Recorder:
+    """The document's observers: the keys each transaction touched, until :meth:`CrdtStore.take_changes`.
+
+    Not the store's own methods: pycrdt keeps observers alive from the
+    document, out of sight of Python's collector, so observers bound to the
+    store would keep it and its whole document alive for good.
+    """
+
+    __slots__ = ("changes",)
+
+    def __init__(self) -> None:
+        self.changes = RawChanges()
+
+    def _keys(self, event: Any) -> dict[str, Any]:
+        """The keys a map event changed; none, and the change marked unreliable, if pycrdt cannot say.
+
+        yrs 0.28 can panic while listing the keys of a map event that a merged remote update
+        produced (``types/mod.rs``: ``Option::unwrap()`` on ``None``). The document itself is
+        intact, so the index re-checks the whole document instead of trusting the event.
+        """
+        try:
+            keys: dict[str, Any] = event.keys
+        except BaseException as exc:  # pyo3 raises a Rust panic as PanicException, a BaseException
+            if type(exc).__name__ != "PanicException":
+                raise
+            self.changes.unreliable = True
+            return {}
+        return keys
+
+    def on_nodes(self, events: list[Any]) -> None:
+        for event in events:
+            path = event.path
+            if not path:
+                for key, change in self._keys(event).items():
+                    action = change["action"]
+                    if action in ("delete", "update"):
+                        self.changes.nodes_removed.append(key)
+                    if action in ("add", "update"):
+                        self.changes.nodes_added.append(key)
+            else:
+                # a change inside an attribute's value (only a peer writes shared types there) touches that attribute
+                changed = set(self._keys(event)) if len(path) == 1 else {str(path[1])}
+                if not changed:
+                    self.changes.unreliable = True
+                self.changes.node_attrs.setdefault(str(path[0]), set()).update(changed)
+
+    def on_edges(self, event: Any) -> None:
+        for key, change in self._keys(event).items():
+            if change["action"] == "delete":
+                self.changes.edges_removed.append(key)
+            else:  # "add", or "update" when a peer overwrote a marker
+                self.changes.edges_added.append(key)
+
+    def on_edge_attrs(self, event: Any) -> None:
+        for flat_key in self._keys(event):
+            key, dot, attr = flat_key.rpartition(".")
+            if dot:
+                self.changes.edge_attrs.setdefault(key, set()).add(attr)
+            else:
+                self.changes.malformed_edge_attrs.append(flat_key)
+
+
 def _is_panic(exc: BaseException) -> bool:
     return type(exc).__name__ == "PanicException"
 
@@ -140,7 +202,8 @@ class CrdtStore:
         self.edges: Map[Any] = self.doc.get("edges", type=Map)
         self.edge_attrs: Map[Any] = self.doc.get("edge_attrs", type=Map)
         self.deleted: Map[Any] = self.doc.get("deleted", type=Map)
-        self.pending = RawChanges()
+        self.recorder = _Recorder()
+        self.pending = self.recorder.changes  # the recorder's, kept here too: every write reads it
         self.current_origin: Any = None
         self._txn: Any = None  # pycrdt's raw transaction while :meth:`transaction` is open
         self._full: bytes | None = None  # the whole state as one update, kept until the next transaction
@@ -150,9 +213,9 @@ class CrdtStore:
     def _observe(self) -> None:
         # the raw events: pycrdt's wrappers would convert every field of every event first
         self._subscriptions = [
-            self.nodes.integrated.observe_deep(self._on_nodes),
-            self.edges.integrated.observe(self._on_edges),
-            self.edge_attrs.integrated.observe(self._on_edge_attrs),
+            self.nodes.integrated.observe_deep(self.recorder.on_nodes),
+            self.edges.integrated.observe(self.recorder.on_edges),
+            self.edge_attrs.integrated.observe(self.recorder.on_edge_attrs),
         ]
 
     def _unobserve(self) -> None:
@@ -167,60 +230,13 @@ class CrdtStore:
     # -- change capture ------------------------------------------------------
 
     def take_changes(self) -> RawChanges:
-        changes, self.pending = self.pending, RawChanges()
+        changes = self.pending
+        self.pending = self.recorder.changes = RawChanges()
         return changes
 
     def transaction(self, origin: Any) -> AbstractContextManager[None]:
         """A document transaction whose changes are attributed to ``origin`` (a replica id)."""
         return _Transaction(self, origin)
-
-    def _keys(self, event: Any) -> dict[str, Any]:
-        """The keys a map event changed; none, and the change marked unreliable, if pycrdt cannot say.
-
-        yrs 0.28 can panic while listing the keys of a map event that a merged remote update
-        produced (``types/mod.rs``: ``Option::unwrap()`` on ``None``). The document itself is
-        intact, so the index re-checks the whole document instead of trusting the event.
-        """
-        try:
-            keys: dict[str, Any] = event.keys
-        except BaseException as exc:  # pyo3 raises a Rust panic as PanicException, a BaseException
-            if type(exc).__name__ != "PanicException":
-                raise
-            self.pending.unreliable = True
-            return {}
-        return keys
-
-    def _on_nodes(self, events: list[Any]) -> None:
-        for event in events:
-            path = event.path
-            if not path:
-                for key, change in self._keys(event).items():
-                    action = change["action"]
-                    if action in ("delete", "update"):
-                        self.pending.nodes_removed.append(key)
-                    if action in ("add", "update"):
-                        self.pending.nodes_added.append(key)
-            else:
-                # a change inside an attribute's value (only a peer writes shared types there) touches that attribute
-                changed = set(self._keys(event)) if len(path) == 1 else {str(path[1])}
-                if not changed:
-                    self.pending.unreliable = True
-                self.pending.node_attrs.setdefault(str(path[0]), set()).update(changed)
-
-    def _on_edges(self, event: Any) -> None:
-        for key, change in self._keys(event).items():
-            if change["action"] == "delete":
-                self.pending.edges_removed.append(key)
-            else:  # "add", or "update" when a peer overwrote a marker
-                self.pending.edges_added.append(key)
-
-    def _on_edge_attrs(self, event: Any) -> None:
-        for flat_key in self._keys(event):
-            key, dot, attr = flat_key.rpartition(".")
-            if dot:
-                self.pending.edge_attrs.setdefault(key, set()).add(attr)
-            else:
-                self.pending.malformed_edge_attrs.append(flat_key)
 
     # -- reads ---------------------------------------------------------------
 
@@ -279,7 +295,10 @@ class CrdtStore:
                 if type(node) is not raw_map:
                     heads[key] = None
                     continue
-                heads[key] = _head(raw_txn, node)
+                try:
+                    heads[key] = node.get(raw_txn, TYPE_KEY), node.get(raw_txn, NAME_KEY)
+                except ValueError:  # one of them is missing
+                    heads[key] = _head(raw_txn, node)
         return heads
 
     def node_values(self, key: str) -> dict[str, Any] | None:
@@ -418,7 +437,7 @@ class CrdtStore:
             self.apply(update, origin)
         finally:
             self._observe()
-            self.pending = RawChanges()
+            self.take_changes()
 
     def observe_updates(self, callback: Callable[[bytes, Any], None]) -> Any:
         """Call ``callback(update, origin)`` after every transaction that changed the document."""

@@ -347,19 +347,24 @@ class GraphIndex:
     ) -> IndexResult:
         """Index the whole document of a fresh replica that nobody listens to yet (so no node events).
 
-        One pass over the node maps, reading each head once and adding it
-        straight to the index, then the edges as in :meth:`apply`. Attribute
+        One pass over the node maps to read each head once, the view rules'
+        one pass to sort them (:meth:`ViewRules.plain_nodes`), each shown node
+        straight into the index, then the edges as in :meth:`apply`. Attribute
         values are checked when read (see :meth:`wm.Graph.left_out`).
         """
         result = IndexResult()
-        meta, names, by_type, conflicts = self.node_meta, self.names, self.by_type, result.name_conflicts
-        for key, head in store.read_heads().items():
-            node_id = node_id_of(key)
+        heads = store.read_heads()
+        shown, others = self.rules.plain_nodes(heads)
+        for key in others:
+            node_id, head = node_id_of(key), heads[key]
             problem = self._head_problem(node_id, head)
             if problem is not None:
                 self.left_out.add(LeftOut("node", key, problem, writer), result)
                 continue
             assert node_id is not None and head is not None  # what _head_problem found no problem with
+            shown.append((node_id, head))
+        meta, names, by_type, conflicts = self.node_meta, self.names, self.by_type, result.name_conflicts
+        for node_id, head in shown:
             node_type, name = meta[node_id] = head
             same_name = names.get(name)
             if same_name is None:

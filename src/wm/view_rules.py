@@ -73,6 +73,40 @@ class ViewRules:
             return f"unknown node type {node_type!r:.60}"
         return self.limits.name_problem(name)
 
+    def plain_nodes(
+        self, heads: dict[str, tuple[Any, Any] | None]
+    ) -> tuple[list[tuple[int, tuple[str, str]]], list[str]]:
+        """The node entries plainly shown, as (id, (type, name)), and the keys left to check one by one.
+
+        A catch-up sorts thousands of node maps by their key and head (their
+        ``@type`` and ``@name`` as stored, None if not a map): this settles the
+        common case in one pass, without a call per node. It only ever admits
+        what :func:`node_id_of` and :meth:`node_problem` admit; anything else,
+        a name that is not ASCII included, is left to them.
+        """
+        node_types, longest = self.ontology.node_types, self.limits.max_name_length
+        shown: list[tuple[int, tuple[str, str]]] = []
+        others = []
+        for key, head in heads.items():
+            if (
+                head is not None
+                and type(key) is str
+                and key.isdecimal()
+                and key.isascii()
+                and key[0] != "0"
+                and type(head[0]) is str
+                and head[0] in node_types
+                and type(name := head[1]) is str
+                and 0 < len(name) <= longest
+                and name[0] != "@"
+                and name.isascii()
+                and (node_id := int(key)) < MAX_NODE_ID
+            ):
+                shown.append((node_id, head))
+            else:
+                others.append(key)
+        return shown, others
+
     def edge_parts(self, key: Any) -> tuple[int, int, str] | None:
         """(src, dst, type) of a valid edge key, or None."""
         if type(key) is not str:
