@@ -447,6 +447,10 @@ class CrdtStore:
 
         return self.doc.observe(on_transaction)
 
+    def unobserve_updates(self, subscription: Any) -> None:
+        """Drop a callback added with :meth:`observe_updates`."""
+        self.doc.unobserve(subscription)
+
 
 def _head(raw_txn: Any, node: Any) -> tuple[Any, Any]:
     """A node map's ``@type`` and ``@name`` as stored, None where missing (pycrdt's raw get raises ValueError)."""

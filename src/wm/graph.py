@@ -648,6 +648,11 @@ class Graph:
         """Call ``listener()`` after every local write (durable or volatile)."""
         self._write_listeners.append(listener)
 
+    def remove_write_listener(self, listener: Callable[[], None]) -> None:
+        """Stop calling a listener added with :meth:`add_write_listener` (a no-op if it is not there)."""
+        if listener in self._write_listeners:
+            self._write_listeners.remove(listener)
+
     def is_fresh(self) -> bool:
         """Whether this replica holds nothing yet (no write made, no update applied)."""
         return self._store.is_empty()
@@ -685,8 +690,16 @@ class Graph:
             self._flush_events()
 
     def observe_updates(self, callback: Callable[[bytes, Any], None]) -> Any:
-        """``callback(update, origin)`` after every transaction; origin is the writer's replica id."""
+        """``callback(update, origin)`` after every transaction; origin is the writer's replica id.
+
+        Returns the subscription for :meth:`unobserve_updates`. Until then the document holds the callback
+        (and whatever it refers to, this graph included) out of reach of Python's garbage collector.
+        """
         return self._store.observe_updates(callback)
+
+    def unobserve_updates(self, subscription: Any) -> None:
+        """Drop a callback added with :meth:`observe_updates`."""
+        self._store.unobserve_updates(subscription)
 
     def take_volatile_outbox(self) -> list[Record]:
         return self._volatile.take_outbox()

@@ -102,6 +102,7 @@ class Replicator:
         self._declared: list[Any] = []
         self._loop: asyncio.AbstractEventLoop | None = None
         self._publisher: zenoh.Publisher | None = None
+        self._observing: Any = None  # the subscription to the graph's local updates, while started
         self.on_disk: Callable[[str], int] | None = None  # a durable member: sender -> last sequence number on disk
 
     # -- lifecycle -----------------------------------------------------------
@@ -115,7 +116,7 @@ class Replicator:
         self._loop = loop = asyncio.get_running_loop()
         me = self.graph.replica_id
         session = self.session
-        self.graph.observe_updates(self._on_local_update)
+        self._observing = self.graph.observe_updates(self._on_local_update)
         self.graph.add_write_listener(self._schedule_flush)
         remote = zenoh.Locality.REMOTE
         handoff = loop.call_soon_threadsafe
@@ -162,6 +163,10 @@ class Replicator:
             except zenoh.ZError:
                 pass
         self._declared.clear()
+        self.graph.remove_write_listener(self._schedule_flush)
+        if self._observing is not None:
+            self.graph.unobserve_updates(self._observing)
+            self._observing = None
 
     def _spawn(self, coro: Any) -> None:
         task = asyncio.ensure_future(coro)
