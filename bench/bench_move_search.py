@@ -45,7 +45,7 @@ from bridges.world.bridge import trial_for
 
 RECORDED = Path(__file__).resolve().parent.parent / "docs" / "results"
 RUNS = (
-    "experiment1",
+    "experiment1_same_search_before",
     "scenario_side_wall_diagonal",
     "scenario_box_obstacle",
     "experiment1_seed4242",
