@@ -181,14 +181,7 @@ def polyline_length(path: ArrayLike) -> float:
 
 def resample_by_distance(path: ArrayLike, distances: ArrayLike) -> FloatArray:
     """Points at the given arc-length distances along a polyline (clamped to its ends)."""
-    pts = as_points(path)
-    s = np.asarray(distances, dtype=np.float64)
-    if len(pts) == 1:
-        return np.repeat(pts, s.size, axis=0)
-    seg = np.hypot(*np.diff(pts, axis=0).T)
-    cum = np.concatenate(([0.0], np.cumsum(seg)))
-    s = np.clip(s, 0.0, cum[-1])
-    return np.stack((np.interp(s, cum, pts[:, 0]), np.interp(s, cum, pts[:, 1])), axis=1)
+    return Polyline.of(path).resampled(distances)
 
 
 @dataclass(frozen=True)
@@ -221,15 +214,19 @@ class Polyline:
         t = (distance - cum[k]) / (cum[k + 1] - cum[k])
         return (float(pts[k, 0] + t * (pts[k + 1, 0] - pts[k, 0])), float(pts[k, 1] + t * (pts[k + 1, 1] - pts[k, 1])))
 
-    def remaining(self, distance: float, step: float) -> FloatArray:
-        """Points every ``step`` metres from ``distance`` to the end (both ends included).
-
-        The same points as :func:`resample_by_distance` of :attr:`points`, from the arc lengths already known.
-        """
-        n = max(2, int(math.ceil(max(self.length - distance, 0.0) / step)) + 1)
+    def resampled(self, distances: ArrayLike) -> FloatArray:
+        """Points at the given arc-length distances along the path (clamped to its ends)."""
         cum, pts = self.cumulative, self.points
-        s = np.clip(np.linspace(min(distance, self.length), self.length, n), 0.0, cum[-1])
+        s = np.asarray(distances, dtype=np.float64)
+        if len(pts) == 1:
+            return np.repeat(pts, s.size, axis=0)
+        s = np.clip(s, 0.0, cum[-1])
         return np.stack((np.interp(s, cum, pts[:, 0]), np.interp(s, cum, pts[:, 1])), axis=1)
+
+    def remaining(self, distance: float, step: float) -> FloatArray:
+        """Points every ``step`` metres from ``distance`` to the end (both ends included)."""
+        n = max(2, int(math.ceil(max(self.length - distance, 0.0) / step)) + 1)
+        return self.resampled(np.linspace(min(distance, self.length), self.length, n))
 
 
 def swept_clearance(shape: Shape, path: ArrayLike, radius: float, step: float) -> tuple[float, FloatArray]:
