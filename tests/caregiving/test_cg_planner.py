@@ -4,9 +4,12 @@ import math
 
 import numpy as np
 import pytest
+import tcod.path
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from agents.caregiving.model.geometry import Box, Circle, polyline_length, signed_distance
-from agents.caregiving.model.planner import GridPlanner
+from agents.caregiving.model.planner import GridPlanner, _AStar
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Obstacle
 
@@ -140,3 +143,30 @@ def test_a_point_goal_in_line_of_sight_gets_the_path_the_search_would_return() -
             searched += 1
             assert plan.length == pytest.approx(polyline_length(np.vstack((reference.path[:-1], [goal]))))
     assert straight and searched  # both branches were exercised
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 40))
+def test_the_reused_search_returns_path2d_s_path_among_equally_short_ones(seed: int, goal_count: int) -> None:
+    rng = np.random.default_rng(seed)
+    grid = np.zeros((48, 36), dtype=bool)
+    for _ in range(int(rng.integers(1, 8))):
+        i, j, r = rng.integers(0, 48), rng.integers(0, 36), rng.integers(1, 9)
+        grid[max(i - r, 0) : i + r, max(j - r, 0) : j + r] = True
+    free = np.argwhere(~grid)
+    start = tuple(int(v) for v in free[rng.integers(len(free))])
+    goals = free[np.sort(rng.choice(len(free), size=min(goal_count, len(free)), replace=False))]  # row-major
+    search = _AStar(grid.shape)
+    search.path(~grid, goals[:1], start)  # whatever it searched before must not matter
+    got = search.path(grid, goals, start)
+    reference = tcod.path.path2d(
+        (~grid).astype(np.int8),
+        start_points=[tuple(g) for g in goals.tolist()],
+        end_points=[start],
+        cardinal=70,
+        diagonal=99,
+    )
+    if len(reference) == 0:
+        assert got is None
+    else:
+        assert got is not None and np.array_equal(got, reference[::-1][1:])

@@ -5,8 +5,9 @@ inflated by the walker's radius plus a small safety margin; the inflated mask of
 every (obstacle, radius) pair is cached, so replanning after a gaze or pose change
 only ORs cached masks. Reachability is decided first with ``scipy.ndimage.label``
 (an unreachable goal costs a labelling, not an exhaustive search), then
-``tcod.path.path2d`` runs optimal A* (octile costs 70/99) from every goal cell to
-the start at once, so a plan depends only on the grid, the goals and the start
+optimal A* (octile costs 70/99) runs from every goal cell to the start at once:
+``tcod.path.path2d``'s search, step for step, on a pathfinder whose buffers are
+reused (:class:`_AStar`). A plan depends only on the grid, the goals and the start
 (never on what was planned before): the world and the robot's imagination of it
 plan alike. The cell path is string-pulled into a short
 polyline in metres. A point goal in clear line of sight from the start skips
@@ -104,6 +105,7 @@ class GridPlanner:
         self._cache: _Recent[tuple[Shape, float], _Mask] = _Recent(cache_size)
         self._rings: _Recent[tuple[Shape, float], NDArray[np.intp]] = _Recent(cache_size)
         self._plans: _Recent[tuple[object, ...], Plan] = _Recent(cache_size)
+        self._astar_search = _AStar(self.shape)
         self.cache_hits = 0
         self.cache_misses = 0
 
@@ -229,15 +231,7 @@ class GridPlanner:
         goal_cells = goals[~grid[gi, gj] & (labels[gi, gj] == labels[start_cell])]
         if goal_cells.size == 0:
             return None
-        cost = (~grid).astype(np.int8)
-        cells = tcod.path.path2d(
-            cost,
-            start_points=[tuple(c) for c in goal_cells.tolist()],
-            end_points=[start_cell],
-            cardinal=_CARDINAL,
-            diagonal=_DIAGONAL,
-        )
-        return cells[::-1][1:] if len(cells) else None
+        return self._astar_search.path(grid, goal_cells, start_cell)
 
     def _free_cell_near(self, point: tuple[float, float], grid: NDArray[np.bool_]) -> tuple[int, int] | None:
         """The point's cell, or the nearest free cell within two cells when it is blocked."""
@@ -285,3 +279,50 @@ class GridPlanner:
         i = np.clip(idx[..., 0], 0, self.shape[0] - 1)
         j = np.clip(idx[..., 1], 0, self.shape[1] - 1)
         return ~grid[i, j].any(axis=1)
+
+
+class _AStar:
+    """Optimal octile A* on one grid shape between goal cells and a start, reusing tcod's buffers.
+
+    The same search as ``tcod.path.path2d(cost, start_points=goals, end_points=[start])``, step for step
+    (so the same path among equally short ones), without rebuilding the graph and the pathfinder's arrays
+    and adding the roots one Python call at a time on every plan. Like ``path2d``, it searches from the
+    goals towards the start, or from the start towards the goal when there is only one.
+    """
+
+    def __init__(self, shape: tuple[int, int]) -> None:
+        self._cost = np.ones(shape, dtype=np.int8)  # tcod's graph reads this array in place
+        self._finder = tcod.path.Pathfinder(
+            tcod.path.SimpleGraph(cost=self._cost, cardinal=_CARDINAL, diagonal=_DIAGONAL)
+        )
+        self._unreached = np.iinfo(self._finder.distance.dtype).max
+
+    def path(
+        self, grid: NDArray[np.bool_], goals: NDArray[np.intp], start: tuple[int, int]
+    ) -> NDArray[np.integer] | None:
+        """Cells after ``start`` to the nearest of ``goals`` (free cells of ``grid``), None if unreachable.
+
+        ``goals`` come in row-major order, as ``np.argwhere`` lists them: the order tcod takes the roots in
+        from its distance array, so that ties between equally short paths break as in ``path2d``.
+        """
+        if len(goals) == 1:
+            goal = (int(goals[0, 0]), int(goals[0, 1]))
+            cells = self._from_roots(grid, np.array([start]), goal)
+            return None if cells is None else cells[::-1][1:]
+        cells = self._from_roots(grid, goals, start)
+        return None if cells is None else cells[1:]
+
+    def _from_roots(
+        self, grid: NDArray[np.bool_], roots: NDArray[np.intp], target: tuple[int, int]
+    ) -> NDArray[np.integer] | None:
+        """The cells from ``target`` to the nearest root, both included; None if no root reaches it."""
+        np.logical_not(grid, out=self._cost, casting="unsafe")
+        self._cost[target] = 1  # the search's own end is always enterable, as in ``path2d``
+        distance, traversal = self._finder.distance, self._finder.traversal
+        distance.fill(self._unreached)
+        ri, rj = roots[:, 0], roots[:, 1]
+        distance[ri, rj] = 0
+        traversal[ri, rj] = roots  # a root leads to itself; every other cell on the path is written by the search
+        self._finder.rebuild_frontier()
+        cells = self._finder.path_from(target)
+        return None if distance[target] == self._unreached else cells
