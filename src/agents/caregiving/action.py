@@ -17,6 +17,10 @@ asks the simulator to imagine the candidates, and writes the result:
 * while a move is under way, a new risky intention first re-imagines that move
   from the robot's current state, speed included; only if it no longer keeps
   everyone safe is a new move searched, and the old one is marked ``superseded``;
+* a danger no move removed is searched again ``--retry`` seconds later, at the
+  first update of W after that, from the context then, for as long as it stays
+  risky and not yet due: perception's estimates sharpen, and a move may be found
+  in time;
 * a move is never sent unless every imagined walk with it is clear: the robot
   never causes a collision its imagination can see.
 
@@ -77,8 +81,9 @@ class Action(Agent):
         parser.add_argument(
             "--retry",
             type=float,
-            default=0.5,
-            help="simulated seconds before a danger no move removed is searched again (at its next update after that)",
+            default=0.1,
+            help="simulated seconds before a danger no move removed is searched again (at the first update of W "
+            "after that, while it stays risky)",
         )
         parser.add_argument(
             "--dispatch",
@@ -93,6 +98,7 @@ class Action(Agent):
         self.names = count(1)
         self.rpc_ms = self.sim_ms = 0.0
         self.pending: set[tuple[int, int]] = set()
+        self.unsaved: set[tuple[int, int]] = set()  # risky intentions (person, target) no move removed yet
         self.tried: list[Verdict] = []  # the moves the last search judged, for its log line
         self.judging = JUDGING  # wall seconds per candidate judged, measured by every search
         self.clock: tuple[float, float] | None = None  # (simulated, wall) seconds of the first odometry this trial
@@ -108,7 +114,7 @@ class Action(Agent):
                 self.pending.add((e.src, e.dst))
             elif e.type == WORLD and "episode" in e.attrs:
                 self.new_episode = True
-        if not self.pending and not self.new_episode:
+        if not self.pending and not self.unsaved and not self.new_episode:
             return
         self.new_episode = False
         ctx = read_context(self.g)
@@ -116,9 +122,11 @@ class Action(Agent):
             return
         if ctx.episode != self.episode:
             self._clear(ctx.episode)
-        landed = [self.g.find_edge(src, dst, HAS_INTENTION) for src, dst in self.pending]
+        landed = [self.g.find_edge(src, dst, HAS_INTENTION) for src, dst in self.pending | self.unsaved]
         self.pending.clear()
-        dangers = self._dangers(ctx, [e for e in landed if e is not None and e.get("risky")])
+        risky = [e for e in landed if e is not None and e.get("risky")]
+        self.unsaved &= {(e.src, e.dst) for e in risky}
+        dangers = self._dangers(ctx, risky)
         if not dangers:
             return
         started = time.perf_counter()
@@ -128,20 +136,20 @@ class Action(Agent):
         if current is not None:
             kept = await self._search(ctx, spec, 1.0, [self._move_of(current)])
             if kept is not None and kept.verdicts[0].safe(self.args.risk_threshold):
+                self._settled(ctx, dangers, set(dangers))
                 return  # the move under way still keeps everyone safe
         idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
         self.tried = []
-        chosen, unsaved = await self._find(ctx, spec, idle_risk), ""
+        chosen, saved = await self._find(ctx, spec, idle_risk), set(dangers)
         if chosen is None and len(spec.dangers) > 1:
             for d in sorted(spec.dangers, key=lambda d: d.time_to_collision):
                 alone = replace(spec, dangers=(d,))
-                chosen = await self._find(ctx, alone, dangers[d.person][0].get("probability", 1.0))
+                chosen, saved = await self._find(ctx, alone, dangers[d.person][0].get("probability", 1.0)), {d.person}
                 if chosen is not None:
-                    unsaved = ", ".join(sorted(p for p in dangers if p != d.person))
                     break
         if chosen is None:
-            for person in dangers:
-                self.failed[ctx.ids[person]] = ctx.scene.time
+            # With no candidate in reach now, none will be later: wait for the danger's next update.
+            self._settled(ctx, dangers, set(), again=bool(self.tried))
             self.log.warning(
                 "no move removes the danger",
                 people=sorted(dangers),
@@ -150,7 +158,22 @@ class Action(Agent):
                 why=sorted({v.reason for v in self.tried})[:4],
             )
             return
-        self._write(ctx, chosen, dangers, current, unsaved, started)
+        self._settled(ctx, dangers, saved)
+        self._write(ctx, chosen, dangers, current, ", ".join(sorted(set(dangers) - saved)), started)
+
+    def _settled(
+        self, ctx: Context, dangers: dict[str, tuple[Edge, Danger]], saved: set[str], again: bool = True
+    ) -> None:
+        """After a search: the dangers of ``saved`` people are settled; the others are searched again ``--retry``
+        later (``again``), or at their next update."""
+        for person, (edge, _) in dangers.items():
+            key = (edge.src, edge.dst)
+            if person in saved or not again:
+                self.unsaved.discard(key)
+            else:
+                self.unsaved.add(key)
+            if person not in saved:
+                self.failed[edge.src] = ctx.scene.time
 
     # -- reading W -----------------------------------------------------------------------------
     def _clear(self, episode: int) -> None:
@@ -160,6 +183,7 @@ class Action(Agent):
                 self.g.delete_node(node.id)
         self.episode = episode
         self.failed.clear()
+        self.unsaved.clear()
         self.clock = None
 
     def _dangers(self, ctx: Context, risky: list[Edge]) -> dict[str, tuple[Edge, Danger]]:

@@ -18,6 +18,13 @@ def add_command(commands: Any) -> None:
     p.add_argument("--trials", type=int, default=180, help="randomised trials (default: %(default)s)")
     p.add_argument("--seed", type=int, default=2024, help="seed of the trial sampler (default: %(default)s)")
     p.add_argument(
+        "--only",
+        type=_indices,
+        metavar="K[,K...]",
+        help="run only these trials of the seed's sequence (trial K is the same trial, sensor noise included, "
+        "as in a run of more than K trials), e.g. to re-run the ones an earlier run lost",
+    )
+    p.add_argument(
         "--rate",
         type=float,
         default=2.0,
@@ -31,6 +38,16 @@ def add_command(commands: Any) -> None:
         type=Path,
         help="an earlier run's JSON: the trial figure then shows a trial saved now that collided there",
     )
+
+
+def _indices(text: str) -> list[int]:
+    try:
+        indices = [int(k) for k in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected trial numbers separated by commas, got {text!r}") from None
+    if not indices or min(indices) < 0:
+        raise argparse.ArgumentTypeError(f"expected trial numbers of 0 or more, got {text!r}")
+    return indices
 
 
 def main(args: argparse.Namespace) -> int:
@@ -61,6 +78,7 @@ def main(args: argparse.Namespace) -> int:
             figures=args.figures,
             logdir=args.logs,
             compare=args.compare,
+            only=args.only,
         )
     except (ScenarioError, LaunchError, TrialError) as exc:
         print(f"wm experiment: error: {exc}", file=sys.stderr)

@@ -329,15 +329,19 @@ def experiment(
     logdir: Path | None = None,
     nominal: bool = False,
     compare: Path | None = None,
+    only: list[int] | None = None,
 ) -> dict[str, Any]:
-    """Start the stack, run the trials, print Table I, write the JSON and figures; returns the results."""
+    """Start the stack, run the trials, print Table I, write the JSON and figures; returns the results.
+
+    ``only`` runs those trials of the seed's sequence instead of the first ``trials``.
+    """
     from . import figures as figs
 
     console = console or Console()
     scenario = load_scenario(scenario_path)
     graph = f"exp{int(time.time() * 1000) % 10_000_000}"
     logs = logdir or Path(tempfile.mkdtemp(prefix="wm-experiment-"))
-    indices: list[int | None] = [None] if nominal else list(range(trials))
+    indices: list[int | None] = [None] if nominal else list(only if only is not None else range(trials))
     started = time.monotonic()
     with Stack(graph, scenario_path, logs, rate=rate) as stack:
         console.print(
