@@ -19,8 +19,7 @@ asks the simulator to imagine the candidates, and writes the result:
   everyone safe is a new move searched, and the old one is marked ``superseded``;
 * a danger no move removed is searched again ``--retry`` seconds later, at the
   first update of W after that, from the context then, for as long as it stays
-  risky and not yet due: perception's estimates sharpen, and a move may be found
-  in time;
+  risky and some candidate was in reach (:mod:`agents.caregiving.search_queue`);
 * a move is never sent unless every imagined walk with it is clear: the robot
   never causes a collision its imagination can see.
 
@@ -32,7 +31,6 @@ final pose, ``status: proposed``, ``in_time``, ``reason``), linked
 from __future__ import annotations
 
 import argparse
-import math
 import time
 from dataclasses import replace
 from itertools import count
@@ -51,6 +49,7 @@ from ..runtime import Agent, main, on
 from .context import Context, read_context
 from .names import HAS, HAS_INTENTION, INTENTION, KNOWS, ROBOT, WORLD
 from .risk_options import add_risk_arguments, size_error
+from .search_queue import SearchQueue
 
 LIVE = ("proposed", "active")
 #: Wall seconds one candidate move takes to judge in the simulator, until the first search has measured it.
@@ -97,13 +96,11 @@ class Action(Agent):
         self.episode: int | None = None
         self.names = count(1)
         self.rpc_ms = self.sim_ms = 0.0
-        self.pending: set[tuple[int, int]] = set()
-        self.unsaved: set[tuple[int, int]] = set()  # risky intentions (person, target) no move removed yet
+        self.queue = SearchQueue(self.args.retry)
         self.tried: list[Verdict] = []  # the moves the last search judged, for its log line
         self.judging = JUDGING  # wall seconds per candidate judged, measured by every search
         self.clock: tuple[float, float] | None = None  # (simulated, wall) seconds of the first odometry this trial
         self.new_episode = True
-        self.failed: dict[int, float] = {}
         self.log.info("acting", size_error=self.size_error)
 
     @on(kind=["edge_added", "edge_updated", "node_added", "node_updated"], type=[HAS_INTENTION, WORLD], coalesce=True)
@@ -111,10 +108,10 @@ class Action(Agent):
         """Protect every person whose risky intention landed since the last search."""
         for e in events:
             if e.type == HAS_INTENTION and e.src is not None and e.dst is not None:
-                self.pending.add((e.src, e.dst))
+                self.queue.land((e.src, e.dst))
             elif e.type == WORLD and "episode" in e.attrs:
                 self.new_episode = True
-        if not self.pending and not self.unsaved and not self.new_episode:
+        if not self.queue.waiting and not self.new_episode:
             return
         self.new_episode = False
         ctx = read_context(self.g)
@@ -122,10 +119,9 @@ class Action(Agent):
             return
         if ctx.episode != self.episode:
             self._clear(ctx.episode)
-        landed = [self.g.find_edge(src, dst, HAS_INTENTION) for src, dst in self.pending | self.unsaved]
-        self.pending.clear()
+        landed = [self.g.find_edge(src, dst, HAS_INTENTION) for src, dst in self.queue.take()]
         risky = [e for e in landed if e is not None and e.get("risky")]
-        self.unsaved &= {(e.src, e.dst) for e in risky}
+        self.queue.still_risky({(e.src, e.dst) for e in risky})
         dangers = self._dangers(ctx, risky)
         if not dangers:
             return
@@ -148,8 +144,7 @@ class Action(Agent):
                 if chosen is not None:
                     break
         if chosen is None:
-            # With no candidate in reach now, none will be later: wait for the danger's next update.
-            self._settled(ctx, dangers, set(), again=bool(self.tried))
+            self._settled(ctx, dangers, set())
             self.log.warning(
                 "no move removes the danger",
                 people=sorted(dangers),
@@ -161,19 +156,13 @@ class Action(Agent):
         self._settled(ctx, dangers, saved)
         self._write(ctx, chosen, dangers, current, ", ".join(sorted(set(dangers) - saved)), started)
 
-    def _settled(
-        self, ctx: Context, dangers: dict[str, tuple[Edge, Danger]], saved: set[str], again: bool = True
-    ) -> None:
-        """After a search: the dangers of ``saved`` people are settled; the others are searched again ``--retry``
-        later (``again``), or at their next update."""
+    def _settled(self, ctx: Context, dangers: dict[str, tuple[Edge, Danger]], saved: set[str]) -> None:
+        """After a search: the dangers of ``saved`` people are settled, the others queued to be searched again."""
         for person, (edge, _) in dangers.items():
-            key = (edge.src, edge.dst)
-            if person in saved or not again:
-                self.unsaved.discard(key)
+            if person in saved:
+                self.queue.saved((edge.src, edge.dst))
             else:
-                self.unsaved.add(key)
-            if person not in saved:
-                self.failed[edge.src] = ctx.scene.time
+                self.queue.failed((edge.src, edge.dst), ctx.scene.time, candidates=bool(self.tried))
 
     # -- reading W -----------------------------------------------------------------------------
     def _clear(self, episode: int) -> None:
@@ -182,8 +171,7 @@ class Action(Agent):
             for node in self.g.nodes(INTENTION):
                 self.g.delete_node(node.id)
         self.episode = episode
-        self.failed.clear()
-        self.unsaved.clear()
+        self.queue.clear()
         self.clock = None
 
     def _dangers(self, ctx: Context, risky: list[Edge]) -> dict[str, tuple[Edge, Danger]]:
@@ -193,8 +181,8 @@ class Action(Agent):
         for edge in risky:
             person, target, obstacle = names.get(edge.src), names.get(edge.dst), names.get(edge.get("collision_object"))
             ttc = edge.get("time_to_collision", 0.0) - max(ctx.scene.time - edge.get("at_time", ctx.scene.time), 0.0)
-            recent = ctx.scene.time - self.failed.get(edge.src, -math.inf) < self.args.retry
-            if person is None or target is None or obstacle is None or ttc <= 0.0 or recent:
+            due = self.queue.due((edge.src, edge.dst), ctx.scene.time)
+            if person is None or target is None or obstacle is None or ttc <= 0.0 or not due:
                 continue
             flat = edge.get("path", ())
             p = ctx.scene.person(person)
