@@ -41,6 +41,19 @@ def test_experiment_with_a_bad_scenario_file_fails_clearly(tmp_path: Path) -> No
     assert "wm experiment: error: people[0].speed" in result.stderr
 
 
+def test_experiment_with_bad_trial_numbers_fails_clearly() -> None:
+    result = subprocess.run(
+        [*WM, "experiment", "paper_experiment1", "--only", "3,x"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=REPO,
+    )
+    assert result.returncode == 2
+    assert "--only: expected trial numbers separated by commas, got '3,x'" in result.stderr
+
+
 def test_world_bridge_refuses_a_bad_scenario(tmp_path: Path) -> None:
     result = subprocess.run(
         [PYTHON, "-m", "bridges.world", "--scenario", str(tmp_path / "missing.yaml")],

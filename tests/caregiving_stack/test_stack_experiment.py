@@ -1,4 +1,4 @@
-"""``wm experiment`` end to end on a couple of trials: the table, the JSON keys and the figures."""
+"""``wm experiment`` end to end on a couple of chosen trials: the table, the JSON keys and the figures."""
 
 from __future__ import annotations
 
@@ -41,8 +41,8 @@ def test_short_experiment_writes_table_json_and_figures(tmp_path: Path) -> None:
             *WM,
             "experiment",
             "paper_experiment1",
-            "--trials",
-            "2",
+            "--only",
+            "1,0",
             "--seed",
             "7",
             "--rate",
@@ -64,6 +64,6 @@ def test_short_experiment_writes_table_json_and_figures(tmp_path: Path) -> None:
     assert "Experiment 1 (Table I)" in result.stdout and "747.0 ms" in result.stdout
     data = json.loads(out.read_text())
     assert KEYS <= data.keys()
-    assert data["trials"] == 2 and len(data["per_trial"]) == 2
+    assert data["trials"] == 2 and [t["index"] for t in data["per_trial"]] == [1, 0]
     assert data["sensor_noise"] is True and data["paper"]["precision"] == 0.61
     assert (figures / "reaction_times.png").stat().st_size > 0
