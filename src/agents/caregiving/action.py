@@ -17,9 +17,6 @@ asks the simulator to imagine the candidates, and writes the result:
 * while a move is under way, a new risky intention first re-imagines that move
   from the robot's current state, speed included; only if it no longer keeps
   everyone safe is a new move searched, and the old one is marked ``superseded``;
-* a danger no move removed is searched again ``--retry`` seconds later, at the
-  first update of W after that, from the context then, for as long as it stays
-  risky and some candidate was in reach (:mod:`agents.caregiving.search_queue`);
 * a move is never sent unless every imagined walk with it is clear: the robot
   never causes a collision its imagination can see.
 
@@ -31,6 +28,7 @@ final pose, ``status: proposed``, ``in_time``, ``reason``), linked
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from dataclasses import replace
 from itertools import count
@@ -49,7 +47,6 @@ from ..runtime import Agent, main, on
 from .context import Context, read_context
 from .names import HAS, HAS_INTENTION, INTENTION, KNOWS, ROBOT, WORLD
 from .risk_options import add_risk_arguments, size_error
-from .search_queue import SearchQueue
 
 LIVE = ("proposed", "active")
 #: Wall seconds one candidate move takes to judge in the simulator, until the first search has measured it.
@@ -80,9 +77,8 @@ class Action(Agent):
         parser.add_argument(
             "--retry",
             type=float,
-            default=0.1,
-            help="simulated seconds before a danger no move removed is searched again (at the first update of W "
-            "after that, while it stays risky)",
+            default=0.5,
+            help="simulated seconds before a danger no move removed is searched again (at its next update after that)",
         )
         parser.add_argument(
             "--dispatch",
@@ -96,11 +92,12 @@ class Action(Agent):
         self.episode: int | None = None
         self.names = count(1)
         self.rpc_ms = self.sim_ms = 0.0
-        self.queue = SearchQueue(self.args.retry)
+        self.pending: set[tuple[int, int]] = set()
         self.tried: list[Verdict] = []  # the moves the last search judged, for its log line
         self.judging = JUDGING  # wall seconds per candidate judged, measured by every search
         self.clock: tuple[float, float] | None = None  # (simulated, wall) seconds of the first odometry this trial
         self.new_episode = True
+        self.failed: dict[int, float] = {}
         self.log.info("acting", size_error=self.size_error)
 
     @on(kind=["edge_added", "edge_updated", "node_added", "node_updated"], type=[HAS_INTENTION, WORLD], coalesce=True)
@@ -108,10 +105,10 @@ class Action(Agent):
         """Protect every person whose risky intention landed since the last search."""
         for e in events:
             if e.type == HAS_INTENTION and e.src is not None and e.dst is not None:
-                self.queue.land((e.src, e.dst))
+                self.pending.add((e.src, e.dst))
             elif e.type == WORLD and "episode" in e.attrs:
                 self.new_episode = True
-        if not self.queue.waiting and not self.new_episode:
+        if not self.pending and not self.new_episode:
             return
         self.new_episode = False
         ctx = read_context(self.g)
@@ -119,10 +116,9 @@ class Action(Agent):
             return
         if ctx.episode != self.episode:
             self._clear(ctx.episode)
-        landed = [self.g.find_edge(src, dst, HAS_INTENTION) for src, dst in self.queue.take()]
-        risky = [e for e in landed if e is not None and e.get("risky")]
-        self.queue.still_risky({(e.src, e.dst) for e in risky})
-        dangers = self._dangers(ctx, risky)
+        landed = [self.g.find_edge(src, dst, HAS_INTENTION) for src, dst in self.pending]
+        self.pending.clear()
+        dangers = self._dangers(ctx, [e for e in landed if e is not None and e.get("risky")])
         if not dangers:
             return
         started = time.perf_counter()
@@ -132,19 +128,20 @@ class Action(Agent):
         if current is not None:
             kept = await self._search(ctx, spec, 1.0, [self._move_of(current)])
             if kept is not None and kept.verdicts[0].safe(self.args.risk_threshold):
-                self._settled(ctx, dangers, set(dangers))
                 return  # the move under way still keeps everyone safe
         idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
         self.tried = []
-        chosen, saved = await self._find(ctx, spec, idle_risk), set(dangers)
+        chosen, unsaved = await self._find(ctx, spec, idle_risk), ""
         if chosen is None and len(spec.dangers) > 1:
             for d in sorted(spec.dangers, key=lambda d: d.time_to_collision):
                 alone = replace(spec, dangers=(d,))
-                chosen, saved = await self._find(ctx, alone, dangers[d.person][0].get("probability", 1.0)), {d.person}
+                chosen = await self._find(ctx, alone, dangers[d.person][0].get("probability", 1.0))
                 if chosen is not None:
+                    unsaved = ", ".join(sorted(p for p in dangers if p != d.person))
                     break
         if chosen is None:
-            self._settled(ctx, dangers, set())
+            for person in dangers:
+                self.failed[ctx.ids[person]] = ctx.scene.time
             self.log.warning(
                 "no move removes the danger",
                 people=sorted(dangers),
@@ -153,16 +150,7 @@ class Action(Agent):
                 why=sorted({v.reason for v in self.tried})[:4],
             )
             return
-        self._settled(ctx, dangers, saved)
-        self._write(ctx, chosen, dangers, current, ", ".join(sorted(set(dangers) - saved)), started)
-
-    def _settled(self, ctx: Context, dangers: dict[str, tuple[Edge, Danger]], saved: set[str]) -> None:
-        """After a search: the dangers of ``saved`` people are settled, the others queued to be searched again."""
-        for person, (edge, _) in dangers.items():
-            if person in saved:
-                self.queue.saved((edge.src, edge.dst))
-            else:
-                self.queue.failed((edge.src, edge.dst), ctx.scene.time, candidates=bool(self.tried))
+        self._write(ctx, chosen, dangers, current, unsaved, started)
 
     # -- reading W -----------------------------------------------------------------------------
     def _clear(self, episode: int) -> None:
@@ -171,7 +159,7 @@ class Action(Agent):
             for node in self.g.nodes(INTENTION):
                 self.g.delete_node(node.id)
         self.episode = episode
-        self.queue.clear()
+        self.failed.clear()
         self.clock = None
 
     def _dangers(self, ctx: Context, risky: list[Edge]) -> dict[str, tuple[Edge, Danger]]:
@@ -181,8 +169,8 @@ class Action(Agent):
         for edge in risky:
             person, target, obstacle = names.get(edge.src), names.get(edge.dst), names.get(edge.get("collision_object"))
             ttc = edge.get("time_to_collision", 0.0) - max(ctx.scene.time - edge.get("at_time", ctx.scene.time), 0.0)
-            due = self.queue.due((edge.src, edge.dst), ctx.scene.time)
-            if person is None or target is None or obstacle is None or ttc <= 0.0 or not due:
+            recent = ctx.scene.time - self.failed.get(edge.src, -math.inf) < self.args.retry
+            if person is None or target is None or obstacle is None or ttc <= 0.0 or recent:
                 continue
             flat = edge.get("path", ())
             p = ctx.scene.person(person)
