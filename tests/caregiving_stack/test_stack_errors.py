@@ -26,30 +26,20 @@ randomisation: {}
 """
 
 
+def wm_experiment(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([*WM, "experiment", *args], check=False, capture_output=True, text=True, timeout=60, cwd=REPO)
+
+
 def test_experiment_with_a_bad_scenario_file_fails_clearly(tmp_path: Path) -> None:
     bad = tmp_path / "broken.yaml"
     bad.write_text(BROKEN)
-    result = subprocess.run(
-        [*WM, "experiment", str(bad), "--trials", "1"],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=60,
-        cwd=REPO,
-    )
+    result = wm_experiment(str(bad), "--trials", "1")
     assert result.returncode == 1
     assert "wm experiment: error: people[0].speed" in result.stderr
 
 
 def test_experiment_with_bad_trial_numbers_fails_clearly() -> None:
-    result = subprocess.run(
-        [*WM, "experiment", "paper_experiment1", "--only", "3,x"],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=60,
-        cwd=REPO,
-    )
+    result = wm_experiment("paper_experiment1", "--only", "3,x")
     assert result.returncode == 2
     assert "--only: expected trial numbers separated by commas, got '3,x'" in result.stderr
 
