@@ -15,15 +15,16 @@ def add_command(commands: Any) -> None:
     """Add ``experiment`` to the ``wm`` subcommands."""
     p = commands.add_parser("experiment", help="Experiment 1 of the caregiving paper over the full multi-process stack")
     p.add_argument("scenario", help="scenario file or shipped scenario name, e.g. paper_experiment1")
-    p.add_argument("--trials", type=int, default=180, help="randomised trials (default: %(default)s)")
-    p.add_argument("--seed", type=int, default=2024, help="seed of the trial sampler (default: %(default)s)")
-    p.add_argument(
+    which = p.add_mutually_exclusive_group()
+    which.add_argument("--trials", type=int, default=180, help="randomised trials (default: %(default)s)")
+    which.add_argument(
         "--only",
         type=_indices,
         metavar="K[,K...]",
         help="run only these trials of the seed's sequence (trial K is the same trial, sensor noise included, "
         "as in a run of more than K trials), e.g. to re-run the ones an earlier run lost",
     )
+    p.add_argument("--seed", type=int, default=2024, help="seed of the trial sampler (default: %(default)s)")
     p.add_argument(
         "--rate",
         type=float,
@@ -45,7 +46,7 @@ def _indices(text: str) -> list[int]:
         indices = [int(k) for k in text.split(",")]
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected trial numbers separated by commas, got {text!r}") from None
-    if not indices or min(indices) < 0:
+    if min(indices) < 0:
         raise argparse.ArgumentTypeError(f"expected trial numbers of 0 or more, got {text!r}")
     return indices
 
