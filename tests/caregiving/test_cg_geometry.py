@@ -11,13 +11,17 @@ from hypothesis import strategies as st
 from agents.caregiving.model.geometry import (
     Box,
     Circle,
+    Polyline,
     aabb,
     as_points,
     bounding_radius,
     closest_boundary_point,
     corners,
     displacement,
+    grid_distance,
+    moved_more_than,
     point_distance,
+    polyline_distance,
     polyline_length,
     resample_by_distance,
     shapes_overlap,
@@ -104,3 +108,55 @@ def test_a_box_turning_in_place_is_displaced_by_its_corners() -> None:
     assert displacement(box, replace(box, theta=math.pi / 2)) == pytest.approx(math.hypot(0.45, 0.05))
     assert displacement(box, replace(box, x=1.1)) == pytest.approx(0.1)
     assert displacement(Circle(0.0, 0.0, 0.3), Circle(0.3, 0.4, 0.3)) == pytest.approx(0.5)
+
+
+_coord = st.floats(-3, 3)
+
+
+@settings(max_examples=200, deadline=None)
+@given(_coord, _coord, st.floats(0, math.pi), _coord, _coord, st.floats(0, math.pi), st.floats(0, 1))
+def test_moved_more_than_agrees_with_displacement(
+    x0: float, y0: float, t0: float, x1: float, y1: float, t1: float, d: float
+) -> None:
+    before, after = Box(x0, y0, 0.3, 0.2, t0), Box(x0 + x1 / 10, y0 + y1 / 10, 0.3, 0.2, t1)
+    moved = displacement(before, after)
+    if abs(moved - d) > 1e-12:  # the corners' rounding may differ from the centre's at the boundary itself
+        assert moved_more_than(before, after, d) == (moved > d)
+    assert moved_more_than(Circle(x0, y0, 0.2), Circle(x1, y1, 0.2), d) == (math.hypot(x1 - x0, y1 - y0) > d)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.tuples(_coord, _coord), min_size=1, max_size=5), _coord, _coord)
+def test_polyline_distance_is_the_nearest_point_of_the_path(
+    points: list[tuple[float, float]], x: float, y: float
+) -> None:
+    line = Polyline.of(points)
+    dense = line.resampled(np.linspace(0.0, line.length, 4001))
+    nearest = float(np.hypot(*(dense - (x, y)).T).min())
+    got = polyline_distance(line.points, x, y)
+    assert got <= nearest + 1e-9  # a lower bound on every sampled point, as the replan test needs
+    assert got == pytest.approx(nearest, abs=line.length / 4000 + 1e-9)
+
+
+@pytest.mark.parametrize("shape", [Box(0.13, -0.4, 0.5, 0.21, 0.7), Circle(-0.2, 0.35, 0.42)])
+def test_grid_distance_is_signed_distance_bit_for_bit(shape: Box | Circle) -> None:
+    xs, ys = np.linspace(-1.0, 1.0, 41), np.linspace(-0.8, 1.2, 37)
+    points = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1).reshape(-1, 2)
+    assert np.array_equal(grid_distance(shape, xs, ys), signed_distance(shape, points).reshape(41, 37))
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.tuples(_coord, _coord), min_size=1, max_size=5), st.floats(-1, 12))
+def test_point_at_is_resampled_bit_for_bit_on_each_segment(points: list[tuple[float, float]], distance: float) -> None:
+    line = Polyline.of(points)
+    cum, pts = line.cumulative, line.points
+    if len(pts) == 1 or distance <= 0.0 or distance >= cum[-1]:
+        end = pts[0] if len(pts) == 1 or distance <= 0.0 else pts[-1]
+        assert line.point_at(distance) == (end[0], end[1])
+        return
+    k = int(np.searchsorted(cum, distance, side="right")) - 1
+    t = (distance - cum[k]) / (cum[k + 1] - cum[k])
+    assert line.point_at(distance) == (
+        pts[k, 0] + t * (pts[k + 1, 0] - pts[k, 0]),
+        pts[k, 1] + t * (pts[k + 1, 1] - pts[k, 1]),
+    )

@@ -8,8 +8,10 @@ Signed distances are negative inside a shape.
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -68,6 +70,20 @@ def signed_distance(shape: Shape, points: ArrayLike) -> FloatArray:
     return outside + inside
 
 
+def grid_distance(shape: Shape, xs: FloatArray, ys: FloatArray) -> FloatArray:
+    """:func:`signed_distance` at every ``(xs[i], ys[j])`` of a grid, as an ``(len(xs), len(ys))`` array.
+
+    The same arithmetic as :func:`signed_distance` on the grid's points, by broadcasting the two axes.
+    """
+    dx, dy = (xs - shape.x)[:, None], (ys - shape.y)[None, :]
+    if isinstance(shape, Circle):
+        return np.hypot(dx, dy) - shape.r
+    c, s = math.cos(shape.theta), math.sin(shape.theta)
+    qx = np.abs(c * dx + s * dy) - shape.hx
+    qy = np.abs(-s * dx + c * dy) - shape.hy
+    return np.hypot(np.maximum(qx, 0.0), np.maximum(qy, 0.0)) + np.minimum(np.maximum(qx, qy), 0.0)
+
+
 def point_distance(shape: Shape, x: float, y: float) -> float:
     """:func:`signed_distance` of one point, in plain floats (for the many single-point queries)."""
     if isinstance(shape, Circle):
@@ -121,6 +137,33 @@ def displacement(before: Shape, after: Shape) -> float:
     if isinstance(before, Box) and isinstance(after, Box):
         return max(math.dist(a, b) for a, b in zip(corner_points(before), corner_points(after), strict=True))
     return math.hypot(after.x - before.x, after.y - before.y)
+
+
+def moved_more_than(before: Shape, after: Shape, distance: float) -> bool:
+    """``displacement(before, after) > distance``, without the corners when the centre alone moved farther.
+
+    Two opposite corners of a box move by ``t + v`` and ``t - v`` (``t`` the centre's shift), and one of
+    them moves at least ``|t|``: so a centre shift beyond ``distance`` settles it.
+    """
+    if math.hypot(after.x - before.x, after.y - before.y) > distance:
+        return True
+    return displacement(before, after) > distance
+
+
+def polyline_distance(points: FloatArray, x: float, y: float) -> float:
+    """Distance from ``(x, y)`` to the nearest point of the polyline through ``points`` (an ``(N, 2)`` array)."""
+    best = math.inf
+    pts = points.tolist()
+    ax, ay = pts[0]
+    if len(pts) == 1:
+        return math.hypot(x - ax, y - ay)
+    for bx, by in pts[1:]:
+        dx, dy = bx - ax, by - ay
+        norm = dx * dx + dy * dy
+        t = 0.0 if norm == 0.0 else min(max(((x - ax) * dx + (y - ay) * dy) / norm, 0.0), 1.0)
+        best = min(best, math.hypot(x - ax - t * dx, y - ay - t * dy))
+        ax, ay = bx, by
+    return best
 
 
 def bounding_radius(shape: Shape) -> float:
@@ -198,21 +241,27 @@ class Polyline:
         seg = np.hypot(*np.diff(pts, axis=0).T) if len(pts) > 1 else np.zeros(0)
         return cls(pts, np.concatenate(([0.0], np.cumsum(seg))))
 
-    @property
+    @cached_property
     def length(self) -> float:
         """Total arc length."""
         return float(self.cumulative[-1])
 
+    @cached_property
+    def _plain(self) -> tuple[list[float], list[list[float]]]:
+        """The cumulative lengths and the points as plain lists, for :meth:`point_at`'s scalar arithmetic."""
+        return self.cumulative.tolist(), self.points.tolist()
+
     def point_at(self, distance: float) -> tuple[float, float]:
         """The point ``distance`` along the path (clamped to its ends), in plain floats."""
-        cum, pts = self.cumulative, self.points
+        cum, pts = self._plain
         if distance <= 0.0 or len(pts) == 1:
-            return float(pts[0, 0]), float(pts[0, 1])
+            return pts[0][0], pts[0][1]
         if distance >= cum[-1]:
-            return float(pts[-1, 0]), float(pts[-1, 1])
-        k = int(np.searchsorted(cum, distance, side="right")) - 1
+            return pts[-1][0], pts[-1][1]
+        k = bisect.bisect_right(cum, distance) - 1
         t = (distance - cum[k]) / (cum[k + 1] - cum[k])
-        return (float(pts[k, 0] + t * (pts[k + 1, 0] - pts[k, 0])), float(pts[k, 1] + t * (pts[k + 1, 1] - pts[k, 1])))
+        (ax, ay), (bx, by) = pts[k], pts[k + 1]
+        return ax + t * (bx - ax), ay + t * (by - ay)
 
     def resampled(self, distances: ArrayLike) -> FloatArray:
         """Points at the given arc-length distances along the path (clamped to its ends)."""

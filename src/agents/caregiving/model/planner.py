@@ -3,9 +3,9 @@
 The room is rasterised at 5 cm. Only the obstacles handed in are drawn, each
 inflated by the walker's radius plus a small safety margin; the inflated mask of
 every (obstacle, radius) pair is cached, so replanning after a gaze or pose change
-only ORs cached masks. Reachability is decided first with ``scipy.ndimage.label``
-(an unreachable goal costs a labelling, not an exhaustive search), then
-optimal A* (octile costs 70/99) runs from every goal cell to the start at once:
+only ORs cached masks. Optimal A* (octile costs 70/99) runs from every free goal
+cell to the start at once (an unreachable start costs one flood of the goals' side
+of the grid, which is rare, instead of a labelling of the grid on every plan):
 ``tcod.path.path2d``'s search, step for step, on a pathfinder whose buffers are
 reused (:class:`_AStar`). A plan depends only on the grid, the goals and the start
 (never on what was planned before): the world and the robot's imagination of it
@@ -21,6 +21,7 @@ about a third of their plans repeat one already made.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections import OrderedDict
 from collections.abc import Sequence
@@ -32,7 +33,7 @@ import tcod.path
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from .geometry import FloatArray, Shape, aabb, polyline_length, signed_distance
+from .geometry import FloatArray, Shape, aabb, grid_distance, polyline_length
 from .scene import Obstacle
 
 _EIGHT = np.ones((3, 3), dtype=bool)
@@ -106,6 +107,8 @@ class GridPlanner:
         self._rings: _Recent[tuple[Shape, float], NDArray[np.intp]] = _Recent(cache_size)
         self._plans: _Recent[tuple[object, ...], Plan] = _Recent(cache_size)
         self._astar_search = _AStar(self.shape)
+        self._origin = np.array(bounds[:2], dtype=np.float64)
+        self._last_cell = np.array(self.shape, dtype=np.intp) - 1
         self.cache_hits = 0
         self.cache_misses = 0
 
@@ -140,10 +143,9 @@ class GridPlanner:
         x0, y0, x1, y1 = aabb(shape)
         i0, j0 = self.cell_of(x0 - inflate, y0 - inflate)
         i1, j1 = self.cell_of(x1 + inflate, y1 + inflate)
-        ii, jj = np.meshgrid(np.arange(i0, i1 + 1), np.arange(j0, j1 + 1), indexing="ij")
-        pts = self.centres(np.stack((ii.ravel(), jj.ravel()), axis=1))
-        cells = (signed_distance(shape, pts) <= inflate).reshape(ii.shape)
-        mask = _Mask(i0, j0, cells)
+        xs = (np.arange(i0, i1 + 1, dtype=np.float64) + 0.5) * self.resolution + self.bounds[0]
+        ys = (np.arange(j0, j1 + 1, dtype=np.float64) + 0.5) * self.resolution + self.bounds[1]
+        mask = _Mask(i0, j0, grid_distance(shape, xs, ys) <= inflate)
         self._cache.put(key, mask)
         return mask
 
@@ -226,9 +228,7 @@ class GridPlanner:
         self, grid: NDArray[np.bool_], goals: NDArray[np.intp], start_cell: tuple[int, int]
     ) -> NDArray[np.integer] | None:
         """Cells after ``start_cell`` to the nearest goal (A* from every goal at once), None if unreachable."""
-        labels, _ = ndimage.label(~grid, structure=_EIGHT)
-        gi, gj = goals[:, 0], goals[:, 1]
-        goal_cells = goals[~grid[gi, gj] & (labels[gi, gj] == labels[start_cell])]
+        goal_cells = goals[~grid[goals[:, 0], goals[:, 1]]]
         if goal_cells.size == 0:
             return None
         return self._astar_search.path(grid, goal_cells, start_cell)
@@ -273,12 +273,20 @@ class GridPlanner:
         """For each end point, whether the segment from ``origin`` crosses only free cells."""
         seg = ends - origin
         n = int(math.ceil(float(np.hypot(seg[:, 0], seg[:, 1]).max()) / (self.resolution / 2))) + 1
-        t = np.linspace(0.0, 1.0, n)[int(skip_origin) :]  # the start itself may sit on a blocked cell
+        t = _fractions(n)[int(skip_origin) :]  # the start itself may sit on a blocked cell
         samples = origin + seg[:, None, :] * t[None, :, None]
-        idx = np.floor((samples - self.bounds[:2]) / self.resolution).astype(np.intp)
-        i = np.clip(idx[..., 0], 0, self.shape[0] - 1)
-        j = np.clip(idx[..., 1], 0, self.shape[1] - 1)
-        return ~grid[i, j].any(axis=1)
+        idx = np.floor((samples - self._origin) / self.resolution).astype(np.intp)
+        np.maximum(idx, 0, out=idx)
+        np.minimum(idx, self._last_cell, out=idx)
+        return ~grid[idx[..., 0], idx[..., 1]].any(axis=1)
+
+
+@functools.cache
+def _fractions(n: int) -> FloatArray:
+    """``np.linspace(0, 1, n)``, made once per ``n`` (read-only: every segment test shares it)."""
+    t = np.linspace(0.0, 1.0, n)
+    t.flags.writeable = False
+    return t
 
 
 class _AStar:

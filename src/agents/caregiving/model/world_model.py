@@ -29,7 +29,15 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .errors import CaregivingError
-from .geometry import Polyline, bounding_radius, closest_boundary_point, displacement, point_distance, signed_distance
+from .geometry import (
+    Polyline,
+    bounding_radius,
+    closest_boundary_point,
+    moved_more_than,
+    point_distance,
+    polyline_distance,
+    signed_distance,
+)
 from .planner import GridPlanner
 from .robot_moves import RobotMove, robot_fits
 from .rollout import DT
@@ -140,6 +148,7 @@ class World:
         self._fixed: tuple[Obstacle, ...] = ()
         self.robot_arrival: float | None = None
         self.robot_seen: dict[str, float] = {}
+        self._reach: dict[str, float] = {}  # each body's bounding radius by name (bodies move, never resize)
 
     @classmethod
     def from_scenario(cls, scenario: Scenario, dt: float = DT, planner: GridPlanner | None = None) -> World:
@@ -278,7 +287,7 @@ class World:
                 self.robot_seen.setdefault(w.state.name, self.time)
             if old is None:
                 changed = True
-            elif displacement(old.shape, o.shape) > REPLAN_SHIFT:
+            elif moved_more_than(old.shape, o.shape, REPLAN_SHIFT):
                 changed = changed or self._in_the_way(w, o)
             else:
                 continue
@@ -289,8 +298,13 @@ class World:
         """Whether ``body`` comes within :data:`REPLAN_SHIFT` of the walker's disc along the rest of their plan."""
         if w.route is None:
             return True
+        reach = w.state.radius + REPLAN_SHIFT
+        shape = body.shape
+        # Every point of the route is at least this far from the body: far enough settles it without sampling.
+        if polyline_distance(w.route.points, shape.x, shape.y) - bounding_radius(shape) >= reach + 1e-9:
+            return False
         ahead = w.route.remaining(w.walked, REPLAN_SHIFT)
-        return bool((signed_distance(body.shape, ahead) < w.state.radius + REPLAN_SHIFT).any())
+        return bool((signed_distance(shape, ahead) < reach).any())
 
     def _replan(self, w: _Walker) -> None:
         target = next(o for o in self._static if o.name == w.target)
@@ -315,16 +329,22 @@ class World:
         w.track.append((w.state.x, w.state.y))
         if w.walked >= length - 1e-9:
             w.status, w.arrival = "arrived", self.time + self.dt
-        self._check_contacts(w, [o for o in around if o.name != w.target])
+        self._check_contacts(w, around)
 
-    def _check_contacts(self, w: _Walker, bodies: list[Obstacle]) -> None:
-        x, y, radius = w.state.x, w.state.y, w.state.radius
+    def _check_contacts(self, w: _Walker, around: tuple[Obstacle, ...]) -> None:
+        """Record ``w``'s closest approach to anything ``around`` but their target, and a contact as a collision."""
+        x, y, radius, target = w.state.x, w.state.y, w.state.radius, w.target
         nearest, clear = None, w.min_clearance
-        for o in bodies:
+        for o in around:
+            if o.name == target:
+                continue
             shape = o.shape
+            reach = self._reach.get(o.name)
+            if reach is None:
+                reach = self._reach[o.name] = bounding_radius(shape)
             # A body whose bounding circle keeps it at least the closest approach so far away can neither be
             # the new closest nor touch (the closest approach stays positive while the walker walks).
-            if math.hypot(x - shape.x, y - shape.y) - bounding_radius(shape) - radius - 1e-9 >= clear:
+            if math.hypot(x - shape.x, y - shape.y) - reach - radius - 1e-9 >= clear:
                 continue
             c = point_distance(shape, x, y) - radius
             if c < clear:
@@ -406,7 +426,7 @@ class World:
             moving = o.kind in (ROBOT_KIND, PERSON_KIND)
             if old is not None and not moving:
                 continue
-            news = old is None or displacement(old.shape, o.shape) > REPLAN_SHIFT
+            news = old is None or moved_more_than(old.shape, o.shape, REPLAN_SHIFT)
             first_robot = o.kind == ROBOT_KIND and s.name not in self.robot_seen
             if not news and not first_robot:
                 continue
