@@ -80,6 +80,18 @@ def test_the_service_dispatches_wire_requests(scene: Scene) -> None:
     assert 1 <= len(found.verdicts) <= 6 and found.verdicts[-1] is found.chosen
 
 
+def test_a_joint_answer_samples_the_risk_only_when_every_walk_is_clear(scene: Scene) -> None:
+    walk = {"person": "person", "target": "couch", "gaze": GAZE}
+    uncertainty = {"samples": 16}
+    idle = serve_item(scene, {"kind": "joint", "walks": [walk], "move": None, "uncertainty": uncertainty})
+    assert idle.joint is not None and idle.joint.walks[0].collided and idle.risk is None
+    saving = serve_item(scene, {**SEARCH, "max_moves": 6}).search
+    assert saving is not None and saving.chosen is not None and saving.chosen.move is not None
+    item = {"kind": "joint", "walks": [walk], "move": saving.chosen.move.to_wire(), "uncertainty": uncertainty}
+    clear = serve_item(scene, {**item, "delay": 0.2})
+    assert clear.joint is not None and clear.joint.safe and clear.risk is not None
+
+
 DANGER = {
     "person": "person",
     "target": "couch",

@@ -19,7 +19,8 @@ joint) and :class:`~agents.caregiving.model.move_search.SearchItem`, which build
 forms and parse them back (:func:`item_from_wire`).
 Each item's answer is an :class:`~agents.caregiving.model.imagine_reply.Answer`
 (the reply and its wire form are :mod:`agents.caregiving.model.imagine_reply`);
-a joint answer's risk is the worst of its walks'.
+a joint answer's risk is the worst of its walks', sampled only when every walk is clear
+(a move whose nominal imagination fails is refused whatever the sampled risk).
 """
 
 from __future__ import annotations
@@ -65,7 +66,8 @@ def serve(scene: Scene, item: Item, rollout: Rollout | None = None, ahead: Judge
         return Answer(imagination=im, risk=collision_risk(scene, im, u) if u is not None else None)
     joint = imagine_joint(scene, item.walks, item.move, delay=item.delay, current=item.current)
     u = item.uncertainty
-    return Answer(joint=joint, risk=joint_risk(scene, joint, u) if u is not None else None)
+    # A move whose nominal imagination already fails is refused whatever the sampled risk: none is sampled.
+    return Answer(joint=joint, risk=joint_risk(scene, joint, u) if u is not None and joint.safe else None)
 
 
 def serve_item(scene: Scene, item: object, rollout: Rollout | None = None, ahead: JudgeAhead | None = None) -> Answer:
