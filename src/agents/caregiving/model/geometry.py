@@ -59,29 +59,25 @@ def _to_world(box: Box, local: FloatArray) -> FloatArray:
     return np.stack((c * local[:, 0] - s * local[:, 1] + box.x, s * local[:, 0] + c * local[:, 1] + box.y), axis=1)
 
 
-def signed_distance(shape: Shape, points: ArrayLike) -> FloatArray:
-    """Signed distance from each point to the shape's boundary (negative inside)."""
-    pts = as_points(points)
-    if isinstance(shape, Circle):
-        return np.hypot(pts[:, 0] - shape.x, pts[:, 1] - shape.y) - shape.r
-    local = np.abs(_to_local(shape, pts)) - (shape.hx, shape.hy)
-    outside = np.hypot(np.maximum(local[:, 0], 0.0), np.maximum(local[:, 1], 0.0))
-    inside = np.minimum(np.maximum(local[:, 0], local[:, 1]), 0.0)
-    return outside + inside
-
-
-def grid_distance(shape: Shape, xs: FloatArray, ys: FloatArray) -> FloatArray:
-    """:func:`signed_distance` at every ``(xs[i], ys[j])`` of a grid, as an ``(len(xs), len(ys))`` array.
-
-    The same arithmetic as :func:`signed_distance` on the grid's points, by broadcasting the two axes.
-    """
-    dx, dy = (xs - shape.x)[:, None], (ys - shape.y)[None, :]
+def _offset_distance(shape: Shape, dx: FloatArray, dy: FloatArray) -> FloatArray:
+    """Signed distance to the shape's boundary of the points offset ``(dx, dy)`` from its centre (broadcast)."""
     if isinstance(shape, Circle):
         return np.hypot(dx, dy) - shape.r
     c, s = math.cos(shape.theta), math.sin(shape.theta)
     qx = np.abs(c * dx + s * dy) - shape.hx
     qy = np.abs(-s * dx + c * dy) - shape.hy
     return np.hypot(np.maximum(qx, 0.0), np.maximum(qy, 0.0)) + np.minimum(np.maximum(qx, qy), 0.0)
+
+
+def signed_distance(shape: Shape, points: ArrayLike) -> FloatArray:
+    """Signed distance from each point to the shape's boundary (negative inside)."""
+    pts = as_points(points)
+    return _offset_distance(shape, pts[:, 0] - shape.x, pts[:, 1] - shape.y)
+
+
+def grid_distance(shape: Shape, xs: FloatArray, ys: FloatArray) -> FloatArray:
+    """:func:`signed_distance` at every ``(xs[i], ys[j])`` of a grid, as an ``(len(xs), len(ys))`` array."""
+    return _offset_distance(shape, (xs - shape.x)[:, None], (ys - shape.y)[None, :])
 
 
 def point_distance(shape: Shape, x: float, y: float) -> float:

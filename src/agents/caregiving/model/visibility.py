@@ -57,6 +57,12 @@ def elevation_span(person: PersonState, obstacle: Obstacle) -> tuple[float, floa
     return _elevations(person, obstacle, point_distance(obstacle.shape, person.x, person.y))
 
 
+def _gaze_window(person: PersonState, obstacle: Obstacle, inside: float) -> tuple[float, float]:
+    """The gaze pitches at which the object's elevation span meets the vertical field of view."""
+    low, high = _elevations(person, obstacle, inside)
+    return low - person.vfov / 2, high + person.vfov / 2
+
+
 def _elevations(person: PersonState, obstacle: Obstacle, inside: float) -> tuple[float, float]:
     """:func:`elevation_span`, given the person's signed distance to the footprint."""
     near = max(inside, 1e-3)
@@ -74,8 +80,7 @@ def gaze_interval(person: PersonState, obstacle: Obstacle) -> tuple[float, float
     inside = point_distance(obstacle.shape, person.x, person.y)
     if not _in_cone(person, obstacle.shape, inside):
         return None
-    low, high = _elevations(person, obstacle, inside)
-    return low - person.vfov / 2, high + person.vfov / 2
+    return _gaze_window(person, obstacle, inside)
 
 
 def can_see(person: PersonState, obstacle: Obstacle, gaze: float) -> bool:
@@ -87,10 +92,8 @@ def can_see(person: PersonState, obstacle: Obstacle, gaze: float) -> bool:
     if obstacle.kind == WALL_KIND:
         return True
     inside = point_distance(obstacle.shape, person.x, person.y)
-    low, high = _elevations(person, obstacle, inside)
-    if not low - person.vfov / 2 <= gaze <= high + person.vfov / 2:
-        return False
-    return _in_cone(person, obstacle.shape, inside)
+    low, high = _gaze_window(person, obstacle, inside)
+    return low <= gaze <= high and _in_cone(person, obstacle.shape, inside)
 
 
 def _wrap_all(angles: FloatArray) -> FloatArray:

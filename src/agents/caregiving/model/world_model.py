@@ -148,7 +148,6 @@ class World:
         self._fixed: tuple[Obstacle, ...] = ()
         self.robot_arrival: float | None = None
         self.robot_seen: dict[str, float] = {}
-        self._reach: dict[str, float] = {}  # each body's bounding radius by name (bodies move, never resize)
 
     @classmethod
     def from_scenario(cls, scenario: Scenario, dt: float = DT, planner: GridPlanner | None = None) -> World:
@@ -339,12 +338,9 @@ class World:
             if o.name == target:
                 continue
             shape = o.shape
-            reach = self._reach.get(o.name)
-            if reach is None:
-                reach = self._reach[o.name] = bounding_radius(shape)
             # A body whose bounding circle keeps it at least the closest approach so far away can neither be
             # the new closest nor touch (the closest approach stays positive while the walker walks).
-            if math.hypot(x - shape.x, y - shape.y) - reach - radius - 1e-9 >= clear:
+            if math.hypot(x - shape.x, y - shape.y) - bounding_radius(shape) - radius - 1e-9 >= clear:
                 continue
             c = point_distance(shape, x, y) - radius
             if c < clear:
