@@ -119,3 +119,16 @@ def test_a_move_under_way_goes_on_along_the_route_the_robot_reports(paper: Scena
     kept = imagine_joint(scene, [Walk("person", paper.people[0].target, GAZE)], move, delay=0.3, current=move)
     assert going_on.robot_arrival is not None and kept.robot_arrival is not None
     assert kept.robot_arrival == pytest.approx(going_on.robot_arrival - 1.0, abs=0.051)
+
+
+def test_until_first_fall_ends_at_the_first_fall_with_the_same_verdict() -> None:
+    """The imagination a search asks for ends when someone falls: here the person, before the visitor is through."""
+    scene = load_scenario("two_people_two_obstacles").scene()
+    walks = [Walk("person", "couch", GAZE), Walk("visitor", "door", GAZE)]
+    whole = imagine_joint(scene, walks, None)
+    short = imagine_joint(scene, walks, None, until_first_fall=True)
+    assert [w.status for w in whole.walks] == ["collided", "arrived"]
+    assert [w.status for w in short.walks] == ["collided", "walking"]
+    assert short.walks[0] == whole.walks[0]
+    assert len(short.walks[1].track) < len(whole.walks[1].track)
+    assert not short.safe and not whole.safe

@@ -70,22 +70,28 @@ class PersonItem:
 
 @dataclass(frozen=True)
 class JointItem:
-    """Imagine ``move`` in time with ``walks``, after ``delay`` seconds more of the ``current`` move (if any)."""
+    """Imagine ``move`` in time with ``walks``, after ``delay`` seconds more of the ``current`` move (if any).
+
+    With ``until_first_fall`` the imagination ends when the first person falls (a search needs no more
+    to refuse the move): the others' walks are then reported as still ``walking``.
+    """
 
     walks: tuple[Walk, ...]
     move: RobotMove | None
     current: RobotMove | None = None
     delay: float = 0.0
     uncertainty: Uncertainty | None = None
+    until_first_fall: bool = False
 
     def to_wire(self) -> dict[str, Any]:
-        """``{"kind": "joint", "walks", "move", "current", "delay", "uncertainty"?}``."""
+        """``{"kind": "joint", "walks", "move", "current", "delay", "until_first_fall", "uncertainty"?}``."""
         out: dict[str, Any] = {
             "kind": "joint",
             "walks": [walk_to_wire(w) for w in self.walks],
             "move": self.move.to_wire() if self.move else None,
             "current": self.current.to_wire() if self.current else None,
             "delay": self.delay,
+            "until_first_fall": self.until_first_fall,
         }
         if self.uncertainty is not None:
             out["uncertainty"] = uncertainty_to_wire(self.uncertainty)
@@ -104,4 +110,5 @@ class JointItem:
             RobotMove.optional_from(f, "current"),
             f.number("delay", 0.0, non_negative=True, at_most=MAX_DELAY),
             uncertainty,
+            f.boolean("until_first_fall", False),
         )

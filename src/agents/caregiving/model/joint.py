@@ -171,8 +171,12 @@ def imagine_joint(
     current: RobotMove | None = None,
     horizon: float = HORIZON,
     planner: GridPlanner | None = None,
+    until_first_fall: bool = False,
 ) -> JointImagination:
-    """Step the robot's move and the people's walks together, as the world would, and report how they end."""
+    """Step the robot's move and the people's walks together, as the world would, and report how they end.
+
+    With ``until_first_fall``, stop at the first person who falls; whoever still walks then is ``walking``.
+    """
     if scene.robot is None:
         raise RequestError("the scene has no robot")
     for w in walks:
@@ -182,10 +186,10 @@ def imagine_joint(
     start = scene.time
     if current is not None:
         world.resume_robot(current)
-    world.advance(start + delay)
+    world.advance(start + delay, until_first_fall)
     reachable = True if current is not None and move == current else world.command_robot(move)
     if reachable or move is None:
-        world.advance(start + horizon)
+        world.advance(start + horizon, until_first_fall)
     arrival = world.robot_arrival - start if move is not None and world.robot_arrival is not None else None
     return JointImagination(move, reachable, arrival, tuple(_outcome(world, w, start) for w in walks))
 

@@ -218,8 +218,8 @@ class SearchSpec:
         return sets
 
     def items(self, move: RobotMove | None, uncertainty: Uncertainty) -> list[JointItem]:
-        """The simulator items that judge one move, one per walk set."""
-        return [JointItem(walks, move, self.current, self.delay, uncertainty) for walks in self.walk_sets()]
+        """The simulator items that judge one move, one per walk set, each ending at the first fall it imagines."""
+        return [JointItem(walks, move, self.current, self.delay, uncertainty, True) for walks in self.walk_sets()]
 
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict."""

@@ -5,7 +5,7 @@ A request is a msgpack map ``{"items": [ITEM, ...], "scene": SCENE?}``. An ITEM 
 * ``{"kind": "person", "person", "target", "gaze", "known"?, "uncertainty"?}``: the
   person's walk alone (Algorithm 1, :func:`agents.caregiving.model.imagine.imagine_person`);
 * ``{"kind": "joint", "walks": [{"person", "target", "gaze", "known"?}, ...],
-  "move": MOVE | null, "current"?: MOVE, "delay"?: s, "uncertainty"?}``: the robot's
+  "move": MOVE | null, "current"?: MOVE, "delay"?: s, "until_first_fall"?: bool, "uncertainty"?}``: the robot's
   move imagined in time with those walks (Algorithm 2, :func:`agents.caregiving.model.joint.imagine_joint`);
 * ``{"kind": "search", "spec": SPEC, "uncertainty", "threshold", "max_moves", "idle_risk"?, "judging"?,
   "moves"?: [MOVE, ...]}``: Algorithm 2's whole move search
@@ -64,7 +64,9 @@ def serve(scene: Scene, item: Item, rollout: Rollout | None = None, ahead: Judge
         w, u = item.walk, item.uncertainty
         im = imagine_person(scene, w.person, w.target, w.gaze, rollout, known=w.known)
         return Answer(imagination=im, risk=collision_risk(scene, im, u) if u is not None else None)
-    joint = imagine_joint(scene, item.walks, item.move, delay=item.delay, current=item.current)
+    joint = imagine_joint(
+        scene, item.walks, item.move, delay=item.delay, current=item.current, until_first_fall=item.until_first_fall
+    )
     u = item.uncertainty
     # A move whose nominal imagination already fails is refused whatever the sampled risk: none is sampled.
     return Answer(joint=joint, risk=joint_risk(scene, joint, u) if u is not None and joint.safe else None)

@@ -190,6 +190,11 @@ class World:
         """Whether nobody is walking any more."""
         return all(w.status != "walking" for w in self._walkers)
 
+    @property
+    def someone_fell(self) -> bool:
+        """Whether someone has touched something or got stuck."""
+        return any(w.status in ("collided", "stuck") for w in self._walkers)
+
     def walker(self, person: str) -> _Walker:
         """The state of one walking person (their track, plan, status and what they know)."""
         return next(w for w in self._walkers if w.state.name == person)
@@ -365,9 +370,12 @@ class World:
                 self._step_person(w)
         self.time += self.dt
 
-    def advance(self, until: float) -> None:
-        """Step until nobody walks or ``until`` passes, a lone walker past a resting robot in bulk (same result)."""
-        while not self.done and self.time < until - 1e-9:
+    def advance(self, until: float, until_first_fall: bool = False) -> None:
+        """Step until nobody walks or ``until`` passes, a lone walker past a resting robot in bulk (same result).
+
+        With ``until_first_fall``, stop as soon as someone touches something or gets stuck.
+        """
+        while not self.done and self.time < until - 1e-9 and not (until_first_fall and self.someone_fell):
             walker = self._lone_walker()
             if walker is None or not self._glide(walker, until):
                 self.step()
