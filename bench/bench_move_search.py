@@ -75,7 +75,7 @@ class Case:
 def cases(runs: list[str]) -> Iterator[Case]:
     for run in runs:
         recorded = json.loads((RECORDED / f"{run}.json").read_text())
-        scenario = load_scenario(recorded["scenario"])
+        scenario = load_scenario(recorded.get("scenario_file", recorded["scenario"]))
         planner = GridPlanner(scenario.scene().bounds)
         for t in recorded["per_trial"]:
             if t["truly_risky"] and t["risk_at_time"] is not None:

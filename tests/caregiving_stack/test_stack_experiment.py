@@ -66,4 +66,5 @@ def test_short_experiment_writes_table_json_and_figures(tmp_path: Path) -> None:
     assert KEYS <= data.keys()
     assert data["trials"] == 2 and [t["index"] for t in data["per_trial"]] == [1, 0]
     assert data["sensor_noise"] is True and data["paper"]["precision"] == 0.61
+    assert data["scenario"] == data["scenario_file"] == "paper_experiment1"  # a shipped scenario, by name
     assert (figures / "reaction_times.png").stat().st_size > 0

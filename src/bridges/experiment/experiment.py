@@ -352,6 +352,8 @@ def experiment(
     result = metrics(scored)
     result.update(
         scenario=scenario.name,
+        # A scenario file of the user's own is recorded by path, so that the run can be replayed offline.
+        scenario_file=str(Path(scenario_path).resolve()) if Path(scenario_path).is_file() else scenario_path,
         seed=seed,
         rate=rate,
         sensor_noise=scenario.sensors.enabled,

@@ -284,17 +284,19 @@ class World:
         changed = w.route is None
         for o in around:
             old = w.known.get(o.name)
-            moving = o.kind in (ROBOT_KIND, PERSON_KIND)
-            if old is not None and not moving or not can_see(w.state, o, w.gaze):
-                continue
-            if o.kind == ROBOT_KIND:
-                self.robot_seen.setdefault(w.state.name, self.time)
             if old is None:
+                if not can_see(w.state, o, w.gaze):
+                    continue
+                if o.kind == ROBOT_KIND:
+                    self.robot_seen.setdefault(w.state.name, self.time)
                 changed = True
-            elif moved_more_than(old.shape, o.shape, REPLAN_SHIFT):
-                changed = changed or self._in_the_way(w, o)
-            else:
+            # A known body is looked at again only once it has moved: until then, seen or not, it stays as remembered.
+            elif o.kind not in (ROBOT_KIND, PERSON_KIND) or not moved_more_than(old.shape, o.shape, REPLAN_SHIFT):
                 continue
+            elif not can_see(w.state, o, w.gaze):
+                continue
+            else:
+                changed = changed or self._in_the_way(w, o)
             w.known[o.name] = o
         return changed
 
