@@ -168,3 +168,16 @@ def test_a_search_given_moves_judges_those_in_order(scene: Scene) -> None:
     served = serve_one(scene, {**wire, "moves": [front.to_wire()]}).search
     assert served is not None and [v.move for v in served.verdicts] == [front]
     assert "request.moves[0].x: is required" in (serve_one(scene, {**wire, "moves": [{"target": "ball"}]}).error or "")
+
+
+def test_a_person_walking_into_another_person_gets_path_poses_and_a_search() -> None:
+    """The other person moves, so there is no stand-off around them; the search still judges poses on the way."""
+    scene = load_scenario("two_people_two_obstacles").scene()
+    d = danger_of(scene)
+    visitor = scene.person("visitor")
+    into_visitor = Danger(d.person, d.target, d.path, (visitor.x, visitor.y), "visitor", d.time_to_collision)
+    moves = list(ordered_moves(scene, into_visitor))
+    assert moves and all(m.target == "visitor" for m in moves[:3])  # the path poses lead
+    spec = SearchSpec((into_visitor,), {d.person: (GAZE,)}, {}, (Walk("visitor", "door", GAZE),))
+    result = search(scene, spec, lambda item: serve_one(scene, item), UNCERTAINTY, 0.2, 8)
+    assert result.verdicts and not any(v.reason.startswith("not imagined") for v in result.verdicts)

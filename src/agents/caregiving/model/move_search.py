@@ -1,6 +1,6 @@
 """Candidate robot moves for Algorithm 2, likeliest first, with cheap pruning.
 
-A :class:`Danger` is a person's risky imagined walk: their path, the object they
+A :class:`Danger` is a person's risky imagined walk: their path, the object (or person) they
 would hit, where and when. The robot's moves are ``move_to`` a pose:
 
 * **stand-offs** (the paper's ``move_to(object)``): poses around an object, a
@@ -135,7 +135,7 @@ def path_poses(scene: Scene, danger: Danger) -> Iterator[tuple[RobotMove, float]
     if len(danger.path) < 2:
         return
     route = Polyline.of(danger.path)
-    obstacle = scene.obstacle(danger.obstacle)
+    obstacle = scene.body(danger.obstacle)
     clearance = bounding_radius(obstacle.shape) + max(robot.length, robot.width) / 2 + 0.05
     nearest = person.radius + max(robot.length, robot.width) / 2 + 0.2
     distance = min(danger.time_to_collision * person.speed, route.length) - clearance
@@ -165,10 +165,13 @@ def standoffs(scene: Scene, danger: Danger, obstacle: str) -> list[RobotMove]:
 def ordered_moves(scene: Scene, danger: Danger) -> Iterator[RobotMove]:
     """Every candidate move for ``danger``, likeliest first (see the module documentation), generated lazily."""
     deadline = danger.time_to_collision
-
-    yield from (
-        m for m in standoffs(scene, danger, danger.obstacle) if in_reach(scene, m, deadline) and robot_fits(scene, m)
-    )
+    # Stand-offs need an object that stays put: a person walking into another person gets path poses first.
+    if any(o.name == danger.obstacle for o in scene.obstacles):
+        yield from (
+            m
+            for m in standoffs(scene, danger, danger.obstacle)
+            if in_reach(scene, m, deadline) and robot_fits(scene, m)
+        )
     # Seconds the robot has in hand at each path pose: the more, the likelier the person sees it in time.
     slack = [
         (until - drive_time(scene, m.x, m.y), k, m)

@@ -123,6 +123,15 @@ class Scene:
                 return obs
         raise RequestError(f"unknown object {name!r}")
 
+    def body(self, name: str) -> Obstacle:
+        """What is called ``name`` as an obstacle: a static object, a person or the robot."""
+        if self.robot is not None and self.robot.name == name:
+            return self.robot.body()
+        for person in self.people:
+            if person.name == name:
+                return person.body()
+        return self.obstacle(name)
+
     def person(self, name: str) -> PersonState:
         """The person called ``name``."""
         for person in self.people:
