@@ -181,3 +181,37 @@ def test_a_person_walking_into_another_person_gets_path_poses_and_a_search() -> 
     spec = SearchSpec((into_visitor,), {d.person: (GAZE,)}, {}, (Walk("visitor", "door", GAZE),))
     result = search(scene, spec, lambda item: serve_one(scene, item), UNCERTAINTY, 0.2, 8)
     assert result.verdicts and not any(v.reason.startswith("not imagined") for v in result.verdicts)
+
+
+def test_a_bystander_falling_anyway_does_not_veto_a_move_but_any_other_fall_does() -> None:
+    """Never make it worse: a bystander's fall into what they head for anyway refuses no move; a new one does."""
+    scene = load_scenario("two_people_two_obstacles").scene()
+    way = imagine_person(scene, "visitor", "door", GAZE).path
+    x, y = way[len(way) // 2]
+    shoe = scene.obstacle("shoe")
+    scene = replace(
+        scene,
+        obstacles=tuple(replace(o, shape=replace(o.shape, x=x, y=y)) if o is shoe else o for o in scene.obstacles),
+    )
+    visitor = imagine_person(scene, "visitor", "door", GAZE)
+    assert visitor.collided and visitor.collision_object == "shoe"
+    danger, bystander = danger_of(scene), Walk("visitor", "door", GAZE)
+    front = next(m for m in ordered_moves(scene, danger) if m.x < shoe.shape.x)
+
+    def verdict(falling: dict[str, str]) -> Verdict:
+        spec = SearchSpec((danger,), {"person": (GAZE,)}, {}, (bystander,), falling=falling)
+        assert SearchSpec.from_fields(Fields(spec.to_wire(), "spec", RequestError)) == spec
+        return judge(front, [serve_one(scene, i) for i in spec.items(front, UNCERTAINTY)], spec.falling)
+
+    assert verdict({}).reason == "visitor walks into shoe at gaze 8 deg"
+    assert verdict({"visitor": "ball"}).reason == "visitor walks into shoe at gaze 8 deg"
+    excused = verdict({"visitor": "shoe"})
+    assert excused.clear and excused.risk < 0.5, excused.reason  # the visitor's fall is not sampled as a risk
+    with pytest.raises(RequestError, match="falling.person"):
+        SearchSpec.from_fields(
+            Fields(
+                SearchSpec((danger,), {"person": (GAZE,)}, {}, falling={"person": "ball"}).to_wire(),
+                "spec",
+                RequestError,
+            )
+        )

@@ -17,8 +17,10 @@ asks the simulator to imagine the candidates, and writes the result:
 * while a move is under way, a new risky intention first re-imagines that move
   from the robot's current state, speed included; only if it no longer keeps
   everyone safe is a new move searched, and the old one is marked ``superseded``;
-* a move is never sent unless every imagined walk with it is clear: the robot
-  never causes a collision its imagination can see.
+* a move is never sent unless every imagined walk with it is clear, but for a
+  bystander's fall into the very object their own risky intention already heads
+  for (a danger not searched now, say because no move saved it a moment ago):
+  the robot never causes a collision its imagination can see.
 
 The chosen move becomes the robot's ``intention`` node (``move_to``, target,
 final pose, ``status: proposed``, ``in_time``, ``reason``), linked
@@ -196,18 +198,21 @@ class Action(Agent):
             p: risky_first(gaze_classes(scene.person(p), scene.bodies_around(p)), edge.get("gaze", 0.0))
             for p, (edge, _) in dangers.items()
         }
-        bystanders = []
+        bystanders, falling = [], {}
         for p in scene.people:
             walks = [e for e in self.g.edges(type=HAS_INTENTION, src=ctx.ids[p.name]) if e.dst in names]
             if p.name not in dangers and walks:
                 e = max(walks, key=lambda e: e.get("updated_at", 0.0))  # their likeliest walk: the latest guessed
                 bystanders.append(Walk(p.name, names[e.dst], e.get("gaze", 0.0)))
+                if e.get("risky") and e.get("collision_object") in names:  # a danger not searched now
+                    falling[p.name] = names[e.get("collision_object")]
         return SearchSpec(
             tuple(d for _, d in dangers.values()),
             gazes,
             known,
             tuple(bystanders),
             self._move_of(current) if current is not None else None,
+            falling=falling,
         )
 
     def _current(self) -> Node | None:

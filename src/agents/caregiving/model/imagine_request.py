@@ -13,7 +13,8 @@ may ask for the collision risk sampled under perception's uncertainty
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 from .fields import Fields
@@ -73,7 +74,9 @@ class JointItem:
     """Imagine ``move`` in time with ``walks``, after ``delay`` seconds more of the ``current`` move (if any).
 
     With ``until_first_fall`` the imagination ends when the first person falls (a search needs no more
-    to refuse the move): the others' walks are then reported as still ``walking``.
+    to refuse the move): the others' walks are then reported as still ``walking``. ``falling`` names the
+    people whose fall into a given object happens anyway (``{person: object}``): that fall does not stop
+    the risk from being sampled for the others.
     """
 
     walks: tuple[Walk, ...]
@@ -82,6 +85,7 @@ class JointItem:
     delay: float = 0.0
     uncertainty: Uncertainty | None = None
     until_first_fall: bool = False
+    falling: Mapping[str, str] = field(default_factory=dict)
 
     def to_wire(self) -> dict[str, Any]:
         """``{"kind": "joint", "walks", "move", "current", "delay", "until_first_fall", "uncertainty"?}``."""
@@ -92,6 +96,7 @@ class JointItem:
             "current": self.current.to_wire() if self.current else None,
             "delay": self.delay,
             "until_first_fall": self.until_first_fall,
+            "falling": dict(self.falling),
         }
         if self.uncertainty is not None:
             out["uncertainty"] = uncertainty_to_wire(self.uncertainty)
@@ -111,4 +116,14 @@ class JointItem:
             f.number("delay", 0.0, non_negative=True, at_most=MAX_DELAY),
             uncertainty,
             f.boolean("until_first_fall", False),
+            falling_from_fields(f.child("falling", {}), {w.person for w in walks}),
         )
+
+
+def falling_from_fields(f: Fields, people: set[str]) -> dict[str, str]:
+    """``{person: object}`` for some of ``people``."""
+    falling = {person: f.string(person) for person in f.keys()}
+    for person in falling:
+        if person not in people:
+            raise f.fail(person, f"expected one of {sorted(people)}")
+    return falling

@@ -19,7 +19,7 @@ robot stands at the end. ``move=None`` imagines the robot braking to a stop.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -54,6 +54,12 @@ class WalkOutcome:
     def collided(self) -> bool:
         """Whether the person touched anything but their target."""
         return self.status == "collided"
+
+    def fine_given(self, falling: Mapping[str, str]) -> bool:
+        """Whether the walk ends well, or in the very fall ``falling`` says this person was heading for anyway."""
+        if self.status in ("arrived", "walking"):
+            return True
+        return self.collided and falling.get(self.walk.person) == self.collision_object
 
     def as_imagination(self) -> Imagination:
         """The walk as walked (one point per step), for sampling perception's uncertainty around it."""
@@ -122,7 +128,11 @@ class JointImagination:
     @property
     def safe(self) -> bool:
         """Whether the robot can drive the move and nobody imagined touches anything or gets stuck."""
-        return self.robot_reachable and all(w.status in ("arrived", "walking") for w in self.walks)
+        return self.safe_given({})
+
+    def safe_given(self, falling: Mapping[str, str]) -> bool:
+        """:attr:`safe`, but for the falls ``falling`` names (``{person: object}``), which happen anyway."""
+        return self.robot_reachable and all(w.fine_given(falling) for w in self.walks)
 
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict."""

@@ -29,8 +29,8 @@ travels to the simulator in its wire form, and the :class:`SearchResult` comes b
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from itertools import islice
 from typing import TYPE_CHECKING, Any
 
@@ -39,7 +39,7 @@ import numpy as np
 from .fields import Fields
 from .geometry import Polyline, bounding_radius
 from .imagine_reply import Answer
-from .imagine_request import MAX_DELAY, JointItem, uncertainty_from_fields, uncertainty_to_wire
+from .imagine_request import MAX_DELAY, JointItem, falling_from_fields, uncertainty_from_fields, uncertainty_to_wire
 from .joint import walk_from_fields, walk_to_wire
 from .robot_moves import RobotMove, robot_fits, standoff_poses, travel_time
 from .scene import Scene
@@ -196,6 +196,9 @@ class SearchSpec:
 
     ``gazes`` maps each endangered person to the gaze pitches (one per gaze class) their walk is imagined at;
     ``bystanders`` are the other people's likeliest walks, imagined alongside so that a move never trips them.
+    ``falling`` names the bystanders who walk into something with the robot as it is (their danger is not
+    searched now, say because no move saved them a moment ago), and what they walk into: a move is not
+    refused for that same fall, only for one it would cause.
     ``current`` is the move the robot is driving now (if any), which it keeps for ``delay`` seconds.
     """
 
@@ -205,6 +208,7 @@ class SearchSpec:
     bystanders: tuple[Walk, ...] = ()
     current: RobotMove | None = None
     delay: float = 0.0
+    falling: dict[str, str] = field(default_factory=dict)
 
     def walk_sets(self) -> list[tuple[Walk, ...]]:
         """The sets of walks to imagine each move with: every gaze class of each endangered person in turn."""
@@ -221,8 +225,16 @@ class SearchSpec:
         return sets
 
     def items(self, move: RobotMove | None, uncertainty: Uncertainty) -> list[JointItem]:
-        """The simulator items that judge one move, one per walk set, each ending at the first fall it imagines."""
-        return [JointItem(walks, move, self.current, self.delay, uncertainty, True) for walks in self.walk_sets()]
+        """The simulator items that judge one move, one per walk set.
+
+        Each ends at the first fall it imagines, unless some bystander is falling anyway: then the walks are
+        imagined to their end, since that fall alone does not settle the verdict.
+        """
+        short = not self.falling
+        return [
+            JointItem(walks, move, self.current, self.delay, uncertainty, short, self.falling)
+            for walks in self.walk_sets()
+        ]
 
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict."""
@@ -233,6 +245,7 @@ class SearchSpec:
             "bystanders": [walk_to_wire(w) for w in self.bystanders],
             "current": self.current.to_wire() if self.current else None,
             "delay": self.delay,
+            "falling": dict(self.falling),
         }
 
     @classmethod
@@ -248,18 +261,24 @@ class SearchSpec:
             if not values or not all(-math.pi / 2 <= g <= math.pi / 2 for g in values):
                 raise gazes_f.fail(d.person, "expected one or more pitches in [-pi/2, pi/2] rad")
             gazes[d.person] = values
+        bystanders = tuple(walk_from_fields(w) for w in f.children("bystanders", []))
         return cls(
             dangers,
             gazes,
             {p: known_f.strings(p) for p in known_f.keys()},
-            tuple(walk_from_fields(w) for w in f.children("bystanders", [])),
+            bystanders,
             RobotMove.optional_from(f, "current"),
             f.number("delay", 0.0, non_negative=True, at_most=MAX_DELAY),
+            falling_from_fields(f.child("falling", {}), {w.person for w in bystanders}),
         )
 
 
-def judge(move: RobotMove | None, answers: list[Answer]) -> Verdict:
-    """Fold a move's answers (one per walk set) into a verdict; the first walk that is not clear says why."""
+def judge(move: RobotMove | None, answers: list[Answer], falling: Mapping[str, str] | None = None) -> Verdict:
+    """Fold a move's answers (one per walk set) into a verdict; the first walk that is not clear says why.
+
+    A fall that ``falling`` names (``{bystander: object}``, see :class:`SearchSpec`) does not refuse the move.
+    """
+    falling = falling or {}
     arrival, risk, worst = None, 0.0, ""
     for a in answers:
         if a.joint is None:
@@ -267,7 +286,7 @@ def judge(move: RobotMove | None, answers: list[Answer]) -> Verdict:
         if not a.joint.robot_reachable:
             return Verdict(move, False, 1.0, None, "the robot cannot reach the pose")
         for w in a.joint.walks:
-            if w.status not in ("arrived", "walking"):
+            if not w.fine_given(falling):
                 what = f"into {w.collision_object}" if w.collided else "stuck"
                 return Verdict(
                     move, False, 1.0, None, f"{w.walk.person} walks {what} at gaze {math.degrees(w.walk.gaze):.0f} deg"
@@ -317,10 +336,10 @@ def judge_move(spec: SearchSpec, move: RobotMove, imagine: Imagine, uncertainty:
     """Judge one move: the first walk set alone (most candidates fail there), then the others if it is clear."""
     items = spec.items(move, uncertainty)
     first = [imagine(items[0])]
-    verdict = judge(move, first)
+    verdict = judge(move, first, spec.falling)
     if not verdict.clear or len(items) == 1:
         return verdict
-    return judge(move, first + [imagine(item) for item in items[1:]])
+    return judge(move, first + [imagine(item) for item in items[1:]], spec.falling)
 
 
 def search(

@@ -5,7 +5,8 @@ A request is a msgpack map ``{"items": [ITEM, ...], "scene": SCENE?}``. An ITEM 
 * ``{"kind": "person", "person", "target", "gaze", "known"?, "uncertainty"?}``: the
   person's walk alone (Algorithm 1, :func:`agents.caregiving.model.imagine.imagine_person`);
 * ``{"kind": "joint", "walks": [{"person", "target", "gaze", "known"?}, ...],
-  "move": MOVE | null, "current"?: MOVE, "delay"?: s, "until_first_fall"?: bool, "uncertainty"?}``: the robot's
+  "move": MOVE | null, "current"?: MOVE, "delay"?: s, "until_first_fall"?: bool,
+  "falling"?: {person: object}, "uncertainty"?}``: the robot's
   move imagined in time with those walks (Algorithm 2, :func:`agents.caregiving.model.joint.imagine_joint`);
 * ``{"kind": "search", "spec": SPEC, "uncertainty", "threshold", "max_moves", "idle_risk"?, "judging"?,
   "moves"?: [MOVE, ...]}``: Algorithm 2's whole move search
@@ -25,6 +26,7 @@ a joint answer's risk is the worst of its walks', sampled only when every walk i
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from functools import partial
 from typing import Any
 
@@ -69,7 +71,9 @@ def serve(scene: Scene, item: Item, rollout: Rollout | None = None, ahead: Judge
     )
     u = item.uncertainty
     # A move whose nominal imagination already fails is refused whatever the sampled risk: none is sampled.
-    return Answer(joint=joint, risk=joint_risk(scene, joint, u) if u is not None and joint.safe else None)
+    if u is None or not joint.safe_given(item.falling):
+        return Answer(joint=joint)
+    return Answer(joint=joint, risk=joint_risk(scene, joint, u, set(item.falling)))
 
 
 def serve_item(scene: Scene, item: object, rollout: Rollout | None = None, ahead: JudgeAhead | None = None) -> Answer:
@@ -78,14 +82,14 @@ def serve_item(scene: Scene, item: object, rollout: Rollout | None = None, ahead
     return serve(scene, typed, rollout, ahead)
 
 
-def joint_risk(scene: Scene, joint: JointImagination, u: Uncertainty) -> Risk:
-    """The likeliest collision over the sampled worlds, worst walk first.
+def joint_risk(scene: Scene, joint: JointImagination, u: Uncertainty, falling: Collection[str] = ()) -> Risk:
+    """The likeliest collision over the sampled worlds, worst walk first, leaving out the people ``falling`` anyway.
 
     The walks are sampled as walked; the robot is left out, since it knows where it is and the
     nominal imagination already checks every step against it.
     """
     without_robot = scene.with_robot(None)
-    risks = [collision_risk(without_robot, w.as_imagination(), u) for w in joint.walks]
+    risks = [collision_risk(without_robot, w.as_imagination(), u) for w in joint.walks if w.walk.person not in falling]
     return max(risks, key=lambda r: r.probability, default=NO_RISK)
 
 
