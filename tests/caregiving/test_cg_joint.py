@@ -132,3 +132,5 @@ def test_until_first_fall_ends_at_the_first_fall_with_the_same_verdict() -> None
     assert short.walks[0] == whole.walks[0]
     assert len(short.walks[1].track) < len(whole.walks[1].track)
     assert not short.safe and not whole.safe
+    excused = imagine_joint(scene, walks, None, until_first_fall=True, falling={"person": "ball"})
+    assert excused == whole and excused.safe_given({"person": "ball"}) and not excused.safe_given({"person": "couch"})

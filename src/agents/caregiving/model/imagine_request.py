@@ -75,8 +75,8 @@ class JointItem:
 
     With ``until_first_fall`` the imagination ends when the first person falls (a search needs no more
     to refuse the move): the others' walks are then reported as still ``walking``. ``falling`` names the
-    people whose fall into a given object happens anyway (``{person: object}``): that fall does not stop
-    the risk from being sampled for the others.
+    people whose fall into a given object happens anyway (``{person: object}``): that fall neither ends
+    the imagination nor stops the risk from being sampled for the others.
     """
 
     walks: tuple[Walk, ...]

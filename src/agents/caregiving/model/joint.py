@@ -182,10 +182,12 @@ def imagine_joint(
     horizon: float = HORIZON,
     planner: GridPlanner | None = None,
     until_first_fall: bool = False,
+    falling: Mapping[str, str] | None = None,
 ) -> JointImagination:
     """Step the robot's move and the people's walks together, as the world would, and report how they end.
 
-    With ``until_first_fall``, stop at the first person who falls; whoever still walks then is ``walking``.
+    With ``until_first_fall``, stop at the first person who falls, unless ``falling`` names that very fall
+    (``{person: object}``, a fall that happens anyway); whoever still walks then is ``walking``.
     """
     if scene.robot is None:
         raise RequestError("the scene has no robot")
@@ -196,10 +198,10 @@ def imagine_joint(
     start = scene.time
     if current is not None:
         world.resume_robot(current)
-    world.advance(start + delay, until_first_fall)
+    world.advance(start + delay, until_first_fall, falling)
     reachable = True if current is not None and move == current else world.command_robot(move)
     if reachable or move is None:
-        world.advance(start + horizon, until_first_fall)
+        world.advance(start + horizon, until_first_fall, falling)
     arrival = world.robot_arrival - start if move is not None and world.robot_arrival is not None else None
     return JointImagination(move, reachable, arrival, tuple(_outcome(world, w, start) for w in walks))
 

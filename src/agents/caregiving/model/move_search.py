@@ -225,14 +225,9 @@ class SearchSpec:
         return sets
 
     def items(self, move: RobotMove | None, uncertainty: Uncertainty) -> list[JointItem]:
-        """The simulator items that judge one move, one per walk set.
-
-        Each ends at the first fall it imagines, unless some bystander is falling anyway: then the walks are
-        imagined to their end, since that fall alone does not settle the verdict.
-        """
-        short = not self.falling
+        """The simulator items that judge one move, one per walk set, each ending at the first fall that refuses it."""
         return [
-            JointItem(walks, move, self.current, self.delay, uncertainty, short, self.falling)
+            JointItem(walks, move, self.current, self.delay, uncertainty, True, self.falling)
             for walks in self.walk_sets()
         ]
 

@@ -67,7 +67,13 @@ def serve(scene: Scene, item: Item, rollout: Rollout | None = None, ahead: Judge
         im = imagine_person(scene, w.person, w.target, w.gaze, rollout, known=w.known)
         return Answer(imagination=im, risk=collision_risk(scene, im, u) if u is not None else None)
     joint = imagine_joint(
-        scene, item.walks, item.move, delay=item.delay, current=item.current, until_first_fall=item.until_first_fall
+        scene,
+        item.walks,
+        item.move,
+        delay=item.delay,
+        current=item.current,
+        until_first_fall=item.until_first_fall,
+        falling=item.falling,
     )
     u = item.uncertainty
     # A move whose nominal imagination already fails is refused whatever the sampled risk: none is sampled.

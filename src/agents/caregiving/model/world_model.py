@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -190,10 +190,17 @@ class World:
         """Whether nobody is walking any more."""
         return all(w.status != "walking" for w in self._walkers)
 
-    @property
-    def someone_fell(self) -> bool:
-        """Whether someone has touched something or got stuck."""
-        return any(w.status in ("collided", "stuck") for w in self._walkers)
+    def someone_fell(self, excused: Mapping[str, str]) -> bool:
+        """Whether someone has touched something or got stuck, but for the falls ``excused`` names ({person: object})."""
+        for w in self._walkers:
+            if w.status == "stuck":
+                return True
+            if w.status == "collided":
+                name = w.state.name
+                hit = next(c.obstacle for c in self._collisions if c.person == name)
+                if excused.get(name) != hit:
+                    return True
+        return False
 
     def walker(self, person: str) -> _Walker:
         """The state of one walking person (their track, plan, status and what they know)."""
@@ -372,12 +379,14 @@ class World:
                 self._step_person(w)
         self.time += self.dt
 
-    def advance(self, until: float, until_first_fall: bool = False) -> None:
+    def advance(self, until: float, until_first_fall: bool = False, excused: Mapping[str, str] | None = None) -> None:
         """Step until nobody walks or ``until`` passes, a lone walker past a resting robot in bulk (same result).
 
-        With ``until_first_fall``, stop as soon as someone touches something or gets stuck.
+        With ``until_first_fall``, stop as soon as someone touches something or gets stuck, but for the falls
+        ``excused`` names (``{person: object}``).
         """
-        while not self.done and self.time < until - 1e-9 and not (until_first_fall and self.someone_fell):
+        excused = excused or {}
+        while not self.done and self.time < until - 1e-9 and not (until_first_fall and self.someone_fell(excused)):
             walker = self._lone_walker()
             if walker is None or not self._glide(walker, until):
                 self.step()
