@@ -30,7 +30,7 @@ from .planner import GridPlanner
 from .robot_moves import RobotMove
 from .rollout import DT
 from .scene import Scene
-from .world_model import Walk, World
+from .world_model import Walk, World, fell
 
 #: Seconds imagined at most: long enough for a walk across any room these scenarios hold.
 HORIZON = 30.0
@@ -57,9 +57,7 @@ class WalkOutcome:
 
     def fine_given(self, falling: Mapping[str, str]) -> bool:
         """Whether the walk ends well, or in the very fall ``falling`` says this person was heading for anyway."""
-        if self.status in ("arrived", "walking"):
-            return True
-        return self.collided and falling.get(self.walk.person) == self.collision_object
+        return not fell(self.status, self.walk.person, self.collision_object, falling)
 
     def as_imagination(self) -> Imagination:
         """The walk as walked (one point per step), for sampling perception's uncertainty around it."""

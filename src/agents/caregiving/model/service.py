@@ -79,7 +79,7 @@ def serve(scene: Scene, item: Item, rollout: Rollout | None = None, ahead: Judge
     # A move whose nominal imagination already fails is refused whatever the sampled risk: none is sampled.
     if u is None or not joint.safe_given(item.falling):
         return Answer(joint=joint)
-    return Answer(joint=joint, risk=joint_risk(scene, joint, u, set(item.falling)))
+    return Answer(joint=joint, risk=joint_risk(scene, joint, u, item.falling))
 
 
 def serve_item(scene: Scene, item: object, rollout: Rollout | None = None, ahead: JudgeAhead | None = None) -> Answer:

@@ -87,6 +87,11 @@ class Walk:
     known: tuple[str, ...] = ()
 
 
+def fell(status: str, person: str, hit: str | None, excused: Mapping[str, str]) -> bool:
+    """Whether a walk with this status is a fall (stuck, or into ``hit``) other than one ``excused`` names."""
+    return status == "stuck" or status == "collided" and excused.get(person) != hit
+
+
 @dataclass
 class _Walker:
     state: PersonState
@@ -193,14 +198,15 @@ class World:
     def someone_fell(self, excused: Mapping[str, str]) -> bool:
         """Whether someone has touched something or got stuck, but for the falls ``excused`` names ({person: object})."""
         for w in self._walkers:
-            if w.status == "stuck":
-                return True
-            if w.status == "collided":
+            if w.status != "walking" and w.status != "arrived":
                 name = w.state.name
-                hit = next(c.obstacle for c in self._collisions if c.person == name)
-                if excused.get(name) != hit:
+                if fell(w.status, name, self._hit(name), excused):
                     return True
         return False
+
+    def _hit(self, person: str) -> str | None:
+        """What ``person`` collided with, if they did."""
+        return next((c.obstacle for c in self._collisions if c.person == person), None)
 
     def walker(self, person: str) -> _Walker:
         """The state of one walking person (their track, plan, status and what they know)."""
@@ -297,12 +303,15 @@ class World:
                 if o.kind == ROBOT_KIND:
                     self.robot_seen.setdefault(w.state.name, self.time)
                 changed = True
-            # A known body is looked at again only once it has moved: until then, seen or not, it stays as remembered.
-            elif o.kind not in (ROBOT_KIND, PERSON_KIND) or not moved_more_than(old.shape, o.shape, REPLAN_SHIFT):
-                continue
-            elif not can_see(w.state, o, w.gaze):
-                continue
             else:
+                # A known body is looked at again only once it has moved: until then, seen or not, it stays as is.
+                moving = o.kind in (ROBOT_KIND, PERSON_KIND)
+                if (
+                    not moving
+                    or not moved_more_than(old.shape, o.shape, REPLAN_SHIFT)
+                    or not can_see(w.state, o, w.gaze)
+                ):
+                    continue
                 changed = changed or self._in_the_way(w, o)
             w.known[o.name] = o
         return changed
