@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from bridges.experiment.experiment import Scored, metrics
+import pytest
+
+from bridges.experiment.experiment import Scored, metrics, pipeline_delay, prevention_line
 from bridges.experiment.trials import TrialRecord
 
 
@@ -34,3 +36,32 @@ def test_action_rates_are_absent_without_detections() -> None:
     scored = [Scored(TrialRecord(0, intentions=1), truly_risky=False)]
     m = metrics(scored)
     assert m["action_rate"] is None and m["action_rate_saveable"] is None
+
+
+def _commanded(index: int, at: float, command: float | None, saveable: bool, late: bool, collided: bool) -> Scored:
+    outcome: dict[str, object] = {"collisions": [{"person": "p"}] if collided else []}
+    if command is not None:
+        outcome["commands"] = [{"time": command, "move": None, "accepted": True}]
+    record = TrialRecord(index, intentions=1, risky={"probability": 1.0, "at_time": at}, outcome=outcome)
+    return Scored(record, truly_risky=True, saveable=saveable, standoff_saveable=saveable, saveable_after_delay=late)
+
+
+def test_the_pipeline_delay_and_the_trials_still_saveable_that_late() -> None:
+    scored = [
+        _commanded(0, 0.5, 0.6, True, True, False),  # 0.1 s: saved, and still saveable that late
+        _commanded(1, 0.5, 0.75, True, False, True),  # 0.25 s: only a move at once could have saved it
+        _commanded(2, 0.6, 0.8, True, True, True),  # 0.2 s: lost though a move that late could save it
+        _commanded(3, 0.6, None, False, False, True),  # never commanded: no delay of its own
+    ]
+    assert pipeline_delay(scored) == pytest.approx(0.2)
+    m = metrics(scored)
+    assert m["pipeline_delay_ms_p50"] == pytest.approx(200.0)
+    assert m["oracle_saveable"] == 3 and m["oracle_saveable_after_delay"] == 2
+    assert m["prevented_saveable_after_delay"] == 1 and m["prevention_rate_of_saveable_after_delay"] == 0.5
+    assert "1 of the 2 still saveable 200 ms later" in prevention_line(m)
+
+
+def test_no_command_means_no_delay_and_no_late_oracle() -> None:
+    m = metrics([_commanded(0, 0.5, None, True, False, True)])
+    assert m["pipeline_delay_ms_p50"] is None and m["oracle_saveable_after_delay"] is None
+    assert "later" not in prevention_line(m)

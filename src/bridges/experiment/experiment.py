@@ -21,7 +21,13 @@ starts next to the ball), the physical oracle (:mod:`bridges.experiment.oracle`)
 searches each truly risky trial's ground truth for a move that saves it,
 commanded when the danger first became observable: ``oracle_saveable`` counts
 those trials (``oracle_standoff_saveable`` with stand-offs only) and
-``prevention_rate_of_saveable`` is the prevention rate over them.
+``prevention_rate_of_saveable`` is the prevention rate over them. No pipeline
+can act at that very moment: ``pipeline_delay_ms_p50`` is the run's median time
+from the context that first showed a danger to the robot's first command in the
+world (simulated time: sensor latency, Algorithm 1, the search and the
+command), and ``oracle_saveable_after_delay`` counts the truly risky trials
+that some move of the same broad set saves when commanded that much later;
+``prevention_rate_of_saveable_after_delay`` is the prevention rate over those.
 ``robot_caused_collisions`` counts trials that were safe with the robot idle and
 collided with it acting. Reaction times are wall-clock differences
 of stamps written into W by the writers (same host): the paper's definition
@@ -89,6 +95,7 @@ class Scored:
     idle_clearance: float = float("inf")
     saveable: bool | None = None
     standoff_saveable: bool | None = None
+    saveable_after_delay: bool | None = None  # by a move commanded the pipeline's median delay later
 
     @property
     def discarded(self) -> bool:
@@ -113,6 +120,16 @@ def action_rate(detected: list[Scored], in_time: bool = False) -> float | None:
     return _ratio(sum(a.get("in_time", True) for a in acted) if in_time else len(acted), len(detected))
 
 
+def pipeline_delay(scored: list[Scored]) -> float | None:
+    """The run's median delay (simulated s) from the context that first showed a danger to the robot's first command."""
+    delays = [
+        max(s.record.outcome["commands"][0]["time"] - s.record.risky["at_time"], 0.0)
+        for s in scored
+        if s.record.risky is not None and s.record.outcome.get("commands")
+    ]
+    return statistics.median(delays) if delays else None
+
+
 def metrics(scored: list[Scored]) -> dict[str, Any]:
     """The figures of Table I, plus ours (see the module documentation)."""
     valid = [s for s in scored if not s.discarded]
@@ -130,6 +147,8 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
     detected = [s for s in scored if s.predicted]
     saveable_detected = [s for s in detected if s.saveable]
     risky = [s for s in scored if s.truly_risky]
+    delay = pipeline_delay(scored)
+    late = [s for s in risky if s.saveable_after_delay]
     return {
         "trials": len(scored),
         "discarded": len(scored) - len(valid),
@@ -164,6 +183,10 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "prevention_rate_of_saveable": _ratio(
             sum(not s.record.collided for s in risky if s.saveable), sum(bool(s.saveable) for s in risky)
         ),
+        "pipeline_delay_ms_p50": delay * 1e3 if delay is not None else None,
+        "oracle_saveable_after_delay": len(late) if delay is not None else None,
+        "prevented_saveable_after_delay": sum(not s.record.collided for s in late),
+        "prevention_rate_of_saveable_after_delay": _ratio(sum(not s.record.collided for s in late), len(late)),
         "robot_caused_collisions": sum(s.record.collided and not s.truly_risky for s in scored),
         "truly_risky": len(risky),
         "closed_loop_collisions": sum(s.record.collided for s in scored),
@@ -185,6 +208,7 @@ def _fmt(key: str, value: Any) -> str:
         "action_in_time_rate_saveable",
         "prevention_rate",
         "prevention_rate_of_saveable",
+        "prevention_rate_of_saveable_after_delay",
     ):
         return f"{100 * value:.2f} %"
     if isinstance(value, float):
@@ -214,6 +238,9 @@ ROWS = [
     ("Truly risky trials some move could save (oracle)", "oracle_saveable"),
     ("... with stand-off moves only", "oracle_standoff_saveable"),
     ("Prevented (of those some move could save)", "prevention_rate_of_saveable"),
+    ("Pipeline delay, danger shown -> first command (p50)", "pipeline_delay_ms_p50"),
+    ("Truly risky trials some move could save, commanded that late", "oracle_saveable_after_delay"),
+    ("Prevented (of those)", "prevention_rate_of_saveable_after_delay"),
     ("Collisions the robot caused", "robot_caused_collisions"),
     ("End to end p50", "e2e_ms_p50"),
     ("End to end p99", "e2e_ms_p99"),
@@ -222,9 +249,15 @@ ROWS = [
 
 def prevention_line(result: dict[str, Any]) -> str:
     """One line: the truly risky trials prevented, out of those some move could save and out of all."""
+    late = ""
+    if result.get("oracle_saveable_after_delay") is not None:
+        late = (
+            f" ({result['prevented_saveable_after_delay']} of the {result['oracle_saveable_after_delay']} "
+            f"still saveable {result['pipeline_delay_ms_p50']:.0f} ms later, when the robot is commanded)"
+        )
     return (
         f"prevented {result['prevented_saveable']} of the {result['oracle_saveable'] or 0} truly risky trials "
-        f"some move could save, {result['prevented']} of {result['truly_risky']} truly risky in all; "
+        f"some move could save{late}, {result['prevented']} of {result['truly_risky']} truly risky in all; "
         f"the robot caused {result['robot_caused_collisions']} collision(s)"
     )
 
@@ -277,20 +310,30 @@ def _judge_trial(job: tuple[Scenario, int, int | None, float]) -> OracleVerdict:
 
 
 def with_oracle(scenario: Scenario, seed: int, scored: list[Scored], console: Console) -> list[Scored]:
-    """Add the physical oracle's verdict to the truly risky trials, two processes at a time."""
-    jobs = [
-        (scenario, seed, s.record.index, (s.record.risky or {}).get("at_time", ORACLE_AT))
-        for s in scored
-        if s.truly_risky
-    ]
-    with console.status(f"oracle: could any move have saved the {len(jobs)} truly risky trials?"):
+    """Add the physical oracle's verdicts to the truly risky trials, at the danger and after the pipeline's delay.
+
+    Two processes at a time.
+    """
+    risky = [s for s in scored if s.truly_risky]
+    delay = pipeline_delay(scored)
+    moments = [(s, (s.record.risky or {}).get("at_time", ORACLE_AT)) for s in risky]
+    jobs = [(scenario, seed, s.record.index, at) for s, at in moments]
+    if delay is not None:
+        jobs += [(scenario, seed, s.record.index, at + delay) for s, at in moments]
+    with console.status(f"oracle: could any move have saved the {len(risky)} truly risky trials?"):
         with ProcessPoolExecutor(max_workers=2) as pool:
-            verdicts = iter(list(pool.map(_judge_trial, jobs)))
-    out = []
-    for s in scored:
-        v = next(verdicts) if s.truly_risky else None
-        out.append(replace(s, saveable=v.saveable if v else None, standoff_saveable=v.standoff_saveable if v else None))
-    return out
+            verdicts = list(pool.map(_judge_trial, jobs))
+    now, late = verdicts[: len(risky)], verdicts[len(risky) :] or [None] * len(risky)
+    judged = {
+        id(s): replace(
+            s,
+            saveable=v.saveable,
+            standoff_saveable=v.standoff_saveable,
+            saveable_after_delay=w.saveable if w is not None else None,
+        )
+        for s, v, w in zip(risky, now, late, strict=True)
+    }
+    return [judged.get(id(s), s) for s in scored]
 
 
 def trial_json(s: Scored) -> dict[str, Any]:
@@ -305,6 +348,7 @@ def trial_json(s: Scored) -> dict[str, Any]:
         "collided": r.collided,
         "saveable": s.saveable,
         "standoff_saveable": s.standoff_saveable,
+        "saveable_after_delay": s.saveable_after_delay,
         "robot_caused": r.collided and not s.truly_risky,
         "reason": (r.action or {}).get("reason"),
         "idle_min_clearance": s.idle_clearance,
