@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 from agents.caregiving.model.geometry import Box, Circle, signed_distance
-from agents.caregiving.model.imagine import imagine_person
+from agents.caregiving.model.imagine import Imagination, imagine_person
 from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.uncertainty import Uncertainty, _clearances, collision_risk
 
 GAZE = math.radians(8)
@@ -48,28 +49,29 @@ def test_seen_or_remembered_obstacles_are_not_a_risk() -> None:
     assert "plant" in looking_up.seen and not looking_up.collided
 
 
-def _ball_behind(gap: float) -> tuple[object, object]:
-    """The paper's room with the ball moved just behind the person, ``gap`` metres clear of them (negative: overlapping)."""
+def _ball_next_to_person(gap: float, behind: bool) -> tuple[Scene, Imagination]:
+    """The paper's room with the ball moved right behind (or in front of) the person, ``gap`` m clear of them."""
     scene = load_scenario("paper_experiment1").scene()
     im = imagine_person(scene, "person", "couch", GAZE)
     person = scene.person("person")
     (x0, y0), (x1, y1) = im.path[0], im.path[1]
-    away = np.array([x0 - x1, y0 - y1]) / math.hypot(x1 - x0, y1 - y0)
+    ahead = np.array([x1 - x0, y1 - y0]) / math.hypot(x1 - x0, y1 - y0)
     ball = next(o for o in scene.obstacles if o.name == "ball")
     assert isinstance(ball.shape, Circle)
-    x, y = np.array([person.x, person.y]) + away * (person.radius + ball.shape.r + gap)
+    x, y = np.array([person.x, person.y]) + ahead * (person.radius + ball.shape.r + gap) * (-1 if behind else 1)
     moved = replace(ball, shape=replace(ball.shape, x=float(x), y=float(y)))
     scene = replace(scene, obstacles=tuple(moved if o.name == "ball" else o for o in scene.obstacles))
     return scene, imagine_person(scene, "person", "couch", GAZE)
 
 
-def test_a_world_sampled_with_the_person_already_touching_something_is_left_out() -> None:
-    """Walking away from a ball 1 cm behind them is no risk, though many sampled balls (up to 25 % larger) overlap them."""
-    scene, im = _ball_behind(0.01)
-    assert "ball" not in im.seen and not im.collided
+def test_a_sampled_touch_at_the_start_is_no_fall_when_the_person_walks_away_from_it() -> None:
+    """Many sampled balls (up to 25 % larger) just behind the person touch them at the start: walking away, no risk."""
     u = Uncertainty(0.2, {"ball": 0.02, "person": 0.02}, samples=128)
-    assert collision_risk(scene, im, u).probability == 0.0
-    # Where every sampled world has them touching it, the belief itself does: that counts.
-    scene, im = _ball_behind(-0.1)
+    for gap in (0.01, -0.1):  # clear by 1 cm, and overlapping them in every sampled world
+        scene, im = _ball_next_to_person(gap, behind=True)
+        assert "ball" not in im.seen
+        assert collision_risk(scene, im, u).probability == 0.0
+    # Walking into it, a touch at the start is a fall at once.
+    scene, im = _ball_next_to_person(-0.1, behind=False)
     risk = collision_risk(scene, im, u)
     assert risk.probability == 1.0 and risk.time == 0.0 and risk.obstacle == "ball"

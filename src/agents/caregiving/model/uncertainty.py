@@ -12,13 +12,13 @@ the imagined path in each, vectorised with numpy:
   they see are left alone, because the person plans around whatever size they
   really are. Walls and the robot (which knows where it is) are exact.
 
-A sampled world in which the person already touches something where they stand
-now contradicts what is known (they are standing or walking free), so it is
-left out: in a tight room an object sampled larger or closer would otherwise
-count as a fall at time zero. It returns the fraction of the remaining sampled
-worlds with a contact, and the earliest contact among them (time, point,
-obstacle); when every sampled world has the person touching something at the
-start, the belief itself has them in contact, and all count. Obstacles that no sampled world
+A sampled world may have the person touch something where they stand now (an
+object sampled larger or closer than it is, beside them in a tight room). If
+they walk away from it, that is no fall: their contact with it counts only from
+when they come back to it after being clear. Walking into it, it counts at once.
+
+It returns the fraction of sampled worlds with a contact, and the earliest
+contact among them (time, point, obstacle). Obstacles that no sampled world
 (within five sigmas and the largest size) brings within reach of the walk are
 skipped, which keeps the cost flat in cluttered rooms.
 """
@@ -84,7 +84,6 @@ def collision_risk(scene: Scene, im: Imagination, u: Uncertainty, dt: float = DT
     walkers = points[None, :, :] + shift[:, None, :] * fade[None, :, None]  # (n, steps, 2)
     first = np.full(n, len(times))
     hit = np.full(n, -1)
-    at_start = np.zeros(n, dtype=bool)  # sampled worlds with the person touching something where they stand
     reach = _reach(points, person.radius + TAIL * u.sigma.get(im.person, 0.0))
     for j, o in enumerate(unseen):
         if reach(o.shape, TAIL * u.sigma.get(o.name, 0.0) + bounding_radius(o.shape) / (1 - u.size_error)):
@@ -94,23 +93,32 @@ def collision_risk(scene: Scene, im: Imagination, u: Uncertainty, dt: float = DT
         scale = np.ones(n) if exact else 1.0 / rng.uniform(1 - u.size_error, 1 + u.size_error, n)
         offset = rng.normal(0.0, sigma, (n, 2))
         clear = _clearances(o.shape, walkers, offset, scale) - person.radius  # (n, steps)
-        touching = clear <= 0.0
-        at_start |= touching[:, 0]
+        touching = _contacts(clear)
         idx = np.where(touching.any(axis=1), touching.argmax(axis=1), len(times))
         better = idx < first
         first[better], hit[better] = idx[better], j
-    # A world with the person touching something where they stand contradicts what is known: it counts only
-    # when every sampled world does (then the belief itself has them in contact).
-    counted = np.ones(n, dtype=bool) if at_start.all() else ~at_start
-    colliding = (first < len(times)) & counted
+    colliding = first < len(times)
     if not colliding.any():
         return NO_RISK
     k = int(np.argmin(np.where(colliding, first, len(times) + 1)))
     step = int(first[k])
     obstacle = unseen[int(hit[k])]
     point = closest_boundary_point(obstacle.shape, walkers[k, step])[0]
-    probability = float(colliding.sum() / counted.sum())
-    return Risk(probability, float(times[step]), (float(point[0]), float(point[1])), obstacle.name)
+    return Risk(float(colliding.mean()), float(times[step]), (float(point[0]), float(point[1])), obstacle.name)
+
+
+def _contacts(clear: np.ndarray) -> np.ndarray:
+    """Where each sampled walk (a row of clearances) touches, leaving out a touch at the start that it walks away from."""
+    touching = clear <= 0.0
+    if clear.shape[1] < 2:
+        return touching
+    leaving = touching[:, 0] & (clear[:, 1] >= clear[:, 0])
+    if not leaving.any():
+        return touching
+    # From the first step clear of it on, a walk that started by leaving it touches it again.
+    came_clear = np.cumsum(~touching[leaving], axis=1) > 0
+    touching[leaving] &= came_clear
+    return touching
 
 
 def _reach(points: np.ndarray, radius: float) -> Callable[[Circle | Box, float], bool]:
