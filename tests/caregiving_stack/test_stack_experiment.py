@@ -30,6 +30,9 @@ KEYS = {
     "oracle_saveable",
     "oracle_standoff_saveable",
     "prevention_rate_of_saveable",
+    "pipeline_delay_ms_p50",
+    "oracle_saveable_after_delay",
+    "prevention_rate_of_saveable_after_delay",
     "robot_caused_collisions",
 }
 
