@@ -9,6 +9,7 @@ from pathlib import Path
 
 import wm
 from procs import PYTHON, REPO, WM, endpoint, free_port
+from wm.net.connection import open_session
 
 GRAPH = "confirm"
 REPLICA = str(REPO / "tests" / "replica_proc.py")
@@ -78,5 +79,21 @@ def test_without_a_durable_member_a_durable_confirmation_fails_but_names_who_ack
             assert plain and plain.acked == {peer_id}
             durable = await g.network.confirm(1.5, durable=True)  # type: ignore[union-attr]
             assert not durable and durable.acked == {peer_id} and not durable.on_disk
+
+    asyncio.run(run())
+
+
+def test_queries_on_a_session_closed_under_the_replica_find_nobody_instead_of_raising() -> None:
+    """An agent that closes its own session while the replica still asks (a repair, a catch-up) gets no answers."""
+
+    async def run() -> None:
+        session = await open_session(listen=[endpoint(free_port())])
+        async with wm.connect(GRAPH, name="alone", session=session) as g:
+            network = g.network
+            assert network is not None
+            session.close()  # type: ignore[no-untyped-call]
+            assert await network.live_members() == {}
+            assert await network.sync_from("nobody") is False
+            assert not await network.confirm(0.2)
 
     asyncio.run(run())

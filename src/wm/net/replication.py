@@ -350,8 +350,13 @@ class Replicator:
         """Replica id -> agent name of the other live members, asked of the network now."""
 
         def ask() -> dict[str, str]:
-            found = {}
-            for reply in self.session.liveliness().get(keys.alive(self.name), timeout=self.query_timeout):
+            found: dict[str, str] = {}
+            try:
+                replies = list(self.session.liveliness().get(keys.alive(self.name), timeout=self.query_timeout))
+            except zenoh.ZError as exc:  # the session closed under us (shutting down): nobody answers
+                log.debug("asking who is live on graph %r: %s", self.name, exc)
+                return found
+            for reply in replies:
                 if reply.ok is not None:
                     replica, agent = keys.parse_alive(str(reply.ok.key_expr))
                     found[replica] = agent
@@ -390,17 +395,23 @@ class Replicator:
             await asyncio.sleep(0.05)
 
     async def _query(self, selector: str, payload: bytes, timeout: float | None = None) -> list[tuple[str, bytes]]:
-        """A Zenoh get, run in a worker thread; returns (key, payload) of every good reply."""
+        """A Zenoh get, run in a worker thread; returns (key, payload) of every good reply (none once the session closed)."""
         wait = self.query_timeout if timeout is None else timeout
 
         def ask() -> list[tuple[str, bytes]]:
-            replies = self.session.get(
-                selector,
-                payload=payload,
-                timeout=wait,
-                target=zenoh.QueryTarget.ALL,
-                allowed_destination=zenoh.Locality.REMOTE,
-            )
+            try:
+                replies = list(
+                    self.session.get(
+                        selector,
+                        payload=payload,
+                        timeout=wait,
+                        target=zenoh.QueryTarget.ALL,
+                        allowed_destination=zenoh.Locality.REMOTE,
+                    )
+                )
+            except zenoh.ZError as exc:  # the session closed under us (shutting down): nobody answers
+                log.debug("query on %s: %s", selector, exc)
+                return []
             return [(str(r.ok.key_expr), r.ok.payload.to_bytes()) for r in replies if r.ok is not None]
 
         return await asyncio.to_thread(ask)
