@@ -25,8 +25,9 @@ those trials (``oracle_standoff_saveable`` with stand-offs only) and
 can act at that very moment: ``pipeline_delay_ms_p50`` is the run's median time
 from the context that first showed a danger to the robot's first command in the
 world (simulated time: Algorithm 1 and the search after the context was read,
-the command, and the wait for the world's next step), and ``oracle_saveable_after_delay`` counts the truly risky trials
-that some move of the same broad set saves when commanded that much later;
+the command, and the wait for the world's next step), and
+``oracle_saveable_after_delay`` counts the truly risky trials that some move of
+the same broad set saves when commanded that much later;
 ``prevention_rate_of_saveable_after_delay`` is the prevention rate over those.
 ``robot_caused_collisions`` counts trials that were safe with the robot idle and
 collided with it acting. Reaction times are wall-clock differences
