@@ -150,6 +150,7 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
     risky = [s for s in scored if s.truly_risky]
     delay = pipeline_delay(scored)
     late = [s for s in risky if s.saveable_after_delay]
+    saved_late = sum(not s.record.collided for s in late)
     return {
         "trials": len(scored),
         "discarded": len(scored) - len(valid),
@@ -186,8 +187,8 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         ),
         "pipeline_delay_ms_p50": delay * 1e3 if delay is not None else None,
         "oracle_saveable_after_delay": len(late) if delay is not None else None,
-        "prevented_saveable_after_delay": sum(not s.record.collided for s in late),
-        "prevention_rate_of_saveable_after_delay": _ratio(sum(not s.record.collided for s in late), len(late)),
+        "prevented_saveable_after_delay": saved_late,
+        "prevention_rate_of_saveable_after_delay": _ratio(saved_late, len(late)),
         "robot_caused_collisions": sum(s.record.collided and not s.truly_risky for s in scored),
         "truly_risky": len(risky),
         "closed_loop_collisions": sum(s.record.collided for s in scored),

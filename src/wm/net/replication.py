@@ -22,7 +22,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -350,13 +350,11 @@ class Replicator:
         """Replica id -> agent name of the other live members, asked of the network now."""
 
         def ask() -> dict[str, str]:
-            found: dict[str, str] = {}
-            try:
-                replies = list(self.session.liveliness().get(keys.alive(self.name), timeout=self.query_timeout))
-            except zenoh.ZError as exc:  # the session closed under us (shutting down): nobody answers
-                log.debug("asking who is live on graph %r: %s", self.name, exc)
-                return found
-            for reply in replies:
+            found = {}
+            selector = keys.alive(self.name)
+            for reply in _replies(
+                lambda: self.session.liveliness().get(selector, timeout=self.query_timeout), selector
+            ):
                 if reply.ok is not None:
                     replica, agent = keys.parse_alive(str(reply.ok.key_expr))
                     found[replica] = agent
@@ -399,19 +397,16 @@ class Replicator:
         wait = self.query_timeout if timeout is None else timeout
 
         def ask() -> list[tuple[str, bytes]]:
-            try:
-                replies = list(
-                    self.session.get(
-                        selector,
-                        payload=payload,
-                        timeout=wait,
-                        target=zenoh.QueryTarget.ALL,
-                        allowed_destination=zenoh.Locality.REMOTE,
-                    )
-                )
-            except zenoh.ZError as exc:  # the session closed under us (shutting down): nobody answers
-                log.debug("query on %s: %s", selector, exc)
-                return []
+            replies = _replies(
+                lambda: self.session.get(
+                    selector,
+                    payload=payload,
+                    timeout=wait,
+                    target=zenoh.QueryTarget.ALL,
+                    allowed_destination=zenoh.Locality.REMOTE,
+                ),
+                selector,
+            )
             return [(str(r.ok.key_expr), r.ok.payload.to_bytes()) for r in replies if r.ok is not None]
 
         return await asyncio.to_thread(ask)
@@ -431,3 +426,12 @@ class Replicator:
             beats += 1
             if beats % RECONCILE_EVERY == 0:
                 self.graph.reconcile()
+
+
+def _replies(get: Callable[[], Iterable[zenoh.Reply]], selector: str) -> list[zenoh.Reply]:
+    """Every reply of a Zenoh get; none when the session closed under the replica (it is shutting down)."""
+    try:
+        return list(get())
+    except zenoh.ZError as exc:
+        log.debug("query on %s: %s", selector, exc)
+        return []
