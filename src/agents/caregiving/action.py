@@ -39,6 +39,7 @@ from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.move_search import Danger, SearchItem, SearchSpec
 from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import SearchResult, Verdict
 from agents.caregiving.model.visibility import GazeClass, gaze_classes
@@ -85,8 +86,9 @@ class Action(Agent):
         parser.add_argument(
             "--dispatch",
             type=float,
-            default=0.1,
-            help="simulated seconds from writing a move to the world acting on it (executor, command, a world step)",
+            default=DT,
+            help="simulated seconds from writing a move to the world acting on it: the world takes a command at its "
+            "next step, so one step (default) covers the executor's hop and the wait for it",
         )
 
     async def setup(self) -> None:
