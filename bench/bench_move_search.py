@@ -29,9 +29,10 @@ from functools import partial
 from pathlib import Path
 
 import benchlib
-from agents.caregiving.model import move_search
+from agents.caregiving.model import candidates, move_search
+from agents.caregiving.model.candidates import Danger
 from agents.caregiving.model.imagine import imagine_person
-from agents.caregiving.model.move_search import Danger, SearchSpec
+from agents.caregiving.model.move_search import SearchSpec
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.robot_moves import RobotMove, robot_fits
 from agents.caregiving.model.scenario import Scenario, load_scenario
@@ -150,12 +151,12 @@ def kinds(scene: Scene, danger: Danger) -> list[tuple[str, RobotMove]]:
     """Every candidate of one danger, pruned as the search prunes, with its kind."""
 
     def reachable(move: RobotMove, until: float) -> bool:
-        return move_search.in_reach(scene, move, until) and robot_fits(scene, move)
+        return candidates.in_reach(scene, move, until) and robot_fits(scene, move)
 
     ttc = danger.time_to_collision
-    near = [m for m in move_search.standoffs(scene, danger, danger.obstacle) if reachable(m, ttc)]
+    near = [m for m in candidates.standoffs(scene, danger, danger.obstacle) if reachable(m, ttc)]
     out = [("first stand-offs" if k < FIRST_STANDOFFS else "other stand-offs", m) for k, m in enumerate(near)]
-    out += [("path poses", m) for m, until in move_search.path_poses(scene, danger) if reachable(m, until)]
+    out += [("path poses", m) for m, until in candidates.path_poses(scene, danger) if reachable(m, until)]
     return out
 
 

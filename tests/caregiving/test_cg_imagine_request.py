@@ -4,9 +4,10 @@ import math
 
 import pytest
 
+from agents.caregiving.model.candidates import Danger
 from agents.caregiving.model.errors import RequestError
 from agents.caregiving.model.imagine_request import JointItem, PersonItem
-from agents.caregiving.model.move_search import Danger, SearchItem, SearchSpec
+from agents.caregiving.model.move_search import SearchItem, SearchSpec
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.service import item_from_wire
 from agents.caregiving.model.uncertainty import Uncertainty

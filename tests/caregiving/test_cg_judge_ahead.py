@@ -11,9 +11,10 @@ from functools import partial
 
 import pytest
 
+from agents.caregiving.model.candidates import Danger
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.judge_ahead import JudgeAhead
-from agents.caregiving.model.move_search import Danger, SearchSpec, search
+from agents.caregiving.model.move_search import SearchSpec, search
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene

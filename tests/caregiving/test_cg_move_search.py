@@ -5,20 +5,13 @@ from dataclasses import replace
 
 import pytest
 
+from agents.caregiving.model.candidates import Danger, candidates, ordered_moves
 from agents.caregiving.model.errors import ReplyError, RequestError
 from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.imagine_reply import Answer, decode_answer, encode_answer
 from agents.caregiving.model.imagine_request import JointItem, uncertainty_to_wire
-from agents.caregiving.model.move_search import (
-    Danger,
-    SearchSpec,
-    candidates,
-    choose,
-    judge,
-    ordered_moves,
-    search,
-)
+from agents.caregiving.model.move_search import SearchSpec, choose, judge, search
 from agents.caregiving.model.robot_moves import RobotMove, robot_fits
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene

@@ -9,10 +9,10 @@ import pytest
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
+from agents.caregiving.model.candidates import Danger
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.imagine_reply import ImagineReply
 from agents.caregiving.model.joint import imagine_joint
-from agents.caregiving.model.move_search import Danger
 from agents.caregiving.model.robot_moves import standoff_moves
 from agents.caregiving.model.rollout import BulletRollout
 from agents.caregiving.model.scenario import load_scenario

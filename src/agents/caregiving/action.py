@@ -37,7 +37,8 @@ from itertools import count
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
-from agents.caregiving.model.move_search import Danger, SearchItem, SearchSpec
+from agents.caregiving.model.candidates import Danger
+from agents.caregiving.model.move_search import SearchItem, SearchSpec
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.uncertainty import Uncertainty

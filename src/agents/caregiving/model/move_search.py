@@ -1,29 +1,12 @@
-"""Candidate robot moves for Algorithm 2, likeliest first, with cheap pruning.
+"""Algorithm 2's move search: judge the candidates in time, likeliest first, and choose the move to send.
 
-A :class:`Danger` is a person's risky imagined walk: their path, the object (or person) they
-would hit, where and when. The robot's moves are ``move_to`` a pose:
-
-* **stand-offs** (the paper's ``move_to(object)``): poses around an object, a
-  small gap from its boundary, facing it; around the obstacle itself they cover it;
-* **path poses**: free poses on the person's predicted path, or beside it,
-  between the person and the obstacle: in front of the obstacle on the person's
-  side, and farther back along the path, where the person will see the robot sooner.
-
-:func:`ordered_moves` yields them lazily in the order the search tries them:
-the stand-offs around the obstacle, straight behind it and straight in front
-of it along the person's way first (a robot there is in view, and the detour
-around it also clears the obstacle; over 50 dangers of four scenarios the first
-of them removed the danger in 18 of the 28 the search could remove); then the
-path poses, those where the robot has the most seconds in hand first; then the
-stand-offs around the other objects by distance to the collision point. Two
-cheap tests prune before any imagination: the robot must fit at the pose, and a
-straight drive (the travel-time lower bound, from the robot's current speed)
-must come within :data:`REACH` of it before the person passes it (path poses)
-or before the collision (stand-offs). The joint imagination in time
-(:mod:`agents.caregiving.model.joint`) judges the rest: :func:`search` judges
-the candidates one at a time, each with its robot starting later by the time
-the search has spent, and stops at the first safe one. A :class:`SearchSpec`
-travels to the simulator in its wire form, and the :class:`SearchResult` comes back.
+The candidates come from :mod:`agents.caregiving.model.candidates`. The joint imagination in time
+(:mod:`agents.caregiving.model.joint`) judges them: :func:`search` judges the candidates one at a
+time, each with its robot starting later by the time the search has spent, and stops at the first
+safe one, or at the first that saves everyone at the gaze found risky and makes nothing worse at the
+others (:class:`NoWorse`). When none is safe, :func:`choose` may still pick a clear one that lowers the
+risk; else the search's last move, if it makes nothing worse. A :class:`SearchSpec` travels to the simulator in its wire form, and the
+:class:`SearchResult` comes back.
 """
 
 from __future__ import annotations
@@ -34,160 +17,24 @@ from dataclasses import dataclass, field, replace
 from itertools import islice
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
+from .candidates import Danger, candidates
 from .fields import Fields
-from .geometry import Polyline, bounding_radius
 from .imagine_reply import Answer
 from .imagine_request import MAX_DELAY, JointItem, falling_from_fields, uncertainty_from_fields, uncertainty_to_wire
 from .joint import walk_from_fields, walk_to_wire
-from .robot_moves import RobotMove, robot_fits, standoff_poses, travel_time
+from .robot_moves import RobotMove
 from .scene import Scene
 from .uncertainty import NO_RISK, Uncertainty
-from .verdict import SearchResult, Verdict
-from .visibility import WALL_KIND
+from .verdict import Fall, SearchResult, Verdict
 from .world_model import Walk
 
 if TYPE_CHECKING:
     from .judge_ahead import JudgeAhead
 
-#: Lateral offsets (m) of path poses from the person's path, on the path first.
-LATERAL = (0.0, 0.3, -0.3)
-#: Spacing (m) of path poses along the path.
-SPACING = 0.25
-#: A pose the robot cannot come this close to (m) before the person passes it is pruned: a robot
-#: farther off when the person goes by is beside their way, not in it.
-REACH = 1.0
 #: Candidate moves one search may judge at most.
 MAX_MOVES = 256
 #: Candidates lent to the helper process at a time (see :mod:`agents.caregiving.model.judge_ahead`).
 AHEAD_DEPTH = 2
-
-
-@dataclass(frozen=True)
-class Danger:
-    """A person's risky walk: path from where they are, the obstacle, where and in how many seconds they hit it."""
-
-    person: str
-    target: str
-    path: tuple[tuple[float, float], ...]
-    point: tuple[float, float]
-    obstacle: str
-    time_to_collision: float
-
-    def to_wire(self) -> dict[str, Any]:
-        """A msgpack-friendly dict."""
-        return {
-            "person": self.person,
-            "target": self.target,
-            "path": [list(p) for p in self.path],
-            "point": list(self.point),
-            "obstacle": self.obstacle,
-            "time_to_collision": self.time_to_collision,
-        }
-
-    @classmethod
-    def from_fields(cls, f: Fields) -> Danger:
-        """Parse :meth:`to_wire` output nested in a larger message."""
-        x, y = f.numbers("point", 2)
-        return cls(
-            f.string("person"),
-            f.string("target"),
-            f.pairs("path"),
-            (x, y),
-            f.string("obstacle"),
-            f.number("time_to_collision", positive=True),
-        )
-
-
-def travel_direction(path: tuple[tuple[float, float], ...], point: tuple[float, float]) -> tuple[float, float]:
-    """Unit direction of the person's path where it comes closest to ``point``."""
-    if len(path) < 2:
-        return 1.0, 0.0
-    pts = np.asarray(path, dtype=float)
-    seg = np.diff(pts, axis=0)
-    k = int(np.argmin(np.linalg.norm(pts[:-1] + seg / 2 - np.asarray(point), axis=1)))
-    norm = float(np.hypot(*seg[k])) or 1.0
-    return float(seg[k][0] / norm), float(seg[k][1] / norm)
-
-
-def drive_time(scene: Scene, x: float, y: float, within: float = 0.0) -> float:
-    """Lower bound on the robot's time to come ``within`` metres of (x, y): a straight drive from its current speed."""
-    robot = scene.robot
-    assert robot is not None
-    gap = max(math.hypot(x - robot.x, y - robot.y) - within, 0.0)
-    return travel_time(gap, robot.max_speed, robot.max_accel, robot.speed)
-
-
-def in_reach(scene: Scene, move: RobotMove, until: float) -> bool:
-    """Whether a straight drive can bring the robot within :data:`REACH` of the move's pose before ``until`` s."""
-    return drive_time(scene, move.x, move.y, REACH) < until
-
-
-def path_poses(scene: Scene, danger: Danger) -> Iterator[tuple[RobotMove, float]]:
-    """Free poses on and beside the path, from just before the obstacle back towards the person.
-
-    Each stands broadside across the path, so the person meets the robot's longer side, and comes
-    with the seconds until the person would reach it.
-    """
-    robot, person = scene.robot, scene.person(danger.person)
-    assert robot is not None
-    if len(danger.path) < 2:
-        return
-    route = Polyline.of(danger.path)
-    obstacle = scene.body(danger.obstacle)
-    clearance = bounding_radius(obstacle.shape) + max(robot.length, robot.width) / 2 + 0.05
-    nearest = person.radius + max(robot.length, robot.width) / 2 + 0.2
-    distance = min(danger.time_to_collision * person.speed, route.length) - clearance
-    while distance > nearest:
-        x, y = route.point_at(distance)
-        ax, ay = route.point_at(min(distance + 0.05, route.length))
-        heading = math.atan2(ay - y, ax - x)
-        for offset in LATERAL:
-            px, py = x - math.sin(heading) * offset, y + math.cos(heading) * offset
-            yield RobotMove(danger.obstacle, px, py, heading + math.pi / 2), distance / person.speed
-        distance -= SPACING
-
-
-def standoffs(scene: Scene, danger: Danger, obstacle: str) -> list[RobotMove]:
-    """Stand-off poses around ``obstacle``, those straight behind and in front of it along the person's way first."""
-    dx, dy = travel_direction(danger.path, danger.point)
-    shape = scene.obstacle(obstacle).shape
-
-    def key(m: RobotMove) -> tuple[float, float]:
-        norm = math.hypot(m.x - shape.x, m.y - shape.y) or 1.0
-        along = ((m.x - shape.x) * dx + (m.y - shape.y) * dy) / norm
-        return -abs(along), -along
-
-    return sorted(standoff_poses(scene, obstacle), key=key)
-
-
-def ordered_moves(scene: Scene, danger: Danger) -> Iterator[RobotMove]:
-    """Every candidate move for ``danger``, likeliest first (see the module documentation), generated lazily."""
-    deadline = danger.time_to_collision
-    # Stand-offs need an object that stays put: a person walking into another person gets path poses first.
-    if any(o.name == danger.obstacle for o in scene.obstacles):
-        yield from (
-            m
-            for m in standoffs(scene, danger, danger.obstacle)
-            if in_reach(scene, m, deadline) and robot_fits(scene, m)
-        )
-    # Seconds the robot has in hand at each path pose: the more, the likelier the person sees it in time.
-    slack = [
-        (until - drive_time(scene, m.x, m.y), k, m)
-        for k, (m, until) in enumerate(path_poses(scene, danger))
-        if in_reach(scene, m, until)
-    ]
-    yield from (m for _, _, m in sorted(slack, key=lambda t: (-t[0], t[1])) if robot_fits(scene, m))
-    point = danger.point
-    others = sorted(
-        (o for o in scene.obstacles if o.kind != WALL_KIND and o.name != danger.obstacle),
-        key=lambda o: math.hypot(o.shape.x - point[0], o.shape.y - point[1]),
-    )
-    for o in others:
-        yield from (
-            m for m in standoffs(scene, danger, o.name) if in_reach(scene, m, deadline) and robot_fits(scene, m)
-        )
 
 
 @dataclass(frozen=True)
@@ -274,40 +121,28 @@ def judge(move: RobotMove | None, answers: list[Answer], falling: Mapping[str, s
     A fall that ``falling`` names (``{bystander: object}``, see :class:`SearchSpec`) does not refuse the move.
     """
     falling = falling or {}
-    arrival, risk, worst = None, 0.0, ""
-    for a in answers:
+    arrival, risk, worst, refused = None, 0.0, "", ""
+    falls: list[Fall] = []
+    for k, a in enumerate(answers):
         if a.joint is None:
             return Verdict(move, False, 1.0, None, f"not imagined: {a.error}")
         if not a.joint.robot_reachable:
             return Verdict(move, False, 1.0, None, "the robot cannot reach the pose")
-        for w in a.joint.walks:
-            if not w.fine_given(falling):
-                what = f"into {w.collision_object}" if w.collided else "stuck"
-                return Verdict(
-                    move, False, 1.0, None, f"{w.walk.person} walks {what} at gaze {math.degrees(w.walk.gaze):.0f} deg"
-                )
+        arrival = a.joint.robot_arrival if arrival is None else arrival
+        w = next((w for w in a.joint.walks if not w.fine_given(falling)), None)
+        if w is not None:
+            falls.append(Fall(k, w.walk.person, w.collision_object if w.collided else None, w.collision_point))
+            what = f"into {w.collision_object}" if w.collided else "stuck"
+            refused = refused or f"{w.walk.person} walks {what} at gaze {math.degrees(w.walk.gaze):.0f} deg"
+            continue
         sampled = a.risk or NO_RISK
         if sampled.probability >= risk:
             risk, worst = sampled.probability, sampled.obstacle or ""
-        arrival = a.joint.robot_arrival if arrival is None else arrival
+    if falls:
+        # A move refused in the first walk set (the gaze class found risky) was not imagined in the others.
+        return Verdict(move, False, 1.0 if falls[0].walk_set == 0 else risk, arrival, refused, tuple(falls))
     reason = f"everyone imagined walks clear; sampled risk {risk:.2f}" + (f" ({worst})" if risk > 0 else "")
     return Verdict(move, True, risk, arrival, reason)
-
-
-def candidates(scene: Scene, dangers: tuple[Danger, ...]) -> Iterator[RobotMove]:
-    """The dangers' :func:`ordered_moves`, interleaved (most urgent danger first) and without repeats."""
-    streams = [ordered_moves(scene, d) for d in sorted(dangers, key=lambda d: d.time_to_collision)]
-    seen: set[tuple[float, float, float]] = set()
-    while streams:
-        for stream in list(streams):
-            move = next(stream, None)
-            if move is None:
-                streams.remove(stream)
-                continue
-            key = (round(move.x, 3), round(move.y, 3), round(move.heading, 3))
-            if key not in seen:
-                seen.add(key)
-                yield move
 
 
 def choose(verdicts: list[Verdict], threshold: float, idle_risk: float) -> Verdict | None:
@@ -325,6 +160,39 @@ def choose(verdicts: list[Verdict], threshold: float, idle_risk: float) -> Verdi
 
 #: Answers one joint item (see :mod:`agents.caregiving.model.service`); the search's only way to imagine.
 Imagine = Callable[[JointItem], Answer]
+
+
+@dataclass
+class NoWorse:
+    """Whether a refused move still saves everyone at the gaze found risky, and makes nothing worse elsewhere.
+
+    Such a move is clear in the first walk set (the gaze class the danger was found at), with sampled
+    risk under ``threshold``; in every other set where someone still falls, that person falls there with
+    the robot carrying on as it is too (into something other than the robot, and not stuck). It saves the
+    person if their gaze is the one found risky, and leaves them no worse off if it is another. The robot
+    carrying on is imagined once per walk set, when a move first needs it.
+    """
+
+    spec: SearchSpec
+    imagine: Imagine
+    uncertainty: Uncertainty
+    threshold: float
+    robot: str | None
+    _idle: dict[int, Verdict] = field(default_factory=dict)
+
+    def __call__(self, verdict: Verdict) -> bool:
+        falls = verdict.falls
+        if not falls or falls[0].walk_set == 0 or verdict.risk >= self.threshold:
+            return False
+        if any(f.obstacle is None or f.obstacle == self.robot for f in falls):
+            return False
+        return all(any(g.person == f.person for g in self._idle_in(f.walk_set).falls) for f in falls)
+
+    def _idle_in(self, walk_set: int) -> Verdict:
+        if walk_set not in self._idle:
+            item = self.spec.items(self.spec.current, self.uncertainty)[walk_set]
+            self._idle[walk_set] = judge(self.spec.current, [self.imagine(item)], self.spec.falling)
+        return self._idle[walk_set]
 
 
 def judge_move(spec: SearchSpec, move: RobotMove, imagine: Imagine, uncertainty: Uncertainty) -> Verdict:
@@ -351,15 +219,26 @@ def search(
 ) -> SearchResult:
     """Algorithm 2's search: judge the candidates one at a time, likeliest first, and stop at the first safe one.
 
+    It stops also at a move that saves everyone at the gaze found risky and makes nothing worse at the others
+    (:class:`NoWorse`): judging on for a move safe at every gaze would send any move later.
+
     Each candidate is imagined with the robot starting ``judging`` seconds later than the one before, since
     the move is sent only once the search has judged it: the k-th candidate (from 1) after
     ``spec.delay + judging * k``. The result holds every verdict and the move to send (see :func:`choose`).
     ``moves`` replaces the generated candidates (to judge the move under way again, for instance). With
     ``ahead``, a helper process judges candidates meanwhile (same verdicts, less wall time).
     """
-    pool = islice(candidates(scene, spec.dangers) if moves is None else iter(moves), max_moves)
-    verdicts = _Judging(scene, spec, imagine, uncertainty, judging, ahead).in_order(pool, threshold)
-    return SearchResult(choose(verdicts, threshold, idle_risk), tuple(verdicts))
+    verdicts: list[Verdict] = []
+    pool = islice(candidates(scene, spec.dangers, verdicts) if moves is None else iter(moves), max_moves)
+    no_worse = NoWorse(spec, imagine, uncertainty, threshold, scene.robot.name if scene.robot else None)
+    _Judging(scene, spec, imagine, uncertainty, judging, ahead).in_order(pool, threshold, verdicts, no_worse)
+    chosen = choose(verdicts, threshold, idle_risk)
+    if chosen is None and verdicts and no_worse(verdicts[-1]):
+        last = verdicts[-1]
+        chosen = verdicts[-1] = replace(
+            last, reason=f"clear at the gaze found risky; at another, {last.reason}, as with the robot as it is"
+        )
+    return SearchResult(chosen, tuple(verdicts))
 
 
 @dataclass(eq=False)  # compared by identity: it tags the moves it lends the helper
@@ -382,10 +261,14 @@ class _Judging:
     def spec_at(self, k: int) -> SearchSpec:
         return replace(self.spec, delay=self.spec.delay + self.judging * k)
 
-    def in_order(self, moves: Iterator[RobotMove], threshold: float) -> list[Verdict]:
-        """The verdicts in candidate order, up to the first safe one."""
+    def in_order(
+        self, moves: Iterator[RobotMove], threshold: float, verdicts: list[Verdict], settles: Callable[[Verdict], bool]
+    ) -> None:
+        """Fill ``verdicts`` in candidate order, up to the first safe one or one that ``settles`` the search.
+
+        ``moves`` may read ``verdicts`` as they come in.
+        """
         positions = enumerate(moves, start=1)
-        verdicts: list[Verdict] = []
         judged: dict[int, Verdict] = {}
         lent: dict[int, RobotMove] = {}  # the candidates the helper is judging, by position
 
@@ -412,10 +295,10 @@ class _Judging:
                 lent[k] = move
 
         def gather() -> bool:
-            """Move the judged prefix into ``verdicts``; True once it ends with a safe verdict."""
+            """Move the judged prefix into ``verdicts``; True once it ends with one that settles the search."""
             while (k := len(verdicts) + 1) in judged:
                 verdicts.append(judged.pop(k))
-                if verdicts[-1].safe(threshold):
+                if verdicts[-1].safe(threshold) or settles(verdicts[-1]):
                     return True
             return False
 
@@ -424,15 +307,14 @@ class _Judging:
             judged[mine[0]] = self.judge(*mine)
             exchange()
             if gather():
-                return verdicts
+                return
             mine = next(positions, None)
             exchange()
         while lent:
             exchange(wait=True)
             if gather():
-                return verdicts
+                return
         gather()
-        return verdicts
 
     def judge(self, k: int, move: RobotMove) -> Verdict:
         return judge_move(self.spec_at(k), move, self.imagine, self.uncertainty)

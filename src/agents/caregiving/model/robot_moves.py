@@ -2,7 +2,7 @@
 
 A :class:`RobotMove` is ``move_to`` a pose. The paper's ``move_to(object)`` is a
 stand-off pose around the object, facing it (:func:`standoff_poses`); the move
-search of Algorithm 2 adds free poses (:mod:`agents.caregiving.model.move_search`). Travel
+search of Algorithm 2 adds free poses (:mod:`agents.caregiving.model.candidates`). Travel
 time follows a trapezoidal speed profile (accelerate at ``max_accel`` up to
 ``max_speed``, cruise, brake to rest): :func:`travel_time` is the lower bound the
 search prunes with; the joint imagination steps the real drive.

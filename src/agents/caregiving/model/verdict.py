@@ -1,5 +1,8 @@
 """What Algorithm 2's move search decides: a verdict on each move it judged, and the move it chose.
 
+A verdict lists the falls its imagination showed (a :class:`Fall` per walk set that is not clear),
+so the search can tell where a refused move failed: which gaze class, who, into what and where.
+
 Both are plain dataclasses with a wire form (msgpack-friendly dicts), so the
 simulator can run the whole search next to its imagination and answer with them
 (:mod:`agents.caregiving.model.imagine_reply`). A search result names its
@@ -16,14 +19,49 @@ from .robot_moves import RobotMove
 
 
 @dataclass(frozen=True)
+class Fall:
+    """The first fall imagined in one walk set: who, into what (``None``: stuck) and where they touched it."""
+
+    walk_set: int
+    person: str
+    obstacle: str | None
+    point: tuple[float, float] | None
+
+    def to_wire(self) -> dict[str, Any]:
+        """A msgpack-friendly dict."""
+        return {
+            "walk_set": self.walk_set,
+            "person": self.person,
+            "obstacle": self.obstacle,
+            "point": list(self.point) if self.point else None,
+        }
+
+    @classmethod
+    def from_fields(cls, f: Fields) -> Fall:
+        """Parse :meth:`to_wire` output nested in a larger message."""
+        walk_set = f.number("walk_set", non_negative=True)
+        if not walk_set.is_integer():
+            raise f.fail("walk_set", f"expected the index of a walk set, got {walk_set!r}")
+        obstacle = f.string("obstacle") if f.has("obstacle") else None
+        point = f.numbers("point", 2) if f.has("point") else None
+        return cls(int(walk_set), f.string("person"), obstacle, (point[0], point[1]) if point else None)
+
+
+@dataclass(frozen=True)
 class Verdict:
-    """A move judged over every walk set: whether everyone imagined walks clear, the sampled risk, the arrival."""
+    """A move judged over every walk set: whether everyone imagined walks clear, the sampled risk, the arrival.
+
+    ``falls`` holds the first fall of each walk set imagined that is not clear (a move refused in the
+    first set is not imagined in the others). ``risk`` is sampled over the sets that are clear: 1.0 when
+    the first is not.
+    """
 
     move: RobotMove | None
     clear: bool
     risk: float
     arrival: float | None
     reason: str
+    falls: tuple[Fall, ...] = ()
 
     def safe(self, threshold: float) -> bool:
         """Clear in every walk set, and the sampled risk under ``threshold``."""
@@ -41,6 +79,7 @@ class Verdict:
             "risk": self.risk,
             "arrival": self.arrival,
             "reason": self.reason,
+            "falls": [fall.to_wire() for fall in self.falls],
         }
 
     @classmethod
@@ -52,6 +91,7 @@ class Verdict:
             f.number("risk", non_negative=True, at_most=1.0),
             f.optional_number("arrival"),
             f.string("reason"),
+            tuple(Fall.from_fields(fall) for fall in f.children("falls", [])),
         )
 
 

@@ -1,0 +1,243 @@
+"""Algorithm 2's candidate moves, likeliest first, with cheap pruning.
+
+A :class:`Danger` is a person's risky imagined walk: their path, the object (or person) they
+would hit, where and when. The robot's moves are ``move_to`` a pose:
+
+* **stand-offs** (the paper's ``move_to(object)``): poses around an object, a
+  small gap from its boundary, facing it; around the obstacle itself they cover it;
+* **path poses**: free poses on the person's predicted path, or beside it,
+  between the person and the obstacle: in front of the obstacle on the person's
+  side, and farther back along the path, where the person will see the robot sooner;
+* **swerves**: the first stand-off shifted sideways, when the search found that the
+  person, walking round the robot there, still grazes the obstacle on one side.
+
+:func:`ordered_moves` yields them lazily in the order the search tries them:
+the stand-offs around the obstacle, straight behind it and straight in front
+of it along the person's way first (a robot there is in view, and the detour
+around it also clears the obstacle; over 50 dangers of four scenarios the first
+of them removed the danger in 18 of the 28 the search could remove); then the
+path poses, those where the robot has the most seconds in hand first; then the
+stand-offs around the other objects by distance to the collision point. Two
+cheap tests prune before any imagination: the robot must fit at the pose, and a
+straight drive (the travel-time lower bound, from the robot's current speed)
+must come within :data:`REACH` of it before the person passes it (path poses)
+or before the collision (stand-offs). :func:`candidates` interleaves the dangers'
+orders and puts the :func:`swerves` of the first candidate third, once its verdict is in.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from .fields import Fields
+from .geometry import Polyline, bounding_radius
+from .robot_moves import RobotMove, robot_fits, standoff_poses, travel_time
+from .scene import Scene
+from .verdict import Verdict
+from .visibility import WALL_KIND
+
+#: Lateral offsets (m) of path poses from the person's path, on the path first.
+LATERAL = (0.0, 0.3, -0.3)
+#: Spacing (m) of path poses along the path.
+SPACING = 0.25
+#: A pose the robot cannot come this close to (m) before the person passes it is pruned: a robot
+#: farther off when the person goes by is beside their way, not in it.
+REACH = 1.0  #: Sideways shifts (m) of a swerve, the smaller first.
+SWERVE_SHIFTS = (0.15, 0.3)
+#: A touch this close to straight ahead (rad) is head-on: the person passed the obstacle on neither side,
+#: so there is no side to widen their detour towards.
+HEAD_ON = math.radians(25.0)
+
+
+@dataclass(frozen=True)
+class Danger:
+    """A person's risky walk: path from where they are, the obstacle, where and in how many seconds they hit it."""
+
+    person: str
+    target: str
+    path: tuple[tuple[float, float], ...]
+    point: tuple[float, float]
+    obstacle: str
+    time_to_collision: float
+
+    def to_wire(self) -> dict[str, Any]:
+        """A msgpack-friendly dict."""
+        return {
+            "person": self.person,
+            "target": self.target,
+            "path": [list(p) for p in self.path],
+            "point": list(self.point),
+            "obstacle": self.obstacle,
+            "time_to_collision": self.time_to_collision,
+        }
+
+    @classmethod
+    def from_fields(cls, f: Fields) -> Danger:
+        """Parse :meth:`to_wire` output nested in a larger message."""
+        x, y = f.numbers("point", 2)
+        return cls(
+            f.string("person"),
+            f.string("target"),
+            f.pairs("path"),
+            (x, y),
+            f.string("obstacle"),
+            f.number("time_to_collision", positive=True),
+        )
+
+
+def travel_direction(path: tuple[tuple[float, float], ...], point: tuple[float, float]) -> tuple[float, float]:
+    """Unit direction of the person's path where it comes closest to ``point``."""
+    if len(path) < 2:
+        return 1.0, 0.0
+    pts = np.asarray(path, dtype=float)
+    seg = np.diff(pts, axis=0)
+    k = int(np.argmin(np.linalg.norm(pts[:-1] + seg / 2 - np.asarray(point), axis=1)))
+    norm = float(np.hypot(*seg[k])) or 1.0
+    return float(seg[k][0] / norm), float(seg[k][1] / norm)
+
+
+def drive_time(scene: Scene, x: float, y: float, within: float = 0.0) -> float:
+    """Lower bound on the robot's time to come ``within`` metres of (x, y): a straight drive from its current speed."""
+    robot = scene.robot
+    assert robot is not None
+    gap = max(math.hypot(x - robot.x, y - robot.y) - within, 0.0)
+    return travel_time(gap, robot.max_speed, robot.max_accel, robot.speed)
+
+
+def in_reach(scene: Scene, move: RobotMove, until: float) -> bool:
+    """Whether a straight drive can bring the robot within :data:`REACH` of the move's pose before ``until`` s."""
+    return drive_time(scene, move.x, move.y, REACH) < until
+
+
+def path_poses(scene: Scene, danger: Danger) -> Iterator[tuple[RobotMove, float]]:
+    """Free poses on and beside the path, from just before the obstacle back towards the person.
+
+    Each stands broadside across the path, so the person meets the robot's longer side, and comes
+    with the seconds until the person would reach it.
+    """
+    robot, person = scene.robot, scene.person(danger.person)
+    assert robot is not None
+    if len(danger.path) < 2:
+        return
+    route = Polyline.of(danger.path)
+    obstacle = scene.body(danger.obstacle)
+    clearance = bounding_radius(obstacle.shape) + max(robot.length, robot.width) / 2 + 0.05
+    nearest = person.radius + max(robot.length, robot.width) / 2 + 0.2
+    distance = min(danger.time_to_collision * person.speed, route.length) - clearance
+    while distance > nearest:
+        x, y = route.point_at(distance)
+        ax, ay = route.point_at(min(distance + 0.05, route.length))
+        heading = math.atan2(ay - y, ax - x)
+        for offset in LATERAL:
+            px, py = x - math.sin(heading) * offset, y + math.cos(heading) * offset
+            yield RobotMove(danger.obstacle, px, py, heading + math.pi / 2), distance / person.speed
+        distance -= SPACING
+
+
+def standoffs(scene: Scene, danger: Danger, obstacle: str) -> list[RobotMove]:
+    """Stand-off poses around ``obstacle``, those straight behind and in front of it along the person's way first."""
+    dx, dy = travel_direction(danger.path, danger.point)
+    shape = scene.obstacle(obstacle).shape
+
+    def key(m: RobotMove) -> tuple[float, float]:
+        norm = math.hypot(m.x - shape.x, m.y - shape.y) or 1.0
+        along = ((m.x - shape.x) * dx + (m.y - shape.y) * dy) / norm
+        return -abs(along), -along
+
+    return sorted(standoff_poses(scene, obstacle), key=key)
+
+
+def ordered_moves(scene: Scene, danger: Danger) -> Iterator[RobotMove]:
+    """Every candidate move for ``danger``, likeliest first (see the module documentation), generated lazily."""
+    deadline = danger.time_to_collision
+    # Stand-offs need an object that stays put: a person walking into another person gets path poses first.
+    if any(o.name == danger.obstacle for o in scene.obstacles):
+        yield from (
+            m
+            for m in standoffs(scene, danger, danger.obstacle)
+            if in_reach(scene, m, deadline) and robot_fits(scene, m)
+        )
+    # Seconds the robot has in hand at each path pose: the more, the likelier the person sees it in time.
+    slack = [
+        (until - drive_time(scene, m.x, m.y), k, m)
+        for k, (m, until) in enumerate(path_poses(scene, danger))
+        if in_reach(scene, m, until)
+    ]
+    yield from (m for _, _, m in sorted(slack, key=lambda t: (-t[0], t[1])) if robot_fits(scene, m))
+    point = danger.point
+    others = sorted(
+        (o for o in scene.obstacles if o.kind != WALL_KIND and o.name != danger.obstacle),
+        key=lambda o: math.hypot(o.shape.x - point[0], o.shape.y - point[1]),
+    )
+    for o in others:
+        yield from (
+            m for m in standoffs(scene, danger, o.name) if in_reach(scene, m, deadline) and robot_fits(scene, m)
+        )
+
+
+def swerves(scene: Scene, danger: Danger, move: RobotMove, verdict: Verdict) -> list[RobotMove]:
+    """The stand-off ``move`` shifted sideways, when its verdict shows the person grazing the obstacle beside it.
+
+    A robot standing past the obstacle makes a person who sees it walk round it; when that detour is too
+    tight, they graze the obstacle on the side they pass it. The same stand-off moved towards that side
+    widens the detour. Nothing when the move was refused for another reason, or the touch was head-on.
+    """
+    fall = verdict.falls[0] if verdict.falls else None
+    if (
+        fall is None
+        or fall.walk_set != 0
+        or fall.person != danger.person
+        or fall.obstacle != danger.obstacle
+        or fall.point is None
+        or move.target != danger.obstacle
+    ):
+        return []
+    dx, dy = travel_direction(danger.path, danger.point)
+    shape = scene.body(danger.obstacle).shape
+    rx, ry = fall.point[0] - shape.x, fall.point[1] - shape.y
+    along, lateral = rx * dx + ry * dy, ry * dx - rx * dy
+    if abs(math.atan2(lateral, -along)) < HEAD_ON:
+        return []
+    side = math.copysign(1.0, lateral)
+    shifted = (replace(move, x=move.x - dy * side * s, y=move.y + dx * side * s) for s in SWERVE_SHIFTS)
+    return [m for m in shifted if robot_fits(scene, m)]
+
+
+def candidates(scene: Scene, dangers: tuple[Danger, ...], verdicts: Sequence[Verdict] = ()) -> Iterator[RobotMove]:
+    """The dangers' :func:`ordered_moves`, interleaved (most urgent danger first) and without repeats.
+
+    ``verdicts`` are the search's verdicts so far, filled in as it judges: once the first candidate's is
+    in, its :func:`swerves` (for the most urgent danger) come right after the second candidate.
+    """
+    urgent = sorted(dangers, key=lambda d: d.time_to_collision)
+    stream = _interleaved(scene, urgent)
+    first = next(stream, None)
+    if first is None:
+        return
+    yield first
+    second = next(stream, None)
+    if second is not None:
+        yield second
+    if verdicts:
+        yield from swerves(scene, urgent[0], first, verdicts[0])
+    yield from stream
+
+
+def _interleaved(scene: Scene, dangers: list[Danger]) -> Iterator[RobotMove]:
+    streams = [ordered_moves(scene, d) for d in dangers]
+    seen: set[tuple[float, float, float]] = set()
+    while streams:
+        for stream in list(streams):
+            move = next(stream, None)
+            if move is None:
+                streams.remove(stream)
+                continue
+            key = (round(move.x, 3), round(move.y, 3), round(move.heading, 3))
+            if key not in seen:
+                seen.add(key)
+                yield move
