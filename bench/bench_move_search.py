@@ -31,7 +31,6 @@ from pathlib import Path
 import benchlib
 from agents.caregiving.model import candidates, move_search
 from agents.caregiving.model.candidates import Danger
-from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.move_search import SearchSpec
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.robot_moves import RobotMove, robot_fits
@@ -39,9 +38,8 @@ from agents.caregiving.model.scenario import Scenario, load_scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
-from agents.caregiving.model.visibility import gaze_classes
-from agents.caregiving.model.world_model import World
 from bridges.experiment.oracle import saves, world_at
+from bridges.experiment.perfect_belief import perfect_belief_spec
 from bridges.world.bridge import trial_for
 
 RECORDED = Path(__file__).resolve().parent.parent / "docs" / "results"
@@ -86,26 +84,7 @@ def cases(runs: list[str]) -> Iterator[Case]:
 
 def search_spec(case: Case, delay: float) -> tuple[Scene, SearchSpec] | None:
     """The exact scene at the case's moment and the spec of its dangers, imagined as Algorithm 1 does."""
-    idle = World.from_scenario(case.trial, planner=case.planner)
-    outcome = idle.run(60.0)
-    scene = world_at(case.trial, case.at, case.planner).scene()
-    dangers: list[Danger] = []
-    gazes: dict[str, tuple[float, ...]] = {}
-    for c in outcome.collisions:
-        walker = idle.walker(c.person)
-        if c.person in gazes:
-            continue
-        im = imagine_person(scene, c.person, walker.target, walker.gaze)
-        if not im.collided or im.collision_point is None or im.collision_object is None or im.collision_time is None:
-            continue
-        dangers.append(
-            Danger(c.person, walker.target, im.path, im.collision_point, im.collision_object, im.collision_time)
-        )
-        classes = gaze_classes(scene.person(c.person), scene.bodies_around(c.person))
-        gazes[c.person] = tuple(sorted((g.gaze for g in classes), key=lambda g: abs(g - walker.gaze)))
-    if not dangers:
-        return None
-    return scene, SearchSpec(tuple(dangers), gazes, {p: () for p in gazes}, (), None, delay)
+    return perfect_belief_spec(case.trial, case.at, case.planner, delay)
 
 
 def first_safe(runs: list[str], delay: float, judging: float) -> dict[str, object]:

@@ -17,9 +17,12 @@ asks the simulator to imagine the candidates, and writes the result:
 * while a move is under way, a new risky intention first re-imagines that move
   from the robot's current state, speed included; only if it no longer keeps
   everyone safe is a new move searched, and the old one is marked ``superseded``;
-* a move is never sent unless every imagined walk with it is clear, but for a
-  bystander's fall into the very object their own risky intention already heads
-  for (a danger not searched now, say because no move saved it a moment ago):
+* a move is never sent when its imagination shows a fall that would not happen
+  without it: every imagined walk with it is clear, but for a bystander's fall
+  into the very object their own risky intention already heads for (a danger not
+  searched now, say because no move saved it a moment ago), and but for a gaze
+  other than the one the danger was found at, where the person falls with the
+  robot as it is too (the move then saves them if their gaze is the one found):
   the robot never causes a collision its imagination can see.
 
 The chosen move becomes the robot's ``intention`` node (``move_to``, target,

@@ -1,0 +1,150 @@
+"""Swerves and moves that make nothing worse: the search's answers to the dangers its first stand-offs leave.
+
+The recorded cases are truly risky trials with perfect belief, at the moment a live run first saw the
+danger, the robot starting one world step later and 20 ms later per candidate judged, as
+``bench/bench_move_search.py`` sets them up.
+"""
+
+import math
+from functools import partial
+from pathlib import Path
+
+import pytest
+
+from agents.caregiving.model.candidates import Danger, candidates, swerves, travel_direction
+from agents.caregiving.model.errors import ReplyError
+from agents.caregiving.model.fields import Fields
+from agents.caregiving.model.imagine import imagine_person
+from agents.caregiving.model.move_search import NoWorse, SearchSpec, search
+from agents.caregiving.model.planner import GridPlanner
+from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.scenario import Scenario, load_scenario
+from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.service import serve_one
+from agents.caregiving.model.uncertainty import Uncertainty
+from agents.caregiving.model.verdict import Fall, Verdict
+from bridges.experiment.oracle import saves, world_at
+from bridges.experiment.perfect_belief import perfect_belief_spec
+from bridges.world.bridge import trial_for
+
+EXACT = Uncertainty(0.0, {}, 1)
+DELAY, JUDGING, THRESHOLD = 0.05, 0.02, 0.2
+CORRIDOR = Path(__file__).resolve().parents[2] / "docs" / "results" / "heldout" / "long_corridor.yaml"
+GAZE = math.radians(8)
+
+
+def recorded_case(
+    scenario: str | Path, seed: int, index: int, at: float
+) -> tuple[Scenario, GridPlanner, Scene, SearchSpec]:
+    s = load_scenario(scenario)
+    trial, planner = trial_for(s, seed, index), GridPlanner(s.scene().bounds)
+    found = perfect_belief_spec(trial, at, planner, DELAY)
+    assert found is not None
+    return trial, planner, *found
+
+
+def test_a_swerve_saves_a_person_who_grazes_the_obstacle_walking_round_the_stand_off() -> None:
+    """Seed 2024's trial 74: the person walks round the robot behind the ball and still grazes the ball."""
+    trial, planner, scene, spec = recorded_case("paper_experiment1", 2024, 74, 0.65)
+    result = search(scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 24, judging=JUDGING)
+
+    first = result.verdicts[0]
+    assert first.move is not None and first.falls and first.falls[0].obstacle == "ball"
+    assert not result.verdicts[1].safe(THRESHOLD)
+    assert result.chosen is not None and result.chosen.safe(THRESHOLD)
+    assert result.chosen.move in swerves(scene, spec.dangers[0], first.move, first)
+    sent_at = 0.65 + DELAY + JUDGING * len(result.verdicts)
+    assert saves(world_at(trial, sent_at, planner), result.chosen.move)
+    # Without the swerves, none of the next candidates the search would judge saves the person in time.
+    plain = [m for m in candidates(scene, spec.dangers)][2:8]
+    assert not any(saves(world_at(trial, 0.65 + DELAY + JUDGING * (k + 3), planner), m) for k, m in enumerate(plain))
+
+
+@pytest.fixture(scope="module")
+def paper() -> tuple[Scene, Danger]:
+    scene = load_scenario("paper_experiment1").scene()
+    im = imagine_person(scene, "person", "couch", GAZE)
+    assert im.collision_point is not None and im.collision_object is not None and im.collision_time is not None
+    return scene, Danger("person", "couch", im.path, im.collision_point, im.collision_object, im.collision_time)
+
+
+def touched(scene: Scene, danger: Danger, bearing_deg: float, obstacle: str = "ball") -> Verdict:
+    """A refused verdict: the person touched ``obstacle`` at this bearing from straight ahead (left positive)."""
+    dx, dy = travel_direction(danger.path, danger.point)
+    shape = scene.obstacle("ball").shape
+    b = math.radians(bearing_deg)
+    ux, uy = -dx * math.cos(b) - dy * math.sin(b), -dy * math.cos(b) + dx * math.sin(b)
+    point = (shape.x + 0.1 * ux, shape.y + 0.1 * uy)
+    return Verdict(None, False, 1.0, None, "", (Fall(0, "person", obstacle, point),))
+
+
+def test_swerves_shift_the_stand_off_towards_the_side_the_person_grazed_and_only_then(
+    paper: tuple[Scene, Danger],
+) -> None:
+    scene, danger = paper
+    behind = next(iter(candidates(scene, (danger,))))
+    dx, dy = travel_direction(danger.path, danger.point)
+
+    def lateral(m: RobotMove) -> float:
+        return (m.y - behind.y) * dx - (m.x - behind.x) * dy
+
+    left = swerves(scene, danger, behind, touched(scene, danger, 50.0))
+    right = swerves(scene, danger, behind, touched(scene, danger, -50.0))
+    assert [round(lateral(m), 3) for m in left] == [0.15, 0.3]
+    assert [round(lateral(m), 3) for m in right] == [-0.15, -0.3]
+    assert all(m.heading == behind.heading and m.target == behind.target for m in left + right)
+    assert swerves(scene, danger, behind, touched(scene, danger, 10.0)) == []  # head-on: no side to widen
+    assert swerves(scene, danger, behind, touched(scene, danger, 50.0, "robot")) == []
+    other = RobotMove("couch", behind.x, behind.y, behind.heading)
+    assert swerves(scene, danger, other, touched(scene, danger, 50.0)) == []
+
+
+def test_a_verdicts_falls_survive_the_wire() -> None:
+    v = Verdict(RobotMove("ball", 1.0, 2.0, 0.5), False, 0.1, 3.0, "why", (Fall(1, "ann", "ball", (0.5, 0.25)),))
+    stuck = Verdict(None, False, 1.0, None, "stuck", (Fall(0, "ann", None, None),))
+    for verdict in (v, stuck):
+        assert Verdict.from_fields(Fields(verdict.to_wire(), "verdict", ReplyError)) == verdict
+    with pytest.raises(ReplyError, match=r"verdict.falls\[0\].walk_set"):
+        Verdict.from_fields(
+            Fields({**v.to_wire(), "falls": [{"walk_set": 0.5, "person": "ann"}]}, "verdict", ReplyError)
+        )
+
+
+def test_a_move_that_saves_the_person_at_the_gaze_found_risky_and_makes_nothing_worse_is_sent() -> None:
+    """A corridor with a bucket and a parcel: at a higher gaze the person would miss the parcel as well.
+
+    No move keeps them clear at both gazes. The first stand-off saves them at the gaze the danger was found
+    at; at the other they walk into the parcel instead of the bucket, so the move makes nothing worse.
+    """
+    trial, planner, scene, spec = recorded_case(CORRIDOR, 5, 7, 0.55)
+    result = search(scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 24, judging=JUDGING)
+
+    chosen = result.chosen
+    assert chosen is not None and chosen is result.verdicts[0] and not chosen.clear
+    assert [(f.walk_set, f.obstacle) for f in chosen.falls] == [(1, "parcel")]
+    assert chosen.reason.startswith("clear at the gaze found risky; at another, dee walks into parcel")
+    assert chosen.move is not None and saves(world_at(trial, 0.55 + DELAY + JUDGING, planner), chosen.move)
+
+
+def test_a_move_that_makes_someone_fall_who_would_not_with_the_robot_as_it_is_is_not_no_worse(
+    paper: tuple[Scene, Danger],
+) -> None:
+    scene, danger = paper
+    sees_ball = math.radians(-10)  # looking that far down, the person sees the ball and walks round it
+    assert not imagine_person(scene, "person", "couch", sees_ball).collided
+    spec = SearchSpec((danger,), {"person": (GAZE, sees_ball)}, {})
+    no_worse = NoWorse(spec, partial(serve_one, scene), EXACT, THRESHOLD, "robot")
+    move = RobotMove("ball", 1.0, 1.0, 0.0)
+
+    def refused(*falls: Fall, risk: float = 0.0) -> Verdict:
+        return Verdict(move, False, risk, None, "", falls)
+
+    # At the gaze that sees the ball, the person walks clear with the robot as it is: a fall there is new.
+    assert not no_worse(refused(Fall(1, "person", "couch", None)))
+    assert not no_worse(refused(Fall(0, "person", "ball", None)))  # not clear at the gaze found risky
+    assert not no_worse(refused(Fall(1, "person", "robot", None)))  # into the robot: never
+    assert not no_worse(refused(Fall(1, "person", None, None)))  # stuck
+    spec_low = SearchSpec((danger,), {"person": (sees_ball, GAZE)}, {})
+    low = NoWorse(spec_low, partial(serve_one, scene), EXACT, THRESHOLD, "robot")
+    assert low(refused(Fall(1, "person", "couch", None)))  # at the low gaze they fall idle too
+    assert not low(refused(Fall(1, "person", "couch", None), risk=0.5))  # too risky where it is clear
