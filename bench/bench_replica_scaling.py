@@ -7,6 +7,9 @@ Every subscriber holds a replica of the graph (``wm.connect``) and, on the
 same Zenoh session, a raw subscriber. In the same run, for each N:
 
 * raw Zenoh: a put from the writer -> the subscriber callback in each process;
+* raw Zenoh to asyncio: the same put, handed from that callback to the process's
+  event loop (``call_soon_threadsafe``) and stamped there, which is what an
+  asyncio program built on raw Zenoh gets;
 * cortex-wm: a durable ``update_node`` in the writer -> the NODE_UPDATED event
   in each replica (``wm serve`` applies and stores every write too).
 
@@ -38,12 +41,18 @@ RAW_KEY = "bench/scaling/raw"
 async def subscriber(port: int, index: int) -> None:
     """One replica in client mode; prints every latency it saw when told to stop."""
     raw: list[tuple[int, float]] = []
+    raw_asyncio: list[tuple[int, float]] = []
     durable: list[tuple[int, float]] = []
+    loop = asyncio.get_running_loop()
+
+    def on_loop(seq: int, sent: int) -> None:
+        raw_asyncio.append((seq, (time.monotonic_ns() - sent) / 1e6))
 
     def on_raw(sample: object) -> None:
         now = time.monotonic_ns()
         seq, sent = sample.payload.to_bytes().split(b":")  # type: ignore[attr-defined]
         raw.append((int(seq), (now - int(sent)) / 1e6))
+        loop.call_soon_threadsafe(on_loop, int(seq), int(sent))
 
     async with wm.connect(GRAPH, name=f"sub{index}", connect=[endpoint(port)], mode="client") as g:
         g.network.session.declare_subscriber(RAW_KEY, on_raw)  # type: ignore[union-attr]
@@ -56,7 +65,7 @@ async def subscriber(port: int, index: int) -> None:
         g.on(on_event, kind="node_updated", type="object")
         print("ready", flush=True)
         await asyncio.to_thread(sys.stdin.readline)
-    print("result", json.dumps({"raw": raw, "durable": durable}), flush=True)
+    print("result", json.dumps({"raw": raw, "raw_asyncio": raw_asyncio, "durable": durable}), flush=True)
 
 
 def start_router(port: int, data: str) -> subprocess.Popen[str]:
@@ -100,7 +109,7 @@ async def write_all(port: int, count: int, pace_s: float, subscribers: int) -> N
 
 
 def run(n: int, count: int) -> dict[str, list[tuple[int, float]]]:
-    """Every (seq, latency) pair seen by ``n`` subscribers, raw and durable."""
+    """Every (seq, latency) pair seen by ``n`` subscribers: raw, raw handed to asyncio, and durable."""
     port = free_port()
     children: list[subprocess.Popen[str]] = []
     with tempfile.TemporaryDirectory(prefix="wm-scaling-") as data:
@@ -112,7 +121,7 @@ def run(n: int, count: int) -> dict[str, list[tuple[int, float]]]:
             for child in children:
                 read_line(child, "ready")
             asyncio.run(write_all(port, count, pace_s=max(0.003, 0.0006 * n), subscribers=n))
-            seen: dict[str, list[tuple[int, float]]] = {"raw": [], "durable": []}
+            seen: dict[str, list[tuple[int, float]]] = {"raw": [], "raw_asyncio": [], "durable": []}
             for child in children:
                 assert child.stdin is not None
                 child.stdin.write("stop\n")
@@ -158,17 +167,22 @@ def main() -> None:
     for n in (int(x) for x in args.replicas.split(",")):
         seen = run(n, args.count)
         raw, durable = summarise(seen["raw"], n, args.count), summarise(seen["durable"], n, args.count)
+        raw_asyncio = summarise(seen["raw_asyncio"], n, args.count)
         ratio = round(durable["p50_ms"] / raw["p50_ms"], 2)
+        ratio_asyncio = round(durable["p50_ms"] / raw_asyncio["p50_ms"], 2)
         figures[str(n)] = {
             "raw_zenoh": raw,
+            "raw_zenoh_to_asyncio": raw_asyncio,
             "wm_durable": durable,
             "ratio_p50": ratio,
+            "ratio_p50_to_asyncio": ratio_asyncio,
             "ratio_slowest_p50": round(durable["slowest_p50_ms"] / raw["slowest_p50_ms"], 2),
         }
         rows.append(
             (
                 f"N={n}",
-                f"raw p50 {raw['p50_ms']:.3f} ms  wm p50 {durable['p50_ms']:.3f} ms  ratio {ratio}x  |  "
+                f"raw p50 {raw['p50_ms']:.3f} ms  raw->asyncio {raw_asyncio['p50_ms']:.3f} ms  "
+                f"wm p50 {durable['p50_ms']:.3f} ms  ratio {ratio}x ({ratio_asyncio}x to asyncio)  |  "
                 f"slowest p50 raw {raw['slowest_p50_ms']:.3f} wm {durable['slowest_p50_ms']:.3f}  |  "
                 f"wm p99 {durable['p99_ms']:.3f} ms  delivered {durable['delivered']:.0%}",
             )
