@@ -3,9 +3,9 @@
 The candidates come from :mod:`agents.caregiving.model.candidates`. The joint imagination in time
 (:mod:`agents.caregiving.model.joint`) judges them: :func:`search` judges the candidates one at a
 time, each with its robot starting later by the time the search has spent, and stops at the first
-safe one, or at the first that saves everyone at the gaze found risky and makes nothing worse at the
-others (:class:`NoWorse`). When none is safe, :func:`choose` may still pick a clear one that lowers the
-risk; else the search's last move, if it makes nothing worse. A :class:`SearchSpec` travels to the simulator in its wire form, and the
+safe one, or at the first that saves everyone at the gaze found risky and makes nothing worse at
+the others (:class:`NoWorse`). When none does, :func:`choose` may still pick a clear one that
+lowers the risk. A :class:`SearchSpec` travels to the simulator in its wire form, and the
 :class:`SearchResult` comes back.
 """
 
