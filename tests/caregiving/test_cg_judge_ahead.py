@@ -75,9 +75,8 @@ def test_the_search_stops_at_the_first_safe_move_and_leftovers_stay_out_of_the_n
     ahead: JudgeAhead, hard_case: tuple[Scene, SearchSpec]
 ) -> None:
     scene = load_scenario("paper_experiment1").scene()
-    im = imagine_person(scene, "person", "couch", GAZE)
-    assert im.collision_point is not None and im.collision_object is not None and im.collision_time is not None
-    danger = Danger("person", "couch", im.path, im.collision_point, im.collision_object, im.collision_time)
+    danger = Danger.of(imagine_person(scene, "person", "couch", GAZE))
+    assert danger is not None
     spec = SearchSpec((danger,), {"person": (GAZE,)}, {})
     inside_the_couch = [RobotMove("couch", 3.5, y, 0.0) for y in (0.0, 0.2, 0.4, 0.6, 0.8)]  # unreachable
     moves = [*inside_the_couch, RobotMove("ball", -0.46, 0.0, 0.0), *inside_the_couch]

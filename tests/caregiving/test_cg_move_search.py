@@ -30,10 +30,9 @@ def scene() -> Scene:
 
 
 def danger_of(scene: Scene, person: str = "person", target: str = "couch") -> Danger:
-    im = imagine_person(scene, person, target, GAZE)
-    assert im.collided and im.collision_point is not None and im.collision_object is not None
-    assert im.collision_time is not None
-    return Danger(person, target, im.path, im.collision_point, im.collision_object, im.collision_time)
+    danger = Danger.of(imagine_person(scene, person, target, GAZE))
+    assert danger is not None
+    return danger
 
 
 def test_candidates_start_behind_the_obstacle_fit_and_include_poses_on_the_path(scene: Scene) -> None:

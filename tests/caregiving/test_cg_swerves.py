@@ -63,9 +63,9 @@ def test_a_swerve_saves_a_person_who_grazes_the_obstacle_walking_round_the_stand
 @pytest.fixture(scope="module")
 def paper() -> tuple[Scene, Danger]:
     scene = load_scenario("paper_experiment1").scene()
-    im = imagine_person(scene, "person", "couch", GAZE)
-    assert im.collision_point is not None and im.collision_object is not None and im.collision_time is not None
-    return scene, Danger("person", "couch", im.path, im.collision_point, im.collision_object, im.collision_time)
+    danger = Danger.of(imagine_person(scene, "person", "couch", GAZE))
+    assert danger is not None
+    return scene, danger
 
 
 def touched(scene: Scene, danger: Danger, bearing_deg: float, obstacle: str = "ball") -> Verdict:

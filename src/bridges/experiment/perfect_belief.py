@@ -33,12 +33,10 @@ def perfect_belief_spec(
         walker = idle.walker(c.person)
         if c.person in gazes:
             continue
-        im = imagine_person(scene, c.person, walker.target, walker.gaze)
-        if not im.collided or im.collision_point is None or im.collision_object is None or im.collision_time is None:
+        danger = Danger.of(imagine_person(scene, c.person, walker.target, walker.gaze))
+        if danger is None:
             continue
-        dangers.append(
-            Danger(c.person, walker.target, im.path, im.collision_point, im.collision_object, im.collision_time)
-        )
+        dangers.append(danger)
         classes = gaze_classes(scene.person(c.person), scene.bodies_around(c.person))
         gazes[c.person] = tuple(sorted((g.gaze for g in classes), key=lambda g: abs(g - walker.gaze)))
     if not dangers:

@@ -36,6 +36,7 @@ import numpy as np
 
 from .fields import Fields
 from .geometry import Polyline, bounding_radius
+from .imagine import Imagination
 from .robot_moves import RobotMove, robot_fits, standoff_poses, travel_time
 from .scene import Scene
 from .verdict import Verdict
@@ -47,7 +48,8 @@ LATERAL = (0.0, 0.3, -0.3)
 SPACING = 0.25
 #: A pose the robot cannot come this close to (m) before the person passes it is pruned: a robot
 #: farther off when the person goes by is beside their way, not in it.
-REACH = 1.0  #: Sideways shifts (m) of a swerve, the smaller first.
+REACH = 1.0
+#: Sideways shifts (m) of a swerve, the smaller first.
 SWERVE_SHIFTS = (0.15, 0.3)
 #: A touch this close to straight ahead (rad) is head-on: the person passed the obstacle on neither side,
 #: so there is no side to widen their detour towards.
@@ -64,6 +66,13 @@ class Danger:
     point: tuple[float, float]
     obstacle: str
     time_to_collision: float
+
+    @classmethod
+    def of(cls, im: Imagination) -> Danger | None:
+        """The danger of an imagined walk that ends in a collision; ``None`` when it does not."""
+        if not im.collided or im.collision_point is None or im.collision_object is None or im.collision_time is None:
+            return None
+        return cls(im.person, im.target, im.path, im.collision_point, im.collision_object, im.collision_time)
 
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict."""
