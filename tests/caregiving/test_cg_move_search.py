@@ -11,13 +11,13 @@ from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.imagine_reply import Answer, decode_answer, encode_answer
 from agents.caregiving.model.imagine_request import JointItem, uncertainty_to_wire
-from agents.caregiving.model.move_search import SearchSpec, choose, judge, search
+from agents.caregiving.model.move_search import SearchSpec, choose, judge, replaces, search
 from agents.caregiving.model.robot_moves import RobotMove, robot_fits
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
-from agents.caregiving.model.verdict import Verdict
+from agents.caregiving.model.verdict import Fall, Verdict
 from agents.caregiving.model.world_model import Walk, World
 
 GAZE = math.radians(8)
@@ -99,6 +99,22 @@ def test_choose_takes_the_first_safe_move_else_a_clearly_better_one_else_none() 
     assert choose([v(True, 0.4), v(True, 0.3)], 0.2, 1.0) == v(True, 0.3)
     assert choose([v(True, 0.4)], 0.2, 0.6) is None  # does not halve the risk of standing by
     assert choose([v(False, 0.0)], 0.2, 1.0) is None
+
+
+def test_a_move_under_way_gives_way_only_to_a_clearly_better_one() -> None:
+    def v(clear: bool, risk: float, fall_in: int | None = None) -> Verdict:
+        falls = (Fall(fall_in, "person", "ball", (0.0, 0.0)),) if fall_in is not None else ()
+        return Verdict(RobotMove("ball", risk, 0.0, 0.0), clear, risk, 1.0, "", falls)
+
+    order = [v(True, 0.0), v(True, 0.3), v(False, 0.1, fall_in=1), v(False, 1.0, fall_in=0)]
+    for k, better in enumerate(order):
+        for worse in order[k + 1 :]:
+            assert replaces(better, worse, 64) and not replaces(worse, better, 64)
+    risky = order[1]
+    assert not replaces(v(True, 0.19), v(True, 0.2), 64)  # across the threshold, but within the sampling error
+    assert not replaces(v(True, 0.27), risky, 64) and replaces(v(True, 0.2), risky, 64)
+    assert not replaces(v(True, 0.25), risky, 16) and replaces(v(True, 0.25), risky, 4096)
+    assert not replaces(order[3], order[3], 64)
 
 
 def test_the_move_found_saves_the_person_in_the_world() -> None:

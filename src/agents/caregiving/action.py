@@ -16,7 +16,9 @@ asks the simulator to imagine the candidates, and writes the result:
   urgent first, and the move found is written with the people it leaves unsaved;
 * while a move is under way, a new risky intention first re-imagines that move
   from the robot's current state, speed included; only if it no longer keeps
-  everyone safe is a new move searched, and the old one is marked ``superseded``;
+  everyone safe is a new move searched, and only a move that ranks clearly above
+  it, judged in the same frame, replaces it (:func:`~agents.caregiving.model.move_search.replaces`);
+  the old one is then marked ``superseded``;
 * a move is never sent when its imagination shows a fall that would not happen
   without it: every imagined walk with it is clear, but for a bystander's fall
   into the very object their own risky intention already heads for (a danger not
@@ -41,7 +43,7 @@ from itertools import count
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.candidates import Danger
-from agents.caregiving.model.move_search import SearchItem, SearchSpec
+from agents.caregiving.model.move_search import SearchItem, SearchSpec, replaces
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.uncertainty import Uncertainty
@@ -133,9 +135,11 @@ class Action(Agent):
         self.rpc_ms = self.sim_ms = 0.0
         current = self._current()
         spec = self._spec(ctx, dangers, current)
+        under_way: Verdict | None = None
         if current is not None:
-            kept = await self._search(ctx, spec, 1.0, [self._move_of(current)])
-            if kept is not None and kept.verdicts[0].safe(self.args.risk_threshold):
+            again = await self._search(ctx, spec, 1.0, [self._move_of(current)])
+            under_way = again.verdicts[0] if again is not None and again.verdicts else None
+            if under_way is not None and under_way.safe(self.args.risk_threshold):
                 return  # the move under way still keeps everyone safe
         idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
         self.tried = []
@@ -158,7 +162,17 @@ class Action(Agent):
                 why=sorted({v.reason for v in self.tried})[:4],
             )
             return
-        self._write(ctx, chosen, dangers, current, unsaved, started)
+        if under_way is not None and not replaces(chosen, under_way, self.args.samples):
+            self.log.info(
+                "move kept",
+                under_way=under_way.reason,
+                risk=round(under_way.risk, 2),
+                best_new=chosen.reason,
+                new_risk=round(chosen.risk, 2),
+                search_ms=self._ms(started),
+            )
+            return
+        self._write(ctx, chosen, dangers, current, under_way, unsaved, started)
 
     # -- reading W -----------------------------------------------------------------------------
     def _clear(self, episode: int) -> None:
@@ -279,6 +293,7 @@ class Action(Agent):
         chosen: Verdict,
         dangers: dict[str, tuple[Edge, Danger]],
         current: Node | None,
+        under_way: Verdict | None,
         unsaved: str,
         started: float,
     ) -> None:
@@ -324,6 +339,7 @@ class Action(Agent):
             tried=len(self.tried),
             refused=sorted({v.reason for v in self.tried if not v.clear})[:4],
             replaces=current.name if current is not None else None,
+            because=under_way.reason if under_way is not None else None,
             search_ms=self._ms(started),
             rpc_ms=round(self.rpc_ms, 1),
             sim_ms=round(self.sim_ms, 1),

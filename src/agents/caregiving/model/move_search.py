@@ -158,6 +158,36 @@ def choose(verdicts: list[Verdict], threshold: float, idle_risk: float) -> Verdi
     return min(clear, key=lambda v: v.risk) if clear else None
 
 
+def standing(verdict: Verdict) -> tuple[int, float]:
+    """How good a move is, lower first: its class, then its sampled risk.
+
+    The classes: clear at every gaze (a safe move is a clear one with a risk under the threshold);
+    clear at the gaze found risky only, with falls at others (as a :class:`NoWorse` move); refused at
+    the gaze found risky.
+    """
+    if verdict.clear:
+        return 0, verdict.risk
+    if verdict.falls and verdict.falls[0].walk_set > 0:
+        return 1, verdict.risk
+    return 2, 1.0
+
+
+def replaces(new: Verdict, under_way: Verdict, samples: int) -> bool:
+    """Whether ``new`` should replace the move under way, both judged now from the robot's current state.
+
+    Only a move of a better :func:`standing`, or of the same standing with a risk lower by more than the
+    sampling error of the risk under way (over ``samples`` sampled worlds), replaces it. Each new frame's
+    noise ranks near-equal moves anew (a risk of 0.20 one frame, 0.19 the next), and a robot that switches
+    at every ranking gets nowhere, or into the person's way.
+    """
+    new_class, new_risk = standing(new)
+    old_class, old_risk = standing(under_way)
+    if new_class != old_class:
+        return new_class < old_class
+    n = max(samples, 1)
+    return new_risk < old_risk - max(math.sqrt(old_risk * (1.0 - old_risk) / n), 1.0 / n)
+
+
 #: Answers one joint item (see :mod:`agents.caregiving.model.service`); the search's only way to imagine.
 Imagine = Callable[[JointItem], Answer]
 
