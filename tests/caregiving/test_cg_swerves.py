@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from agents.caregiving.model.candidates import Danger, candidates, swerves, travel_direction
+from agents.caregiving.model.candidates import Danger, candidates, path_poses, swerves, travel_direction
 from agents.caregiving.model.errors import ReplyError
 from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.imagine import imagine_person
@@ -97,6 +97,20 @@ def test_swerves_shift_the_stand_off_towards_the_side_the_person_grazed_and_only
     assert swerves(scene, danger, behind, touched(scene, danger, 50.0, "robot")) == []
     other = RobotMove("couch", behind.x, behind.y, behind.heading)
     assert swerves(scene, danger, other, touched(scene, danger, 50.0)) == []
+    path_pose = next(m for m, _ in path_poses(scene, danger))  # it names the obstacle too, but is no stand-off
+    assert path_pose.target == danger.obstacle and swerves(scene, danger, path_pose, touched(scene, danger, 50.0)) == []
+
+
+def test_the_swerves_come_third_and_no_candidate_repeats(paper: tuple[Scene, Danger]) -> None:
+    scene, danger = paper
+    plain = list(candidates(scene, (danger,)))
+    first = plain[0]
+    shifted = swerves(scene, danger, first, touched(scene, danger, 50.0))
+    assert shifted
+    with_swerves = list(candidates(scene, (danger,), [touched(scene, danger, 50.0)]))
+    keys = [(round(m.x, 3), round(m.y, 3), round(m.heading, 3)) for m in with_swerves]
+    assert len(keys) == len(set(keys))
+    assert with_swerves[:2] == plain[:2] and with_swerves[2 : 2 + len(shifted)] == shifted
 
 
 def test_a_verdicts_falls_survive_the_wire() -> None:

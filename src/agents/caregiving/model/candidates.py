@@ -203,7 +203,8 @@ def swerves(scene: Scene, danger: Danger, move: RobotMove, verdict: Verdict) -> 
         or fall.person != danger.person
         or fall.obstacle != danger.obstacle
         or fall.point is None
-        or move.target != danger.obstacle
+        or not any(o.name == danger.obstacle for o in scene.obstacles)
+        or move not in standoff_poses(scene, danger.obstacle)
     ):
         return []
     dx, dy = travel_direction(danger.path, danger.point)
@@ -224,7 +225,8 @@ def candidates(scene: Scene, dangers: tuple[Danger, ...], verdicts: Sequence[Ver
     in, its :func:`swerves` (for the most urgent danger) come right after the second candidate.
     """
     urgent = sorted(dangers, key=lambda d: d.time_to_collision)
-    stream = _interleaved(scene, urgent)
+    seen: set[tuple[float, float, float]] = set()
+    stream = _unseen(_interleaved(scene, urgent), seen)
     first = next(stream, None)
     if first is None:
         return
@@ -233,20 +235,25 @@ def candidates(scene: Scene, dangers: tuple[Danger, ...], verdicts: Sequence[Ver
     if second is not None:
         yield second
     if verdicts:
-        yield from swerves(scene, urgent[0], first, verdicts[0])
+        yield from _unseen(iter(swerves(scene, urgent[0], first, verdicts[0])), seen)
     yield from stream
 
 
 def _interleaved(scene: Scene, dangers: list[Danger]) -> Iterator[RobotMove]:
     streams = [ordered_moves(scene, d) for d in dangers]
-    seen: set[tuple[float, float, float]] = set()
     while streams:
         for stream in list(streams):
             move = next(stream, None)
             if move is None:
                 streams.remove(stream)
                 continue
-            key = (round(move.x, 3), round(move.y, 3), round(move.heading, 3))
-            if key not in seen:
-                seen.add(key)
-                yield move
+            yield move
+
+
+def _unseen(moves: Iterator[RobotMove], seen: set[tuple[float, float, float]]) -> Iterator[RobotMove]:
+    """The moves whose pose (to the millimetre and milliradian) is not in ``seen`` yet, each added as it passes."""
+    for move in moves:
+        key = (round(move.x, 3), round(move.y, 3), round(move.heading, 3))
+        if key not in seen:
+            seen.add(key)
+            yield move

@@ -261,9 +261,9 @@ def search(
     verdicts: list[Verdict] = []
     pool = islice(candidates(scene, spec.dangers, verdicts) if moves is None else iter(moves), max_moves)
     no_worse = NoWorse(spec, imagine, uncertainty, threshold, scene.robot.name if scene.robot else None)
-    _Judging(scene, spec, imagine, uncertainty, judging, ahead).in_order(pool, threshold, verdicts, no_worse)
+    settled = _Judging(scene, spec, imagine, uncertainty, judging, ahead).in_order(pool, threshold, verdicts, no_worse)
     chosen = choose(verdicts, threshold, idle_risk)
-    if chosen is None and verdicts and no_worse(verdicts[-1]):
+    if chosen is None and settled:  # by a move that makes nothing worse
         last = verdicts[-1]
         chosen = verdicts[-1] = replace(
             last, reason=f"clear at the gaze found risky; at another, {last.reason}, as with the robot as it is"
@@ -293,10 +293,10 @@ class _Judging:
 
     def in_order(
         self, moves: Iterator[RobotMove], threshold: float, verdicts: list[Verdict], settles: Callable[[Verdict], bool]
-    ) -> None:
+    ) -> bool:
         """Fill ``verdicts`` in candidate order, up to the first safe one or one that ``settles`` the search.
 
-        ``moves`` may read ``verdicts`` as they come in.
+        True when the last verdict is such a one. ``moves`` may read ``verdicts`` as they come in.
         """
         positions = enumerate(moves, start=1)
         judged: dict[int, Verdict] = {}
@@ -337,14 +337,14 @@ class _Judging:
             judged[mine[0]] = self.judge(*mine)
             exchange()
             if gather():
-                return
+                return True
             mine = next(positions, None)
             exchange()
         while lent:
             exchange(wait=True)
             if gather():
-                return
-        gather()
+                return True
+        return gather()
 
     def judge(self, k: int, move: RobotMove) -> Verdict:
         return judge_move(self.spec_at(k), move, self.imagine, self.uncertainty)
