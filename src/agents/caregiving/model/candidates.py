@@ -28,7 +28,7 @@ orders and puts the :func:`swerves` of the first candidate third, once its verdi
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -165,7 +165,7 @@ def ordered_moves(scene: Scene, danger: Danger) -> Iterator[RobotMove]:
     """Every candidate move for ``danger``, likeliest first (see the module documentation), generated lazily."""
     deadline = danger.time_to_collision
     # Stand-offs need an object that stays put: a person walking into another person gets path poses first.
-    if any(o.name == danger.obstacle for o in scene.obstacles):
+    if _stays_put(scene, danger.obstacle):
         yield from (
             m
             for m in standoffs(scene, danger, danger.obstacle)
@@ -203,7 +203,7 @@ def swerves(scene: Scene, danger: Danger, move: RobotMove, verdict: Verdict) -> 
         or fall.person != danger.person
         or fall.obstacle != danger.obstacle
         or fall.point is None
-        or not any(o.name == danger.obstacle for o in scene.obstacles)
+        or not _stays_put(scene, danger.obstacle)
         or move not in standoff_poses(scene, danger.obstacle)
     ):
         return []
@@ -235,7 +235,7 @@ def candidates(scene: Scene, dangers: tuple[Danger, ...], verdicts: Sequence[Ver
     if second is not None:
         yield second
     if verdicts:
-        yield from _unseen(iter(swerves(scene, urgent[0], first, verdicts[0])), seen)
+        yield from _unseen(swerves(scene, urgent[0], first, verdicts[0]), seen)
     yield from stream
 
 
@@ -250,10 +250,15 @@ def _interleaved(scene: Scene, dangers: list[Danger]) -> Iterator[RobotMove]:
             yield move
 
 
-def _unseen(moves: Iterator[RobotMove], seen: set[tuple[float, float, float]]) -> Iterator[RobotMove]:
+def _unseen(moves: Iterable[RobotMove], seen: set[tuple[float, float, float]]) -> Iterator[RobotMove]:
     """The moves whose pose (to the millimetre and milliradian) is not in ``seen`` yet, each added as it passes."""
     for move in moves:
         key = (round(move.x, 3), round(move.y, 3), round(move.heading, 3))
         if key not in seen:
             seen.add(key)
             yield move
+
+
+def _stays_put(scene: Scene, name: str) -> bool:
+    """Whether ``name`` is one of the scene's obstacles (not a person), so that it has stand-offs."""
+    return any(o.name == name for o in scene.obstacles)

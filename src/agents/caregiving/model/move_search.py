@@ -167,7 +167,7 @@ def standing(verdict: Verdict) -> tuple[int, float]:
     """
     if verdict.clear:
         return 0, verdict.risk
-    if verdict.falls and verdict.falls[0].walk_set > 0:
+    if verdict.clear_where_found:
         return 1, verdict.risk
     return 2, 1.0
 
@@ -212,7 +212,7 @@ class NoWorse:
 
     def __call__(self, verdict: Verdict) -> bool:
         falls = verdict.falls
-        if not falls or falls[0].walk_set == 0 or verdict.risk >= self.threshold:
+        if verdict.clear or not verdict.clear_where_found or verdict.risk >= self.threshold:
             return False
         if any(f.obstacle is None or f.obstacle == self.robot for f in falls):
             return False

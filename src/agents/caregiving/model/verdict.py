@@ -67,6 +67,11 @@ class Verdict:
         """Clear in every walk set, and the sampled risk under ``threshold``."""
         return self.clear and self.risk < threshold
 
+    @property
+    def clear_where_found(self) -> bool:
+        """Clear in the first walk set (the gaze class the danger was found at): everywhere, or falls at others only."""
+        return self.clear or bool(self.falls) and self.falls[0].walk_set > 0
+
     def in_time(self, time_to_collision: float) -> bool:
         """Whether the robot is imagined at rest at the pose before the predicted collision."""
         return self.arrival is not None and self.arrival < time_to_collision
