@@ -5,7 +5,7 @@ from dataclasses import replace
 
 import pytest
 
-from agents.caregiving.model.candidates import Danger, candidates, ordered_moves
+from agents.caregiving.model.candidates import REACH, Danger, candidates, drive_time, ordered_moves
 from agents.caregiving.model.errors import ReplyError, RequestError
 from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.imagine import imagine_person
@@ -49,6 +49,19 @@ def test_a_danger_due_sooner_than_any_drive_has_no_candidates(scene: Scene) -> N
     danger = danger_of(scene)
     hurried = Danger(danger.person, danger.target, danger.path, danger.point, danger.obstacle, 0.3)
     assert list(ordered_moves(scene, hurried)) == []
+
+
+def test_a_move_the_robot_could_reach_only_if_it_started_sooner_is_pruned(scene: Scene) -> None:
+    danger = danger_of(scene)
+    now = list(candidates(scene, (danger,)))
+    # The k-th move yielded has the robot starting k seconds later: only moves with that much in hand are left.
+    later = list(candidates(scene, (danger,), per_move=1.0))
+    assert 0 < len(later) < len(now)
+    for k, move in enumerate(later, start=1):
+        until = danger.time_to_collision
+        assert drive_time(scene, move.x, move.y, REACH) < until - k, "a pruned move was yielded"
+    # A search that starts after the collision has nothing to judge.
+    assert list(candidates(scene, (danger,), first_start=danger.time_to_collision)) == []
 
 
 def test_candidates_of_several_dangers_interleave_without_repeats(scene: Scene) -> None:

@@ -28,7 +28,7 @@ orders and puts the :func:`swerves` of the first candidate third, once its verdi
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -161,32 +161,34 @@ def standoffs(scene: Scene, danger: Danger, obstacle: str) -> list[RobotMove]:
     return sorted(standoff_poses(scene, obstacle), key=key)
 
 
-def ordered_moves(scene: Scene, danger: Danger) -> Iterator[RobotMove]:
-    """Every candidate move for ``danger``, likeliest first (see the module documentation), generated lazily."""
+def ordered_moves(scene: Scene, danger: Danger, start: Callable[[], float] = lambda: 0.0) -> Iterator[RobotMove]:
+    """Every candidate move for ``danger``, likeliest first (see the module documentation), generated lazily.
+
+    ``start()`` is when the robot would start on the next move yielded, in seconds from the scene's time:
+    a move is pruned unless the robot, starting then, can come within :data:`REACH` of it in time.
+    """
+
+    def reachable(move: RobotMove, until: float) -> bool:
+        return in_reach(scene, move, until - start()) and robot_fits(scene, move)
+
     deadline = danger.time_to_collision
     # Stand-offs need an object that stays put: a person walking into another person gets path poses first.
     if _stays_put(scene, danger.obstacle):
-        yield from (
-            m
-            for m in standoffs(scene, danger, danger.obstacle)
-            if in_reach(scene, m, deadline) and robot_fits(scene, m)
-        )
+        yield from (m for m in standoffs(scene, danger, danger.obstacle) if reachable(m, deadline))
     # Seconds the robot has in hand at each path pose: the more, the likelier the person sees it in time.
     slack = [
-        (until - drive_time(scene, m.x, m.y), k, m)
+        (until - drive_time(scene, m.x, m.y), k, m, until)
         for k, (m, until) in enumerate(path_poses(scene, danger))
         if in_reach(scene, m, until)
     ]
-    yield from (m for _, _, m in sorted(slack, key=lambda t: (-t[0], t[1])) if robot_fits(scene, m))
+    yield from (m for _, _, m, until in sorted(slack, key=lambda t: (-t[0], t[1])) if reachable(m, until))
     point = danger.point
     others = sorted(
         (o for o in scene.obstacles if o.kind != WALL_KIND and o.name != danger.obstacle),
         key=lambda o: math.hypot(o.shape.x - point[0], o.shape.y - point[1]),
     )
     for o in others:
-        yield from (
-            m for m in standoffs(scene, danger, o.name) if in_reach(scene, m, deadline) and robot_fits(scene, m)
-        )
+        yield from (m for m in standoffs(scene, danger, o.name) if reachable(m, deadline))
 
 
 def swerves(scene: Scene, danger: Danger, move: RobotMove, verdict: Verdict) -> list[RobotMove]:
@@ -218,29 +220,48 @@ def swerves(scene: Scene, danger: Danger, move: RobotMove, verdict: Verdict) -> 
     return [m for m in shifted if robot_fits(scene, m)]
 
 
-def candidates(scene: Scene, dangers: tuple[Danger, ...], verdicts: Sequence[Verdict] = ()) -> Iterator[RobotMove]:
+def candidates(
+    scene: Scene,
+    dangers: tuple[Danger, ...],
+    verdicts: Sequence[Verdict] = (),
+    first_start: float = 0.0,
+    per_move: float = 0.0,
+) -> Iterator[RobotMove]:
     """The dangers' :func:`ordered_moves`, interleaved (most urgent danger first) and without repeats.
 
     ``verdicts`` are the search's verdicts so far, filled in as it judges: once the first candidate's is
-    in, its :func:`swerves` (for the most urgent danger) come right after the second candidate.
+    in, its :func:`swerves` (for the most urgent danger) come right after the second candidate. The k-th
+    move yielded (from 1) has the robot starting ``first_start + per_move * k`` seconds after the scene's
+    time, as the search judges it; the moves it could not reach in time by then are pruned.
     """
     urgent = sorted(dangers, key=lambda d: d.time_to_collision)
+    yielded = 0
+
+    def start() -> float:
+        return first_start + per_move * (yielded + 1)
+
     seen: set[tuple[float, float, float]] = set()
-    stream = _unseen(_interleaved(scene, urgent), seen)
+    stream = _unseen(_interleaved(scene, urgent, start), seen)
     first = next(stream, None)
     if first is None:
         return
+    yielded += 1
     yield first
     second = next(stream, None)
     if second is not None:
+        yielded += 1
         yield second
     if verdicts:
-        yield from _unseen(swerves(scene, urgent[0], first, verdicts[0]), seen)
-    yield from stream
+        for move in _unseen(swerves(scene, urgent[0], first, verdicts[0]), seen):
+            yielded += 1
+            yield move
+    for move in stream:
+        yielded += 1
+        yield move
 
 
-def _interleaved(scene: Scene, dangers: list[Danger]) -> Iterator[RobotMove]:
-    streams = [ordered_moves(scene, d) for d in dangers]
+def _interleaved(scene: Scene, dangers: list[Danger], start: Callable[[], float]) -> Iterator[RobotMove]:
+    streams = [ordered_moves(scene, d, start) for d in dangers]
     while streams:
         for stream in list(streams):
             move = next(stream, None)

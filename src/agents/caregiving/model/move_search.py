@@ -259,7 +259,8 @@ def search(
     ``ahead``, a helper process judges candidates meanwhile (same verdicts, less wall time).
     """
     verdicts: list[Verdict] = []
-    pool = islice(candidates(scene, spec.dangers, verdicts) if moves is None else iter(moves), max_moves)
+    generated = candidates(scene, spec.dangers, verdicts, spec.delay, judging)
+    pool = islice(generated if moves is None else iter(moves), max_moves)
     no_worse = NoWorse(spec, imagine, uncertainty, threshold, scene.robot.name if scene.robot else None)
     settled = _Judging(scene, spec, imagine, uncertainty, judging, ahead).in_order(pool, threshold, verdicts, no_worse)
     chosen = choose(verdicts, threshold, idle_risk)
