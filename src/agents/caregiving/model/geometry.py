@@ -27,6 +27,11 @@ class Circle:
     y: float
     r: float
 
+    @property
+    def bound(self) -> float:
+        """Radius of the smallest circle about the centre that contains it: the radius itself."""
+        return self.r
+
 
 @dataclass(frozen=True)
 class Box:
@@ -37,6 +42,16 @@ class Box:
     hx: float
     hy: float
     theta: float = 0.0
+
+    @cached_property
+    def rotation(self) -> tuple[float, float]:
+        """``(cos theta, sin theta)``, worked out once per box: the distance queries of every step ask for it."""
+        return math.cos(self.theta), math.sin(self.theta)
+
+    @cached_property
+    def bound(self) -> float:
+        """Radius of the smallest circle about the centre that contains it."""
+        return math.hypot(self.hx, self.hy)
 
 
 Shape = Circle | Box
@@ -84,7 +99,7 @@ def point_distance(shape: Shape, x: float, y: float) -> float:
     """:func:`signed_distance` of one point, in plain floats (for the many single-point queries)."""
     if isinstance(shape, Circle):
         return math.hypot(x - shape.x, y - shape.y) - shape.r
-    c, s = math.cos(shape.theta), math.sin(shape.theta)
+    c, s = shape.rotation
     dx, dy = x - shape.x, y - shape.y
     qx, qy = abs(c * dx + s * dy) - shape.hx, abs(-s * dx + c * dy) - shape.hy
     return math.hypot(max(qx, 0.0), max(qy, 0.0)) + min(max(qx, qy), 0.0)
@@ -92,7 +107,7 @@ def point_distance(shape: Shape, x: float, y: float) -> float:
 
 def corner_points(box: Box) -> list[tuple[float, float]]:
     """The four corners of a box, counter-clockwise, as plain float pairs (see :func:`corners`)."""
-    c, s = math.cos(box.theta), math.sin(box.theta)
+    c, s = box.rotation
     return [
         (box.x + c * u - s * v, box.y + s * u + c * v)
         for u, v in ((box.hx, box.hy), (-box.hx, box.hy), (-box.hx, -box.hy), (box.hx, -box.hy))
@@ -164,7 +179,7 @@ def polyline_distance(points: FloatArray, x: float, y: float) -> float:
 
 def bounding_radius(shape: Shape) -> float:
     """Radius of the smallest circle about the shape's centre that contains it."""
-    return shape.r if isinstance(shape, Circle) else math.hypot(shape.hx, shape.hy)
+    return shape.bound
 
 
 def aabb(shape: Shape) -> tuple[float, float, float, float]:
