@@ -19,9 +19,10 @@ of them removed the danger in 18 of the 28 the search could remove); then the
 path poses, those where the robot has the most seconds in hand first; then the
 stand-offs around the other objects by distance to the collision point. Two
 cheap tests prune before any imagination: the robot must fit at the pose, and a
-straight drive (the travel-time lower bound, from the robot's current speed)
-must come within :data:`REACH` of it before the person passes it (path poses)
-or before the collision (stand-offs). :func:`candidates` interleaves the dangers'
+straight drive (the travel-time lower bound, from the robot's current speed),
+started when the robot would start on that candidate, must come within
+:data:`REACH` of it before the person passes it (path poses) or before the
+collision (stand-offs). :func:`candidates` interleaves the dangers'
 orders and puts the :func:`swerves` of the first candidate third, once its verdict is in.
 """
 
