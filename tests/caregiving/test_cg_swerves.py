@@ -29,7 +29,8 @@ from bridges.world.bridge import trial_for
 
 EXACT = Uncertainty(0.0, {}, 1)
 DELAY, JUDGING, THRESHOLD = 0.05, 0.02, 0.2
-CORRIDOR = Path(__file__).resolve().parents[2] / "docs" / "results" / "heldout" / "long_corridor.yaml"
+HELD_OUT = Path(__file__).resolve().parents[2] / "docs" / "results" / "heldout"
+NOISY_SLOW_ROBOT = HELD_OUT / "noisy_slow_robot.yaml"
 GAZE = math.radians(8)
 
 
@@ -125,19 +126,20 @@ def test_a_verdicts_falls_survive_the_wire() -> None:
 
 
 def test_a_move_that_saves_the_person_at_the_gaze_found_risky_and_makes_nothing_worse_is_sent() -> None:
-    """A corridor with a bucket and a parcel: at a higher gaze the person would miss the parcel as well.
+    """Poor sensors, a slow robot and a stool: at the two higher gazes the person walks into the stool anyway.
 
-    No move keeps them clear at both gazes. The first stand-off saves them at the gaze the danger was found
-    at; at the other they walk into the parcel instead of the bucket, so the move makes nothing worse.
+    No move keeps them clear at every gaze. The move sent saves them at the gaze the danger was found at;
+    at the others they walk into the stool as they would with the robot as it is, so it makes nothing worse.
     """
-    trial, planner, scene, spec = recorded_case(CORRIDOR, 5, 7, 0.55)
+    trial, planner, scene, spec = recorded_case(NOISY_SLOW_ROBOT, 5, 6, 0.7)
     result = search(scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 24, judging=JUDGING)
 
     chosen = result.chosen
-    assert chosen is not None and chosen is result.verdicts[0] and not chosen.clear
-    assert [(f.walk_set, f.obstacle) for f in chosen.falls] == [(1, "parcel")]
-    assert chosen.reason.startswith("clear at the gaze found risky; at another, dee walks into parcel")
-    assert chosen.move is not None and saves(world_at(trial, 0.55 + DELAY + JUDGING, planner), chosen.move)
+    assert chosen is not None and chosen is result.verdicts[-1] and not chosen.clear
+    assert [(f.walk_set, f.obstacle) for f in chosen.falls] == [(1, "stool"), (2, "stool")]
+    assert chosen.reason.startswith("clear at the gaze found risky; at another, person walks into stool")
+    assert chosen.move is not None
+    assert saves(world_at(trial, 0.7 + DELAY + JUDGING * len(result.verdicts), planner), chosen.move)
 
 
 def test_a_move_that_makes_someone_fall_who_would_not_with_the_robot_as_it_is_is_not_no_worse(
