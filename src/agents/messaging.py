@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import time
 from collections import deque
 from collections.abc import Awaitable, Callable, Coroutine
 from dataclasses import dataclass, field
@@ -53,7 +54,7 @@ class RemoteError(MessageError):
 
 
 class NoReply(MessageError):
-    """Nobody answered a request in time."""
+    """Nobody answered a request: nobody serves the key, or nobody answered in time."""
 
 
 def pack(message: Any) -> bytes:
@@ -225,8 +226,12 @@ class Messaging:
                     return False, err.payload.to_bytes()
             return None
 
+        sent = time.monotonic()
         result = await asyncio.to_thread(get)
         if result is None:
+            waited = time.monotonic() - sent
+            if waited < timeout / 2:  # the query ended long before its timeout: it found nobody to ask
+                raise NoReply(f"nobody answers on {key} (no process serves it)")
             raise NoReply(f"no answer on {key} within {timeout:g} s")
         ok, body = result
         if not ok:

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import asyncio
+import re
 import subprocess
 from pathlib import Path
 
 import pytest
 
 from agents.caregiving import keys
-from agents.messaging import Messaging, RemoteError
+from agents.messaging import Messaging, NoReply, RemoteError
 from procs import PYTHON, REPO, WM, Proc, endpoint, free_port
 from wm.net.connection import close_session, open_session
 
@@ -88,6 +89,8 @@ def test_world_bridge_answers_malformed_requests_with_errors_and_keeps_running()
                     await ask(cmd, {"trial": 1, "move": {"target": "ball", "x": 0, "y": 0}})
                 with pytest.raises(RemoteError, match="people\\[0\\].speed|cannot read"):
                     await ask(control, {"op": "prepare", "seed": 1, "scenario": "no_such_scenario"})
+                with pytest.raises(NoReply, match=f"nobody answers on {re.escape(keys.imagine('errs'))}"):
+                    await ask(keys.imagine("errs"), {"items": []}, timeout=10.0)  # no simulator runs
                 ok = await ask(control, {"op": "prepare", "seed": 1, "index": 3})
                 assert ok["trial"] == 1 and ok["running"] is False
             finally:

@@ -71,3 +71,28 @@ def test_short_experiment_writes_table_json_and_figures(tmp_path: Path) -> None:
     assert data["sensor_noise"] is True and data["paper"]["precision"] == 0.61
     assert data["scenario"] == data["scenario_file"] == "paper_experiment1"  # a shipped scenario, by name
     assert (figures / "reaction_times.png").stat().st_size > 0
+
+    # Again into the same log directory: each process's log keeps the last run's lines, ready marker included,
+    # and this run must still wait for its own processes to be ready.
+    again = subprocess.run(
+        [
+            *WM,
+            "experiment",
+            "paper_experiment1",
+            "--only",
+            "0",
+            "--seed",
+            "7",
+            "--rate",
+            "2",
+            "--logs",
+            str(tmp_path / "logs"),
+        ],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=240,
+        cwd=REPO,
+    )
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert (tmp_path / "logs" / "world.log").read_text().count("launch: starting") == 2

@@ -40,11 +40,21 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
-def _read(path: Path) -> str:
+def _read(path: Path, start: int = 0) -> str:
+    """The file's text from byte ``start`` on; empty when it cannot be read (yet)."""
     try:
-        return path.read_text(errors="replace")
+        with path.open("rb") as f:
+            f.seek(start)
+            return f.read().decode(errors="replace")
     except OSError:
         return ""
+
+
+def _size(path: Path) -> int:
+    try:
+        return path.stat().st_size
+    except OSError:
+        return 0
 
 
 def _tail(path: Path) -> str:
@@ -62,6 +72,8 @@ class Stack:
     port: int = 0
     launcher: subprocess.Popen[bytes] | None = None
     names: tuple[str, ...] = field(default=())
+    #: Where each process's log ended before this launch: a log directory used before keeps its logs.
+    log_starts: dict[str, int] = field(default_factory=dict)
 
     @property
     def endpoint(self) -> str:
@@ -98,6 +110,8 @@ class Stack:
         except LaunchFileError as exc:
             raise LaunchError(str(exc)) from None
         self.names = tuple(p.name for p in spec.processes)
+        self.log_starts = {name: _size(self.logdir / f"{name}.log") for name in self.names}
+        (self.logdir / "status.json").unlink(missing_ok=True)  # a last launch's, until this one writes its own
         argv = [
             sys.executable,
             "-m",
@@ -124,7 +138,7 @@ class Stack:
 
     def _wait_ready(self, name: str, marker: str, deadline: float) -> None:
         log = self.logdir / f"{name}.log"
-        while marker not in _read(log):
+        while marker not in _read(log, self.log_starts.get(name, 0)):
             self.check()
             if time.monotonic() > deadline:
                 raise LaunchError(f"{name} not ready in time:\n{_tail(log)}")
