@@ -115,19 +115,27 @@ def test_choose_takes_the_first_safe_move_else_a_clearly_better_one_else_none() 
 
 
 def test_a_move_under_way_gives_way_only_to_a_clearly_better_one() -> None:
-    def v(clear: bool, risk: float, fall_in: int | None = None) -> Verdict:
-        falls = (Fall(fall_in, "person", "ball", (0.0, 0.0)),) if fall_in is not None else ()
+    def v(clear: bool, risk: float, fall_in: int | None = None, into: str | None = "ball") -> Verdict:
+        falls = (Fall(fall_in, "person", into, (0.0, 0.0)),) if fall_in is not None else ()
         return Verdict(RobotMove("ball", risk, 0.0, 0.0), clear, risk, 1.0, "", falls)
+
+    def replaces_(new: Verdict, under_way: Verdict, samples: int = 64) -> bool:
+        return replaces(new, under_way, samples, "robot")
 
     order = [v(True, 0.0), v(True, 0.3), v(False, 0.1, fall_in=1), v(False, 1.0, fall_in=0)]
     for k, better in enumerate(order):
         for worse in order[k + 1 :]:
-            assert replaces(better, worse, 64) and not replaces(worse, better, 64)
+            assert replaces_(better, worse) and not replaces_(worse, better)
     risky = order[1]
-    assert not replaces(v(True, 0.19), v(True, 0.2), 64)  # across the threshold, but within the sampling error
-    assert not replaces(v(True, 0.27), risky, 64) and replaces(v(True, 0.2), risky, 64)
-    assert not replaces(v(True, 0.25), risky, 16) and replaces(v(True, 0.25), risky, 4096)
-    assert not replaces(order[3], order[3], 64)
+    assert not replaces_(v(True, 0.19), v(True, 0.2))  # across the threshold, but within the sampling error
+    assert not replaces_(v(True, 0.27), risky) and replaces_(v(True, 0.2), risky)
+    assert not replaces_(v(True, 0.25), risky, 16) and replaces_(v(True, 0.25), risky, 4096)
+    assert not replaces_(order[3], order[3])
+    # Clear at the gaze found, but at another the person walks into the robot, or gets stuck: as bad as refused,
+    # so a move that makes nothing worse replaces it.
+    for tripping in (v(False, 0.0, fall_in=1, into="robot"), v(False, 0.0, fall_in=1, into=None)):
+        assert replaces_(order[2], tripping) and not replaces_(tripping, order[2])
+        assert not replaces_(tripping, order[3]) and not replaces_(order[3], tripping)
 
 
 def test_the_move_found_saves_the_person_in_the_world() -> None:

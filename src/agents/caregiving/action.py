@@ -162,7 +162,8 @@ class Action(Agent):
                 why=sorted({v.reason for v in self.tried})[:4],
             )
             return
-        if under_way is not None and not replaces(chosen, under_way, self.args.samples):
+        robot = ctx.scene.robot.name if ctx.scene.robot else None
+        if under_way is not None and not replaces(chosen, under_way, self.args.samples, robot):
             self.log.info(
                 "move kept",
                 under_way=under_way.reason,

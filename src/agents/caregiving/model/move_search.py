@@ -158,21 +158,22 @@ def choose(verdicts: list[Verdict], threshold: float, idle_risk: float) -> Verdi
     return min(clear, key=lambda v: v.risk) if clear else None
 
 
-def standing(verdict: Verdict) -> tuple[int, float]:
+def standing(verdict: Verdict, robot: str | None) -> tuple[int, float]:
     """How good a move is, lower first: its class, then its sampled risk.
 
     The classes: clear at every gaze (a safe move is a clear one with a risk under the threshold);
-    clear at the gaze found risky only, with falls at others (as a :class:`NoWorse` move); refused at
-    the gaze found risky.
+    clear at the gaze found risky only, with falls at others into something other than the robot (as a
+    :class:`NoWorse` move); refused, at the gaze found risky or for a fall into the robot (named
+    ``robot``) or getting stuck at any gaze.
     """
     if verdict.clear:
         return 0, verdict.risk
-    if verdict.clear_where_found:
+    if verdict.clear_where_found and not verdict.trips(robot):
         return 1, verdict.risk
     return 2, 1.0
 
 
-def replaces(new: Verdict, under_way: Verdict, samples: int) -> bool:
+def replaces(new: Verdict, under_way: Verdict, samples: int, robot: str | None) -> bool:
     """Whether ``new`` should replace the move under way, both judged now from the robot's current state.
 
     Only a move of a better :func:`standing`, or of the same standing with a risk lower by more than the
@@ -180,8 +181,8 @@ def replaces(new: Verdict, under_way: Verdict, samples: int) -> bool:
     noise ranks near-equal moves anew (a risk of 0.20 one frame, 0.19 the next), and a robot that switches
     at every ranking gets nowhere, or into the person's way.
     """
-    new_class, new_risk = standing(new)
-    old_class, old_risk = standing(under_way)
+    new_class, new_risk = standing(new, robot)
+    old_class, old_risk = standing(under_way, robot)
     if new_class != old_class:
         return new_class < old_class
     n = max(samples, 1)
@@ -214,7 +215,7 @@ class NoWorse:
         falls = verdict.falls
         if verdict.clear or not verdict.clear_where_found or verdict.risk >= self.threshold:
             return False
-        if any(f.obstacle is None or f.obstacle == self.robot for f in falls):
+        if verdict.trips(self.robot):
             return False
         return all(any(g.person == f.person for g in self._idle_in(f.walk_set).falls) for f in falls)
 

@@ -72,6 +72,10 @@ class Verdict:
         """Clear in the first walk set (the gaze class the danger was found at): everywhere, or falls at others only."""
         return self.clear or bool(self.falls) and self.falls[0].walk_set > 0
 
+    def trips(self, robot: str | None) -> bool:
+        """Whether someone, at some gaze, walks into the robot (named ``robot``) or gets stuck with this move."""
+        return any(f.obstacle is None or f.obstacle == robot for f in self.falls)
+
     def in_time(self, time_to_collision: float) -> bool:
         """Whether the robot is imagined at rest at the pose before the predicted collision."""
         return self.arrival is not None and self.arrival < time_to_collision
