@@ -241,22 +241,21 @@ def candidates(
     def start() -> float:
         return first_start + per_move * (yielded + 1)
 
-    seen: set[tuple[float, float, float]] = set()
-    stream = _unseen(_interleaved(scene, urgent, start), seen)
-    first = next(stream, None)
-    if first is None:
-        return
-    yielded += 1
-    yield first
-    second = next(stream, None)
-    if second is not None:
-        yielded += 1
-        yield second
-    if verdicts:
-        for move in _unseen(swerves(scene, urgent[0], first, verdicts[0]), seen):
-            yielded += 1
-            yield move
-    for move in stream:
+    def in_order() -> Iterator[RobotMove]:
+        seen: set[tuple[float, float, float]] = set()
+        stream = _unseen(_interleaved(scene, urgent, start), seen)
+        first = next(stream, None)
+        if first is None:
+            return
+        yield first
+        second = next(stream, None)
+        if second is not None:
+            yield second
+        if verdicts:
+            yield from _unseen(swerves(scene, urgent[0], first, verdicts[0]), seen)
+        yield from stream
+
+    for move in in_order():
         yielded += 1
         yield move
 
