@@ -37,32 +37,21 @@ KEYS = {
 }
 
 
-def test_short_experiment_writes_table_json_and_figures(tmp_path: Path) -> None:
-    out, figures = tmp_path / "exp.json", tmp_path / "figures"
-    result = subprocess.run(
-        [
-            *WM,
-            "experiment",
-            "paper_experiment1",
-            "--only",
-            "1,0",
-            "--seed",
-            "7",
-            "--rate",
-            "2",
-            "--json",
-            str(out),
-            "--figures",
-            str(figures),
-            "--logs",
-            str(tmp_path / "logs"),
-        ],
+def experiment(*args: str) -> subprocess.CompletedProcess[str]:
+    """``wm experiment paper_experiment1 --seed 7 --rate 2 ARGS...``, run to its end."""
+    return subprocess.run(
+        [*WM, "experiment", "paper_experiment1", "--seed", "7", "--rate", "2", *args],
         check=False,
         capture_output=True,
         text=True,
         timeout=240,
         cwd=REPO,
     )
+
+
+def test_short_experiment_writes_table_json_and_figures(tmp_path: Path) -> None:
+    out, figures, logs = tmp_path / "exp.json", tmp_path / "figures", tmp_path / "logs"
+    result = experiment("--only", "1,0", "--json", str(out), "--figures", str(figures), "--logs", str(logs))
     assert result.returncode == 0, result.stderr[-3000:]
     assert "Experiment 1 (Table I)" in result.stdout and "747.0 ms" in result.stdout
     data = json.loads(out.read_text())
@@ -74,25 +63,6 @@ def test_short_experiment_writes_table_json_and_figures(tmp_path: Path) -> None:
 
     # Again into the same log directory: each process's log keeps the last run's lines, ready marker included,
     # and this run must still wait for its own processes to be ready.
-    again = subprocess.run(
-        [
-            *WM,
-            "experiment",
-            "paper_experiment1",
-            "--only",
-            "0",
-            "--seed",
-            "7",
-            "--rate",
-            "2",
-            "--logs",
-            str(tmp_path / "logs"),
-        ],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=240,
-        cwd=REPO,
-    )
+    again = experiment("--only", "0", "--logs", str(logs))
     assert again.returncode == 0, again.stderr[-3000:]
-    assert (tmp_path / "logs" / "world.log").read_text().count("launch: starting") == 2
+    assert (logs / "world.log").read_text().count("launch: starting") == 2
