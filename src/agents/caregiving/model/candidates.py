@@ -178,9 +178,7 @@ def ordered_moves(scene: Scene, danger: Danger, start: Callable[[], float] = lam
         yield from (m for m in standoffs(scene, danger, danger.obstacle) if reachable(m, deadline))
     # Seconds the robot has in hand at each path pose: the more, the likelier the person sees it in time.
     slack = [
-        (until - drive_time(scene, m.x, m.y), k, m, until)
-        for k, (m, until) in enumerate(path_poses(scene, danger))
-        if in_reach(scene, m, until)
+        (until - drive_time(scene, m.x, m.y), k, m, until) for k, (m, until) in enumerate(path_poses(scene, danger))
     ]
     yield from (m for _, _, m, until in sorted(slack, key=lambda t: (-t[0], t[1])) if reachable(m, until))
     point = danger.point
