@@ -38,7 +38,7 @@ import numpy as np
 from .fields import Fields
 from .geometry import Polyline, bounding_radius
 from .imagine import Imagination
-from .robot_moves import RobotMove, robot_fits, standoff_poses, travel_time
+from .robot_moves import RobotMove, robot_fits, standoff_poses, time_to_cover
 from .scene import Scene
 from .verdict import Verdict
 from .visibility import WALL_KIND
@@ -112,11 +112,12 @@ def travel_direction(path: tuple[tuple[float, float], ...], point: tuple[float, 
 
 
 def drive_time(scene: Scene, x: float, y: float, within: float = 0.0) -> float:
-    """Lower bound on the robot's time to come ``within`` metres of (x, y): a straight drive from its current speed."""
+    """Lower bound on the robot's time to come ``within`` metres of (x, y): a straight drive there from its current
+    speed, ending at rest at (x, y)."""
     robot = scene.robot
     assert robot is not None
-    gap = max(math.hypot(x - robot.x, y - robot.y) - within, 0.0)
-    return travel_time(gap, robot.max_speed, robot.max_accel, robot.speed)
+    trip = math.hypot(x - robot.x, y - robot.y)
+    return time_to_cover(trip, trip - within, robot.max_speed, robot.max_accel, robot.speed)
 
 
 def in_reach(scene: Scene, move: RobotMove, until: float) -> bool:

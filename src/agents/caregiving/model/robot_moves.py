@@ -4,8 +4,8 @@ A :class:`RobotMove` is ``move_to`` a pose. The paper's ``move_to(object)`` is a
 stand-off pose around the object, facing it (:func:`standoff_poses`); the move
 search of Algorithm 2 adds free poses (:mod:`agents.caregiving.model.candidates`). Travel
 time follows a trapezoidal speed profile (accelerate at ``max_accel`` up to
-``max_speed``, cruise, brake to rest): :func:`travel_time` is the lower bound the
-search prunes with; the joint imagination steps the real drive.
+``max_speed``, cruise, brake to rest): :func:`travel_time` and :func:`time_to_cover`
+are the lower bounds the search prunes with; the joint imagination steps the real drive.
 """
 
 from __future__ import annotations
@@ -61,6 +61,31 @@ def travel_time(distance: float, max_speed: float, max_accel: float, v0: float =
         return (max_speed - v0) / max_accel + (distance - d_up - d_down) / max_speed + max_speed / max_accel
     peak = max(math.sqrt((2 * max_accel * distance + v0**2) / 2), v0)
     return (peak - v0) / max_accel + peak / max_accel
+
+
+def time_to_cover(trip: float, covered: float, max_speed: float, max_accel: float, v0: float = 0.0) -> float:
+    """Time until a robot on a ``trip`` of that many metres, ending at rest, has covered ``covered`` of them.
+
+    The same profile as :func:`travel_time`, read part way: on its way to a pose the robot passes a point
+    short of it still accelerating or cruising, sooner than if it had to stop there.
+    """
+    covered = min(covered, trip)
+    if covered <= 0.0:
+        return 0.0
+    v0 = min(max(v0, 0.0), max_speed)
+    a = max_accel
+    if (2 * max_speed**2 - v0**2) / (2 * a) <= trip:
+        peak = max_speed
+        braking_from = trip - max_speed**2 / (2 * a)
+    else:
+        peak = max(math.sqrt((2 * a * trip + v0**2) / 2), v0)
+        braking_from = (peak**2 - v0**2) / (2 * a)
+    accelerating_to = (peak**2 - v0**2) / (2 * a)
+    if covered <= accelerating_to:
+        return (math.sqrt(v0**2 + 2 * a * covered) - v0) / a
+    cruised = min(covered, braking_from) - accelerating_to
+    speed = math.sqrt(max(peak**2 - 2 * a * (covered - braking_from), 0.0)) if covered > braking_from else peak
+    return (peak - v0) / a + cruised / peak + (peak - speed) / a
 
 
 def standoff_moves(scene: Scene, target: str, gap: float = 0.1, count: int = 8) -> list[RobotMove]:
