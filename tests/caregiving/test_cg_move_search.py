@@ -131,11 +131,11 @@ def test_a_move_under_way_gives_way_only_to_a_clearly_better_one() -> None:
     assert not replaces_(v(True, 0.27), risky) and replaces_(v(True, 0.2), risky)
     assert not replaces_(v(True, 0.25), risky, 16) and replaces_(v(True, 0.25), risky, 4096)
     assert not replaces_(order[3], order[3])
-    # Clear at the gaze found, but at another the person walks into the robot, or gets stuck: as bad as refused,
-    # so a move that makes nothing worse replaces it.
+    # Clear at the gaze found, but at another the person walks into the robot, or gets stuck: worse than refused,
+    # so a move that makes nothing worse replaces it, and so does braking that leaves the person's fall as it was.
     for tripping in (v(False, 0.0, fall_in=1, into="robot"), v(False, 0.0, fall_in=1, into=None)):
         assert replaces_(order[2], tripping) and not replaces_(tripping, order[2])
-        assert not replaces_(tripping, order[3]) and not replaces_(order[3], tripping)
+        assert replaces_(order[3], tripping) and not replaces_(tripping, order[3])
 
 
 def test_the_move_found_saves_the_person_in_the_world() -> None:
@@ -197,6 +197,38 @@ def test_a_search_given_moves_judges_those_in_order(scene: Scene) -> None:
     served = serve_one(scene, {**wire, "moves": [front.to_wire()]}).search
     assert served is not None and [v.move for v in served.verdicts] == [front]
     assert "request.moves[0].x: is required" in (serve_one(scene, {**wire, "moves": [{"target": "ball"}]}).error or "")
+    braking = serve_one(scene, {**wire, "max_moves": 2, "moves": [None, front.to_wire()]}).search
+    assert braking is not None and [v.move for v in braking.verdicts] == [None, front]
+    assert braking.verdicts[0].reason == "person walks into ball at gaze 8 deg"  # a robot at rest stays put
+    assert "request.moves[0]" in (serve_one(scene, {**wire, "moves": ["brake"]}).error or "")
+
+
+def test_braking_replaces_a_move_under_way_that_walks_the_person_into_the_robot() -> None:
+    """The robot, sent into the person's way, would stop right in front of them: braking now leaves the fall as
+    it was with the robot idle, and the world agrees with both verdicts."""
+    into_the_way = RobotMove("ball", -1.2, 0.0, math.pi / 2)
+
+    def driving() -> World:
+        world = World.from_scenario(load_scenario("paper_experiment1"))
+        for _ in range(10):
+            world.step()
+        assert world.command_robot(into_the_way)
+        for _ in range(10):
+            world.step()
+        return world
+
+    scene = driving().scene()
+    assert scene.robot is not None and scene.robot.speed > 0.0
+    spec = SearchSpec((danger_of(scene),), {"person": (GAZE,)}, {}, current=into_the_way, delay=0.05)
+    on, brake = search(
+        scene, spec, lambda item: serve_one(scene, item), UNCERTAINTY, 0.2, 2, moves=[into_the_way, None]
+    ).verdicts
+    assert on.trips("robot") and brake.move is None and not brake.trips("robot")
+    assert replaces(brake, on, 64, "robot") and not replaces(on, brake, 64, "robot")
+    carrying_on, braking = driving(), driving()
+    assert braking.command_robot(None)
+    assert {c.obstacle for c in carrying_on.run(30.0).collisions} == {"robot"}
+    assert {c.obstacle for c in braking.run(30.0).collisions} == {"ball"}
 
 
 def test_a_person_walking_into_another_person_gets_path_poses_and_a_search() -> None:

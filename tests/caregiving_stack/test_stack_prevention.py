@@ -1,4 +1,5 @@
-"""Prevention over the real processes: a saveable trial is saved; a move that trips a person is never sent.
+"""Prevention over the real processes: a saveable trial is saved; a move that trips a person is never sent,
+and one already under way is braked.
 
 Trials of seed 7 of the box-obstacle room, with exact sensors so that the closed loop sees what the oracle
 sees. The room runs at half speed: these tests check what the search decides, not how fast the pipeline is
@@ -8,6 +9,9 @@ saved trial is one whose saving moves stay many for seconds after the danger sho
 
 from __future__ import annotations
 
+import asyncio
+import math
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -17,11 +21,15 @@ from stack_helpers import GRAPH, run_trial
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.world_model import run_idle
+from agents.caregiving.names import HAS, HAS_INTENTION, INTENTION, OBJECT, ROBOT, WORLD
 from bridges.experiment.launch import Stack
 from bridges.experiment.oracle import oracle
+from bridges.experiment.trials import TrialRecord, open_harness
 from bridges.world.bridge import trial_for
+from wm import Graph
 
-SCENARIO = str(Path(__file__).parent / "scenarios" / "box_obstacle_exact.yaml")
+SCENARIOS = Path(__file__).parent / "scenarios"
+SCENARIO = str(SCENARIOS / "box_obstacle_exact.yaml")
 SEED, SAVEABLE, UNSAVEABLE = 7, 25, (5, 42)
 
 
@@ -57,3 +65,54 @@ def test_moves_after_which_a_person_walks_into_the_robot_are_refused(stack: Stac
     log = (stack.logdir / "action.log").read_text()
     refusals = [line for line in log.splitlines() if "walks into robot" in line]
     assert refusals, "the search met and refused moves after which the person walks into the robot"
+
+
+def test_a_move_under_way_that_walks_the_person_into_the_robot_is_braked(stack: Stack) -> None:
+    """Once the danger shows, a move into the person's way is written to W, as if decided on a belief since
+    proved wrong. Carried on, it has the person walk into the robot; no move saves them from the ball, so the
+    action agent brakes the robot and the person's fall stays the one that happens with the robot idle."""
+    scenario = str(SCENARIOS / "robot_sent_into_the_way.yaml")
+    trial = trial_for(load_scenario(scenario), 0, None)
+    idle = run_idle(trial, planner=GridPlanner(trial.scene().bounds))
+    r = asyncio.run(run_with_a_move_into_the_way(stack, scenario, (-1.2, 0.0, math.pi / 2)))
+    moves = [c["move"] for c in r.outcome["commands"] if c["accepted"]]
+    assert moves[0] is not None and (moves[0]["x"], moves[0]["y"]) == (-1.2, 0.0)
+    assert None in moves[1:], f"the robot was never braked: {moves}"
+    assert [c["obstacle"] for c in r.outcome["collisions"]] == [c.obstacle for c in idle.collisions] == ["ball"]
+    assert "braking" in (stack.logdir / "action.log").read_text()
+
+
+async def run_with_a_move_into_the_way(stack: Stack, scenario: str, pose: tuple[float, float, float]) -> TrialRecord:
+    async with open_harness(stack.endpoint, GRAPH, name="test-harness") as harness:
+        g = harness.g
+        before = episode(g)
+        run = asyncio.create_task(harness.run(0, None, timeout=60.0, scenario=scenario))
+        while not (running_after(g, before) and any(e.get("risky") for e in g.edges(type=HAS_INTENTION))):
+            await asyncio.sleep(0.01)
+        robot, ball = g.nodes(ROBOT)[0], next(n for n in g.nodes(OBJECT) if n.get("kind") == "ball")
+        with g.batch():
+            move = g.insert_node(
+                INTENTION,
+                "move_into_the_way",
+                {
+                    "action": "move_to",
+                    "target": ball.id,
+                    "final_pose": list(pose),
+                    "status": "proposed",
+                    "created_at": time.time(),
+                    "reason": "written by the test",
+                },
+            )
+            g.insert_or_assign_edge(robot.id, move, HAS, {"status": "proposed", "updated_at": time.time()})
+        return await run
+
+
+def episode(g: Graph) -> int:
+    world = g.find_node(WORLD)
+    return int(world.get("episode", 0)) if world is not None else 0
+
+
+def running_after(g: Graph, before: int) -> bool:
+    """Whether a trial after episode ``before`` has started its clock (W was cleared for it by then)."""
+    world = g.find_node(WORLD)
+    return episode(g) > before and world is not None and world.get("sim_time", 0.0) > 0.0

@@ -25,11 +25,15 @@ asks the simulator to imagine the candidates, and writes the result:
   searched now, say because no move saved it a moment ago), and but for a gaze
   other than the one the danger was found at, where the person falls with the
   robot as it is too (the move then saves them if their gaze is the one found):
-  the robot never causes a collision its imagination can see.
+  robot never causes a collision its imagination can see;
+* when the move under way, judged again, has someone walk into the robot or get
+  stuck, and no move replaces it, braking to a stop is judged from the robot's
+  current state; if it ranks clearly above carrying on, the robot brakes (a
+  ``stop`` intention).
 
 The chosen move becomes the robot's ``intention`` node (``move_to``, target,
-final pose, ``status: proposed``, ``in_time``, ``reason``), linked
-``robot -has-> intention``; the executor drives it.
+final pose, ``status: proposed``, ``in_time``, ``reason``; or ``stop``, its target
+the robot), linked ``robot -has-> intention``; the executor drives it.
 """
 
 from __future__ import annotations
@@ -141,6 +145,7 @@ class Action(Agent):
             under_way = again.verdicts[0] if again is not None and again.verdicts else None
             if under_way is not None and under_way.safe(self.args.risk_threshold):
                 return  # the move under way still keeps everyone safe
+        robot = ctx.scene.robot.name if ctx.scene.robot else None
         idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
         self.tried = []
         chosen, unsaved = await self._find(ctx, spec, idle_risk), ""
@@ -161,8 +166,11 @@ class Action(Agent):
                 tried=len(self.tried),
                 why=sorted({v.reason for v in self.tried})[:4],
             )
+            if under_way is not None and under_way.move is not None and under_way.trips(robot):
+                braking = await self._braking(ctx, spec, under_way, robot)
+                if braking is not None:
+                    self._write(ctx, braking, dangers, current, under_way, "", started)
             return
-        robot = ctx.scene.robot.name if ctx.scene.robot else None
         if under_way is not None and not replaces(chosen, under_way, self.args.samples, robot):
             self.log.info(
                 "move kept",
@@ -242,17 +250,21 @@ class Action(Agent):
         return max(live, key=lambda n: n.get("created_at", 0.0), default=None)
 
     @staticmethod
-    def _move_of(node: Node) -> RobotMove:
+    def _move_of(node: Node) -> RobotMove | None:
+        """The move an intention drives, ``None`` for a stop."""
+        if node.get("action") == "stop":
+            return None
         x, y, heading = node.get("final_pose")
         return RobotMove(str(node.get("target")), x, y, heading)
 
     # -- asking the simulator ------------------------------------------------------------------
     async def _search(
-        self, ctx: Context, spec: SearchSpec, idle_risk: float, moves: list[RobotMove] | None = None
+        self, ctx: Context, spec: SearchSpec, idle_risk: float, moves: list[RobotMove | None] | None = None
     ) -> SearchResult | None:
         """One search, run by the simulator; each candidate imagines the robot starting when its command would arrive.
 
-        ``moves`` judges those moves instead of the generated candidates. None when the simulator refused.
+        ``moves`` judges those moves instead of the generated candidates (``None``: braking). None when the
+        simulator refused.
         """
         item = SearchItem(
             replace(spec, delay=self._delay(ctx)),
@@ -275,6 +287,12 @@ class Action(Agent):
             per_move = reply.compute_ms / 1e3 / len(found.verdicts)
             self.judging += JUDGING_WEIGHT * (per_move - self.judging)
         return found
+
+    async def _braking(self, ctx: Context, spec: SearchSpec, under_way: Verdict, robot: str | None) -> Verdict | None:
+        """Braking to a stop, judged now, if it ranks clearly above the move under way."""
+        found = await self._search(ctx, spec, 1.0, [None])
+        braking = found.verdicts[0] if found is not None and found.verdicts else None
+        return braking if braking is not None and replaces(braking, under_way, self.args.samples, robot) else None
 
     def _uncertainty(self, ctx: Context) -> Uncertainty:
         return Uncertainty(self.size_error, ctx.sigma, self.args.samples)
@@ -300,7 +318,7 @@ class Action(Agent):
     ) -> None:
         g, move = self.g, chosen.move
         robot = ctx.scene.robot
-        assert robot is not None and move is not None
+        assert robot is not None
         edge, danger = min(dangers.values(), key=lambda x: x[1].time_to_collision)
         if g.find_node(edge.src) is None:
             return
@@ -312,11 +330,17 @@ class Action(Agent):
                 g.update_node(current.id, {"status": "superseded"})
             node = g.insert_node(
                 INTENTION,
-                f"move_to_{ctx.episode}_{next(self.names)}",
+                f"{'move_to' if move else 'stop'}_{ctx.episode}_{next(self.names)}",
                 {
-                    "action": "move_to",
-                    "target": ctx.ids.get(move.target, 0),
-                    "final_pose": [move.x, move.y, move.heading],
+                    **(
+                        {
+                            "action": "move_to",
+                            "target": ctx.ids.get(move.target, 0),
+                            "final_pose": [move.x, move.y, move.heading],
+                        }
+                        if move
+                        else {"action": "stop", "target": ctx.ids[robot.name]}
+                    ),
                     "status": "proposed",
                     "created_at": time.time(),
                     "person": edge.src,
@@ -330,10 +354,8 @@ class Action(Agent):
             )
             g.insert_or_assign_edge(ctx.ids[robot.name], node, HAS, {"status": "proposed", "updated_at": time.time()})
         self.log.info(
-            "move chosen",
-            target=move.target,
-            x=round(move.x, 2),
-            y=round(move.y, 2),
+            "move chosen" if move else "braking",
+            **({"target": move.target, "x": round(move.x, 2), "y": round(move.y, 2)} if move else {}),
             in_time=chosen.in_time(danger.time_to_collision),
             risk=round(chosen.risk, 2),
             people=len(dangers),

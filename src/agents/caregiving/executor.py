@@ -2,10 +2,11 @@
 
 ``python -m agents.caregiving.executor --graph G --connect EP``
 
-A ``proposed`` robot ``intention`` (``move_to`` with a ``final_pose``) is sent
-as a command on ``robot/cmd``; it becomes ``active`` when the world accepts it
+A ``proposed`` robot ``intention`` (``move_to`` with a ``final_pose``, or ``stop``)
+is sent as a command on ``robot/cmd``; it becomes ``active`` when the world accepts it
 and ``failed`` when it refuses (no path) or cannot be reached. An active
-intention is ``done`` once the robot, as placed in W, rests at the final pose.
+intention is ``done`` once the robot, as placed in W, rests at the final pose
+(a ``stop``: once it rests).
 A new proposed intention while one is under way is sent at once: the world
 changes the robot's course without stopping (the action agent has marked the
 old one ``superseded``).
@@ -52,13 +53,12 @@ class Executor(Agent):
         world = self.g.find_node(WORLD)
         episode = int(world.get("episode", 0)) if world else 0
         for node in self.g.nodes(INTENTION):
-            if node.get("status") != "proposed" or node.get("action") != "move_to":
+            if node.get("status") != "proposed" or node.get("action") not in ("move_to", "stop"):
                 continue
-            x, y, heading = node.get("final_pose")
-            request: dict[str, Any] = {
-                "trial": episode,
-                "move": {"target": str(node.get("target")), "x": x, "y": y, "heading": heading},
-            }
+            request: dict[str, Any] = {"trial": episode, "move": None}  # None: brake to a stop
+            if node.get("action") == "move_to":
+                x, y, heading = node.get("final_pose")
+                request["move"] = {"target": str(node.get("target")), "x": x, "y": y, "heading": heading}
             try:
                 reply: dict[str, Any] = await self.ask(keys.robot_cmd(self.args.graph), request, timeout=2.0)
             except MessageError as exc:
@@ -83,9 +83,14 @@ class Executor(Agent):
         for node in self.g.nodes(INTENTION):
             if node.get("status") != "active":
                 continue
-            x, y, _ = self.g.rt.pose2d(WORLD, robots[0].id)
-            fx, fy, _ = node.get("final_pose")
-            if math.hypot(fx - x, fy - y) <= self.args.arrived and robots[0].get("speed", 0.0) < 1e-3:
+            resting = robots[0].get("speed", 0.0) < 1e-3
+            if node.get("action") == "stop":
+                arrived = True
+            else:
+                x, y, _ = self.g.rt.pose2d(WORLD, robots[0].id)
+                fx, fy, _ = node.get("final_pose")
+                arrived = math.hypot(fx - x, fy - y) <= self.args.arrived
+            if arrived and resting:
                 self._status(node, "done")
 
 

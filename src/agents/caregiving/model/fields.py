@@ -129,11 +129,19 @@ class Fields:
 
     def children(self, key: str, default: Any = _MISSING) -> Iterator[Fields]:
         """Each mapping of the list at ``key``."""
+        for i, item in enumerate(self._list(key, default)):
+            yield Fields(item, f"{self.path_of(key)}[{i}]", self._error)
+
+    def children_or_null(self, key: str) -> Iterator[Fields | None]:
+        """Each entry of the list at ``key``: a mapping, or ``None`` for a null entry."""
+        for i, item in enumerate(self._list(key, _MISSING)):
+            yield None if item is None else Fields(item, f"{self.path_of(key)}[{i}]", self._error)
+
+    def _list(self, key: str, default: Any) -> list[Any] | tuple[Any, ...]:
         value = self._get(key, default)
         if not isinstance(value, (list, tuple)):
             raise self.fail(key, f"expected a list, got {_show(value)}")
-        for i, item in enumerate(value):
-            yield Fields(item, f"{self.path_of(key)}[{i}]", self._error)
+        return value
 
     def strings(self, key: str, default: Any = _MISSING) -> tuple[str, ...]:
         """A list of non-empty strings."""

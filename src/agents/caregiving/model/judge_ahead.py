@@ -58,7 +58,9 @@ class JudgeAhead:
         """How many lent moves the helper has not answered yet (or whose answers are unread)."""
         return len(self._tags)
 
-    def lend(self, tag: Hashable, scene: Scene, spec: SearchSpec, move: RobotMove, uncertainty: Uncertainty) -> bool:
+    def lend(
+        self, tag: Hashable, scene: Scene, spec: SearchSpec, move: RobotMove | None, uncertainty: Uncertainty
+    ) -> bool:
         """Hand ``move`` over to be judged for ``spec``, its answer labelled ``tag``; False when the helper is gone."""
         if not self._alive:
             return False

@@ -163,12 +163,14 @@ def standing(verdict: Verdict, robot: str | None) -> tuple[int, float]:
 
     The classes: clear at every gaze (a safe move is a clear one with a risk under the threshold);
     clear at the gaze found risky only, with falls at others into something other than the robot (as a
-    :class:`NoWorse` move); refused, at the gaze found risky or for a fall into the robot (named
-    ``robot``) or getting stuck at any gaze.
+    :class:`NoWorse` move); refused at the gaze found risky; last, refused for someone walking into the
+    robot (named ``robot``) or getting stuck at any gaze, a fall the robot itself causes.
     """
+    if verdict.trips(robot):
+        return 3, 1.0
     if verdict.clear:
         return 0, verdict.risk
-    if verdict.clear_where_found and not verdict.trips(robot):
+    if verdict.clear_where_found:
         return 1, verdict.risk
     return 2, 1.0
 
@@ -226,8 +228,8 @@ class NoWorse:
         return self._idle[walk_set]
 
 
-def judge_move(spec: SearchSpec, move: RobotMove, imagine: Imagine, uncertainty: Uncertainty) -> Verdict:
-    """Judge one move: the first walk set alone (most candidates fail there), then the others if it is clear."""
+def judge_move(spec: SearchSpec, move: RobotMove | None, imagine: Imagine, uncertainty: Uncertainty) -> Verdict:
+    """Judge one move (``None``: braking): the first walk set alone (most fail there), then the others if clear."""
     items = spec.items(move, uncertainty)
     first = [imagine(items[0])]
     verdict = judge(move, first, spec.falling)
@@ -245,7 +247,7 @@ def search(
     max_moves: int,
     idle_risk: float = 1.0,
     judging: float = 0.0,
-    moves: Sequence[RobotMove] | None = None,
+    moves: Sequence[RobotMove | None] | None = None,
     ahead: JudgeAhead | None = None,
 ) -> SearchResult:
     """Algorithm 2's search: judge the candidates one at a time, likeliest first, and stop at the first safe one.
@@ -256,12 +258,13 @@ def search(
     Each candidate is imagined with the robot starting ``judging`` seconds later than the one before, since
     the move is sent only once the search has judged it: the k-th candidate (from 1) after
     ``spec.delay + judging * k``. The result holds every verdict and the move to send (see :func:`choose`).
-    ``moves`` replaces the generated candidates (to judge the move under way again, for instance). With
+    ``moves`` replaces the generated candidates (to judge the move under way again, for instance; ``None``
+    among them judges braking to a stop from the robot's current state). With
     ``ahead``, a helper process judges candidates meanwhile (same verdicts, less wall time).
     """
     verdicts: list[Verdict] = []
     generated = candidates(scene, spec.dangers, verdicts, spec.delay, judging)
-    pool = islice(generated if moves is None else iter(moves), max_moves)
+    pool: Iterator[RobotMove | None] = islice(generated if moves is None else iter(moves), max_moves)
     no_worse = NoWorse(spec, imagine, uncertainty, threshold, scene.robot.name if scene.robot else None)
     settled = _Judging(scene, spec, imagine, uncertainty, judging, ahead).in_order(pool, threshold, verdicts, no_worse)
     chosen = choose(verdicts, threshold, idle_risk)
@@ -294,7 +297,11 @@ class _Judging:
         return replace(self.spec, delay=self.spec.delay + self.judging * k)
 
     def in_order(
-        self, moves: Iterator[RobotMove], threshold: float, verdicts: list[Verdict], settles: Callable[[Verdict], bool]
+        self,
+        moves: Iterator[RobotMove | None],
+        threshold: float,
+        verdicts: list[Verdict],
+        settles: Callable[[Verdict], bool],
     ) -> bool:
         """Fill ``verdicts`` in candidate order, up to the first safe one or one that ``settles`` the search.
 
@@ -302,7 +309,7 @@ class _Judging:
         """
         positions = enumerate(moves, start=1)
         judged: dict[int, Verdict] = {}
-        lent: dict[int, RobotMove] = {}  # the candidates the helper is judging, by position
+        lent: dict[int, RobotMove | None] = {}  # the candidates the helper is judging, by position
 
         def exchange(wait: bool = False) -> None:
             """Take the helper's verdicts, then lend it the next candidates up to :data:`AHEAD_DEPTH`.
@@ -319,7 +326,7 @@ class _Judging:
                     judged[k] = verdict or self.judge(k, move)
             while verdicts and ahead.outstanding < AHEAD_DEPTH:
                 k, move = next(positions, (0, None))
-                if move is None:
+                if k == 0:
                     return
                 if not ahead.lend((self, k), self.scene, self.spec_at(k), move, self.uncertainty):
                     judged[k] = self.judge(k, move)
@@ -348,13 +355,16 @@ class _Judging:
                 return True
         return gather()
 
-    def judge(self, k: int, move: RobotMove) -> Verdict:
+    def judge(self, k: int, move: RobotMove | None) -> Verdict:
         return judge_move(self.spec_at(k), move, self.imagine, self.uncertainty)
 
 
 @dataclass(frozen=True)
 class SearchItem:
-    """Run the whole search for ``spec`` in the simulator (judging ``moves`` instead of the candidates, if given)."""
+    """Run the whole search for ``spec`` in the simulator (judging ``moves`` instead of the candidates, if given).
+
+    A ``None`` among ``moves`` (null on the wire) is the robot braking to a stop.
+    """
 
     spec: SearchSpec
     uncertainty: Uncertainty
@@ -362,7 +372,7 @@ class SearchItem:
     max_moves: int
     idle_risk: float = 1.0
     judging: float = 0.0
-    moves: tuple[RobotMove, ...] | None = None
+    moves: tuple[RobotMove | None, ...] | None = None
 
     def to_wire(self) -> dict[str, Any]:
         """``{"kind": "search", "spec", "uncertainty", "threshold", "max_moves", "idle_risk", "judging", "moves"?}``."""
@@ -376,7 +386,7 @@ class SearchItem:
             "judging": self.judging,
         }
         if self.moves is not None:
-            out["moves"] = [m.to_wire() for m in self.moves]
+            out["moves"] = [m.to_wire() if m is not None else None for m in self.moves]
         return out
 
     @classmethod
@@ -390,7 +400,9 @@ class SearchItem:
             int(f.number("max_moves", positive=True, at_most=MAX_MOVES)),
             f.number("idle_risk", 1.0, non_negative=True, at_most=1.0),
             f.number("judging", 0.0, non_negative=True, at_most=MAX_DELAY),
-            tuple(RobotMove.from_fields(m) for m in f.children("moves")) if f.has("moves") else None,
+            tuple(RobotMove.from_fields(m) if m is not None else None for m in f.children_or_null("moves"))
+            if f.has("moves")
+            else None,
         )
 
     def run(self, scene: Scene, imagine: Imagine, ahead: JudgeAhead | None = None) -> SearchResult:
