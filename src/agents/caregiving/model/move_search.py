@@ -265,7 +265,7 @@ def search(
     verdicts: list[Verdict] = []
     generated = candidates(scene, spec.dangers, verdicts, spec.delay, judging)
     pool: Iterator[RobotMove | None] = islice(generated if moves is None else iter(moves), max_moves)
-    no_worse = NoWorse(spec, imagine, uncertainty, threshold, scene.robot.name if scene.robot else None)
+    no_worse = NoWorse(spec, imagine, uncertainty, threshold, scene.robot_name)
     settled = _Judging(scene, spec, imagine, uncertainty, judging, ahead).in_order(pool, threshold, verdicts, no_worse)
     chosen = choose(verdicts, threshold, idle_risk)
     if chosen is None and settled:  # by a move that makes nothing worse

@@ -145,6 +145,11 @@ class Scene:
         robot = (self.robot.body(),) if self.robot is not None else ()
         return self.obstacles + robot + others
 
+    @property
+    def robot_name(self) -> str | None:
+        """The robot's name, as falls into it are named; ``None`` when the scene has no robot."""
+        return self.robot.name if self.robot is not None else None
+
     def with_robot(self, robot: RobotState | None) -> Scene:
         """The same scene with the robot replaced (or removed with ``None``)."""
         return replace(self, robot=robot)

@@ -1,0 +1,167 @@
+"""The robot's side of W for Algorithm 2: the dangers and the move under way it reads, the intention it writes.
+
+Algorithm 1 leaves each person's guessed walks in W as ``has_intention`` edges
+(risky ones with their path, collision point, object and time to collision);
+the robot's own moves are ``intention`` nodes linked ``robot -has-> intention``.
+These functions turn the first into the :class:`~agents.caregiving.model.move_search.SearchSpec`
+the search takes, and the search's choice back into an intention node, so that
+the action agent is only the flow of Algorithm 2.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+
+from agents.caregiving.model.candidates import Danger
+from agents.caregiving.model.move_search import SearchSpec
+from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.verdict import Verdict
+from agents.caregiving.model.visibility import GazeClass, gaze_classes
+from agents.caregiving.model.world_model import Walk
+from wm import Edge, Graph, Node
+
+from .context import Context
+from .names import HAS, HAS_INTENTION, INTENTION, KNOWS
+
+#: The statuses of a move under way (or about to be).
+LIVE = ("proposed", "active")
+
+#: Each endangered person's most urgent danger, with the ``has_intention`` edge it was read from.
+Dangers = dict[str, tuple[Edge, Danger]]
+
+
+def risky_first(classes: tuple[GazeClass, ...], risky: float) -> tuple[float, ...]:
+    """The classes' gazes, the class holding the ``risky`` gaze first."""
+    gazes = [c.gaze for c in classes]
+    first = min(
+        range(len(classes)),
+        key=lambda k: 0.0 if classes[k].low <= risky <= classes[k].high else abs(classes[k].gaze - risky),
+    )
+    return (gazes[first], *gazes[:first], *gazes[first + 1 :])
+
+
+def dangers_in(ctx: Context, risky: list[Edge], failed: Mapping[int, float], retry: float) -> Dangers:
+    """Each endangered person's most urgent danger that is not yet due, nor failed less than ``retry`` s ago.
+
+    ``failed`` holds, by person node id, the simulated time their last search found no move.
+    """
+    names = {v: k for k, v in ctx.ids.items()}
+    out: Dangers = {}
+    for edge in risky:
+        person, target, obstacle = names.get(edge.src), names.get(edge.dst), names.get(edge.get("collision_object"))
+        ttc = edge.get("time_to_collision", 0.0) - max(ctx.scene.time - edge.get("at_time", ctx.scene.time), 0.0)
+        recent = ctx.scene.time - failed.get(edge.src, -math.inf) < retry
+        if person is None or target is None or obstacle is None or ttc <= 0.0 or recent:
+            continue
+        flat = edge.get("path", ())
+        p = ctx.scene.person(person)
+        danger = Danger(
+            person,
+            target,
+            tuple(zip(flat[0::2], flat[1::2], strict=True)),
+            tuple(edge.get("collision_point", (p.x, p.y))),
+            obstacle,
+            ttc,
+        )
+        if person not in out or ttc < out[person][1].time_to_collision:
+            out[person] = (edge, danger)
+    return out
+
+
+def search_spec(g: Graph, ctx: Context, dangers: Dangers, under_way: Node | None) -> SearchSpec:
+    """What the search needs beside the scene: the dangers, each endangered person's gaze classes (the one
+    found risky first) and known objects, the others' likeliest walks, and the move under way."""
+    scene, names = ctx.scene, {v: k for k, v in ctx.ids.items()}
+    known = {
+        p: tuple(sorted(names[e.dst] for e in g.edges(type=KNOWS, src=ctx.ids[p]) if e.dst in names)) for p in dangers
+    }
+    gazes = {
+        p: risky_first(gaze_classes(scene.person(p), scene.bodies_around(p)), edge.get("gaze", 0.0))
+        for p, (edge, _) in dangers.items()
+    }
+    bystanders, falling = [], {}
+    for p in scene.people:
+        walks = [e for e in g.edges(type=HAS_INTENTION, src=ctx.ids[p.name]) if e.dst in names]
+        if p.name not in dangers and walks:
+            e = max(walks, key=lambda e: e.get("updated_at", 0.0))  # their likeliest walk: the latest guessed
+            bystanders.append(Walk(p.name, names[e.dst], e.get("gaze", 0.0)))
+            if e.get("risky") and e.get("collision_object") in names:  # a danger not searched now
+                falling[p.name] = names[e.get("collision_object")]
+    return SearchSpec(
+        tuple(d for _, d in dangers.values()),
+        gazes,
+        known,
+        tuple(bystanders),
+        move_of(under_way, ctx) if under_way is not None else None,
+        falling=falling,
+    )
+
+
+def move_under_way(g: Graph) -> Node | None:
+    """The robot's move under way (or about to be), if any."""
+    live = [n for n in g.nodes(INTENTION) if n.get("status") in LIVE]
+    return max(live, key=lambda n: n.get("created_at", 0.0), default=None)
+
+
+def move_of(node: Node, ctx: Context) -> RobotMove | None:
+    """The move an intention drives (its target named as in ``ctx``), ``None`` for a stop."""
+    if node.get("action") == "stop":
+        return None
+    x, y, heading = node.get("final_pose")
+    target = node.get("target")
+    name = next((k for k, v in ctx.ids.items() if v == target), str(target))
+    return RobotMove(name, x, y, heading)
+
+
+def clear_intentions(g: Graph) -> None:
+    """Forget the robot's intentions (a new trial)."""
+    with g.batch():
+        for node in g.nodes(INTENTION):
+            g.delete_node(node.id)
+
+
+def write_intention(
+    g: Graph, ctx: Context, chosen: Verdict, dangers: Dangers, under_way: Node | None, name: str, unsaved: str = ""
+) -> tuple[Edge, Danger] | None:
+    """Write ``chosen`` as the robot's new intention (``move_to`` a pose, or ``stop``), superseding the one under way.
+
+    Returns the most urgent danger it protects from, with its edge; ``None`` (nothing written) when that
+    person has left W meanwhile. ``unsaved`` names the people no single move kept safe.
+    """
+    robot = ctx.scene.robot
+    assert robot is not None
+    edge, danger = min(dangers.values(), key=lambda x: x[1].time_to_collision)
+    if g.find_node(edge.src) is None:
+        return None
+    move = chosen.move
+    reason = f"{chosen.reason}; protects {', '.join(sorted(dangers))}"
+    if unsaved:
+        reason += f"; not saved: {unsaved} (no single move keeps everyone safe)"
+    what = (
+        {"action": "move_to", "target": ctx.ids.get(move.target, 0), "final_pose": [move.x, move.y, move.heading]}
+        if move is not None
+        else {"action": "stop", "target": ctx.ids[robot.name]}
+    )
+    with g.batch():
+        if under_way is not None and g.find_node(under_way.id) is not None:
+            g.update_node(under_way.id, {"status": "superseded"})
+        node = g.insert_node(
+            INTENTION,
+            f"{what['action']}_{ctx.episode}_{name}",
+            {
+                **what,
+                "status": "proposed",
+                "created_at": time.time(),
+                "person": edge.src,
+                "observed_at": edge.get("observed_at", 0.0),
+                "risk_at": edge.get("updated_at", 0.0),
+                "at_time": ctx.scene.time,
+                "time_to_collision": danger.time_to_collision,
+                "in_time": chosen.in_time(danger.time_to_collision),
+                "reason": reason,
+            },
+        )
+        g.insert_or_assign_edge(ctx.ids[robot.name], node, HAS, {"status": "proposed", "updated_at": time.time()})
+    return edge, danger

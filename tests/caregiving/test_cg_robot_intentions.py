@@ -1,0 +1,108 @@
+"""The robot's side of W for Algorithm 2: reading dangers and the move under way, writing moves and stops."""
+
+import math
+from dataclasses import replace
+
+import pytest
+
+import wm
+from agents.caregiving.context import Context
+from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.verdict import Verdict
+from agents.caregiving.names import HAS, HAS_INTENTION, OBJECT, PERSON, ROBOT
+from agents.caregiving.odometry import OdometryClock
+from agents.caregiving.robot_intentions import (
+    dangers_in,
+    move_of,
+    move_under_way,
+    search_spec,
+    write_intention,
+)
+
+
+@pytest.fixture()
+def w() -> tuple[wm.Graph, Context]:
+    """A replica holding the paper room's people, objects and robot, and a context on it at 1 s."""
+    scene = load_scenario("paper_experiment1").scene()
+    g = wm.Graph()
+    ids = {p.name: g.insert_node(PERSON, p.name) for p in scene.people}
+    ids |= {o.name: g.insert_node(OBJECT, o.name) for o in scene.obstacles if o.kind != "wall"}
+    assert scene.robot is not None
+    ids[scene.robot.name] = g.insert_node(ROBOT, scene.robot.name)
+    scene = replace(scene, time=1.0)
+    return g, Context(scene, 3, ids, {}, {}, 0.0)
+
+
+def risky(g: wm.Graph, ctx: Context, target: str, ttc: float, at_time: float) -> wm.Edge:
+    g.insert_or_assign_edge(
+        ctx.ids["person"],
+        ctx.ids[target],
+        HAS_INTENTION,
+        {
+            "risky": True,
+            "path": [-2.5, 0.0, 3.0, 0.0],
+            "collision_point": [-0.3, 0.0],
+            "collision_object": ctx.ids["ball"],
+            "time_to_collision": ttc,
+            "at_time": at_time,
+            "gaze": math.radians(8),
+        },
+    )
+    edge = g.find_edge(ctx.ids["person"], ctx.ids[target], HAS_INTENTION)
+    assert edge is not None
+    return edge
+
+
+def test_the_most_urgent_danger_not_due_nor_failed_lately_is_read(w: tuple[wm.Graph, Context]) -> None:
+    g, ctx = w
+    to_couch, to_door = risky(g, ctx, "couch", 2.0, 0.5), risky(g, ctx, "door", 1.0, 0.8)
+    dangers = dangers_in(ctx, [to_couch, to_door], {}, 0.5)
+    edge, danger = dangers["person"]
+    assert edge == to_door and danger.target == "door" and danger.obstacle == "ball"
+    assert danger.time_to_collision == pytest.approx(0.8)  # 1 s from the edge's 0.8 s, the context is at 1 s
+    assert danger.path == ((-2.5, 0.0), (3.0, 0.0))
+    assert dangers_in(ctx, [risky(g, ctx, "door", 0.1, 0.5)], {}, 0.5) == {}  # due before now
+    assert dangers_in(ctx, [to_couch], {ctx.ids["person"]: 0.7}, 0.5) == {}  # no move found 0.3 s ago
+    assert dangers_in(ctx, [to_couch], {ctx.ids["person"]: 0.4}, 0.5) != {}
+
+
+def test_a_move_then_a_stop_are_written_each_superseding_the_one_before(w: tuple[wm.Graph, Context]) -> None:
+    g, ctx = w
+    dangers = dangers_in(ctx, [risky(g, ctx, "couch", 2.0, 1.0)], {}, 0.5)
+    move = RobotMove("ball", 0.4, 0.0, math.pi)
+    assert write_intention(g, ctx, Verdict(move, True, 0.0, 1.5, "clear"), dangers, None, "1") is not None
+    first = move_under_way(g)
+    assert first is not None and first.name == "move_to_3_1" and move_of(first, ctx) == move
+    assert first.get("in_time") and first.get("reason") == "clear; protects person"
+    assert [e.src for e in g.edges(type=HAS, dst=first.id)] == [ctx.ids["robot"]]
+    spec = search_spec(g, ctx, dangers, first)
+    assert spec.current == move and spec.dangers == (dangers["person"][1],)
+
+    write_intention(g, ctx, Verdict(None, False, 1.0, None, "falls as idle"), dangers, first, "2", "bob")
+    stop = move_under_way(g)
+    assert stop is not None and stop.name == "stop_3_2" and stop.get("action") == "stop"
+    assert stop.get("target") == ctx.ids["robot"] and move_of(stop, ctx) is None and not stop.get("in_time")
+    assert "not saved: bob" in stop.get("reason")
+    assert g.get_node(first.id).get("status") == "superseded"
+    assert search_spec(g, ctx, dangers, stop).current is None  # braking is the move None
+
+
+def test_nothing_is_written_for_a_person_gone_from_w(w: tuple[wm.Graph, Context]) -> None:
+    g, ctx = w
+    dangers = dangers_in(ctx, [risky(g, ctx, "couch", 2.0, 1.0)], {}, 0.5)
+    g.delete_node(ctx.ids["person"])
+    assert write_intention(g, ctx, Verdict(None, True, 0.0, None, ""), dangers, None, "1") is None
+    assert move_under_way(g) is None
+
+
+def test_the_odometry_clock_tells_the_lag_and_the_rate(w: tuple[wm.Graph, Context]) -> None:
+    g, ctx = w
+    clock = OdometryClock()
+    assert clock.lag(g, 1.0) == 0.0 and clock.rate(g) == 1.0  # no odometry yet
+    g.update_node("robot", {"stamp": 1.0, "written_at": 100.0})
+    assert clock.rate(g) == 1.0
+    g.update_node("robot", {"stamp": 1.6, "written_at": 101.2})
+    assert clock.lag(g, 1.0) == pytest.approx(0.6) and clock.rate(g) == pytest.approx(0.5)
+    clock.reset()
+    assert clock.rate(g) == 1.0  # a new trial starts a new clock
