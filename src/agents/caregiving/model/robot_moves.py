@@ -51,16 +51,16 @@ class RobotMove:
 
 
 def travel_time(distance: float, max_speed: float, max_accel: float, v0: float = 0.0) -> float:
-    """Time to cover ``distance`` from speed ``v0`` and stop, under speed and acceleration limits."""
+    """Time to cover ``distance`` from speed ``v0`` and stop, under speed and acceleration limits.
+
+    From a speed too high to stop within ``distance``, the time to brake to rest (past it).
+    """
     if distance <= 0.0:
         return 0.0
     v0 = min(max(v0, 0.0), max_speed)
-    d_up = (max_speed**2 - v0**2) / (2 * max_accel)
-    d_down = max_speed**2 / (2 * max_accel)
-    if d_up + d_down <= distance:
-        return (max_speed - v0) / max_accel + (distance - d_up - d_down) / max_speed + max_speed / max_accel
-    peak = max(math.sqrt((2 * max_accel * distance + v0**2) / 2), v0)
-    return (peak - v0) / max_accel + peak / max_accel
+    if v0**2 / (2 * max_accel) > distance:
+        return v0 / max_accel
+    return time_to_cover(distance, distance, max_speed, max_accel, v0)
 
 
 def time_to_cover(trip: float, covered: float, max_speed: float, max_accel: float, v0: float = 0.0) -> float:
@@ -74,18 +74,23 @@ def time_to_cover(trip: float, covered: float, max_speed: float, max_accel: floa
         return 0.0
     v0 = min(max(v0, 0.0), max_speed)
     a = max_accel
-    if (2 * max_speed**2 - v0**2) / (2 * a) <= trip:
-        peak = max_speed
-        braking_from = trip - max_speed**2 / (2 * a)
+    d_up, d_down = (max_speed**2 - v0**2) / (2 * a), max_speed**2 / (2 * a)
+    if d_up + d_down <= trip:
+        peak, braking_from = max_speed, trip - d_down
     else:
         peak = max(math.sqrt((2 * a * trip + v0**2) / 2), v0)
         braking_from = (peak**2 - v0**2) / (2 * a)
     accelerating_to = (peak**2 - v0**2) / (2 * a)
     if covered <= accelerating_to:
         return (math.sqrt(v0**2 + 2 * a * covered) - v0) / a
-    cruised = min(covered, braking_from) - accelerating_to
-    speed = math.sqrt(max(peak**2 - 2 * a * (covered - braking_from), 0.0)) if covered > braking_from else peak
-    return (peak - v0) / a + cruised / peak + (peak - speed) / a
+    cruising = (min(covered, braking_from) - accelerating_to) / max_speed  # only a trapezoid cruises, at max_speed
+    if covered <= braking_from:
+        return (peak - v0) / a + cruising
+    # Braking: a trip that ends at rest has speed sqrt(2 a s) with s metres left; one begun too fast to
+    # stop within it brakes from v0 all the way.
+    stops = v0**2 <= 2 * a * trip
+    speed = math.sqrt(2 * a * (trip - covered) if stops else max(v0**2 - 2 * a * covered, 0.0))
+    return (peak - v0) / a + cruising + (peak - speed) / a
 
 
 def standoff_moves(scene: Scene, target: str, gap: float = 0.1, count: int = 8) -> list[RobotMove]:
