@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 from agents.caregiving.model.geometry import Box, Circle, Shape
 from agents.caregiving.model.scenario import RoomSpec
@@ -34,6 +35,11 @@ class Context:
     sigma: dict[str, float]
     velocity: dict[str, tuple[float, float]]
     written_at: float
+
+    @cached_property
+    def names(self) -> dict[int, str]:
+        """Node id -> name: the inverse of :attr:`ids`."""
+        return {v: k for k, v in self.ids.items()}
 
     def speed(self, person: str) -> float:
         vx, vy = self.velocity.get(person, (0.0, 0.0))

@@ -47,7 +47,7 @@ def dangers_in(ctx: Context, risky: list[Edge], failed: Mapping[int, float], ret
 
     ``failed`` holds, by person node id, the simulated time their last search found no move.
     """
-    names = {v: k for k, v in ctx.ids.items()}
+    names = ctx.names
     out: Dangers = {}
     for edge in risky:
         person, target, obstacle = names.get(edge.src), names.get(edge.dst), names.get(edge.get("collision_object"))
@@ -73,7 +73,7 @@ def dangers_in(ctx: Context, risky: list[Edge], failed: Mapping[int, float], ret
 def search_spec(g: Graph, ctx: Context, dangers: Dangers, under_way: Node | None) -> SearchSpec:
     """What the search needs beside the scene: the dangers, each endangered person's gaze classes (the one
     found risky first) and known objects, the others' likeliest walks, and the move under way."""
-    scene, names = ctx.scene, {v: k for k, v in ctx.ids.items()}
+    scene, names = ctx.scene, ctx.names
     known = {
         p: tuple(sorted(names[e.dst] for e in g.edges(type=KNOWS, src=ctx.ids[p]) if e.dst in names)) for p in dangers
     }
@@ -111,8 +111,7 @@ def move_of(node: Node, ctx: Context) -> RobotMove | None:
         return None
     x, y, heading = node.get("final_pose")
     target = node.get("target")
-    name = next((k for k, v in ctx.ids.items() if v == target), str(target))
-    return RobotMove(name, x, y, heading)
+    return RobotMove(ctx.names.get(target, str(target)), x, y, heading)
 
 
 def clear_intentions(g: Graph) -> None:

@@ -83,7 +83,7 @@ def snapshot(g: Graph, action: dict[str, Any] | None) -> Snapshot | None:
     ctx = read_context(g)
     if ctx is None:
         return None
-    names = {v: k for k, v in ctx.ids.items()}
+    names = ctx.names
     intentions = [
         {"person": names.get(e.src), "target": names.get(e.dst), **dict(e.attrs)} for e in g.edges(type=HAS_INTENTION)
     ]
