@@ -69,14 +69,15 @@ def paper() -> tuple[Scene, Danger]:
     return scene, danger
 
 
-def touched(scene: Scene, danger: Danger, bearing_deg: float, obstacle: str = "ball") -> Verdict:
-    """A refused verdict: the person touched ``obstacle`` at this bearing from straight ahead (left positive)."""
+def touched(scene: Scene, danger: Danger, bearing_deg: float, obstacle: str = "ball", walk_set: int = 0) -> Verdict:
+    """A refused verdict: the person touched ``obstacle`` at this bearing from straight ahead (left positive),
+    in the walk set ``walk_set`` (0: the gaze class found risky)."""
     dx, dy = travel_direction(danger.path, danger.point)
     shape = scene.obstacle("ball").shape
     b = math.radians(bearing_deg)
     ux, uy = -dx * math.cos(b) - dy * math.sin(b), -dy * math.cos(b) + dx * math.sin(b)
     point = (shape.x + 0.1 * ux, shape.y + 0.1 * uy)
-    return Verdict(None, False, 1.0, None, "", (Fall(0, "person", obstacle, point),))
+    return Verdict(None, False, 1.0, None, "", (Fall(walk_set, "person", obstacle, point),))
 
 
 def test_swerves_shift_the_stand_off_towards_the_side_the_person_grazed_and_only_then(
@@ -94,6 +95,8 @@ def test_swerves_shift_the_stand_off_towards_the_side_the_person_grazed_and_only
     assert [round(lateral(m), 3) for m in left] == [0.15, 0.3]
     assert [round(lateral(m), 3) for m in right] == [-0.15, -0.3]
     assert all(m.heading == behind.heading and m.target == behind.target for m in left + right)
+    # Clear at the gaze found risky, grazing at another: the same side.
+    assert swerves(scene, danger, behind, touched(scene, danger, 50.0, walk_set=1)) == left
     assert swerves(scene, danger, behind, touched(scene, danger, 10.0)) == []  # head-on: no side to widen
     assert swerves(scene, danger, behind, touched(scene, danger, 50.0, "robot")) == []
     other = RobotMove("couch", behind.x, behind.y, behind.heading)

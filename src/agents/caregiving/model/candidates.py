@@ -196,14 +196,13 @@ def swerves(scene: Scene, danger: Danger, move: RobotMove, verdict: Verdict) -> 
 
     A robot standing past the obstacle makes a person who sees it walk round it; when that detour is too
     tight, they graze the obstacle on the side they pass it. The same stand-off moved towards that side
-    widens the detour. Nothing when the move was refused for another reason, or the touch was head-on.
+    widens the detour. The graze may be at any gaze class: at the one found risky, or, when the move
+    clears that one, at another, where the person still passes the obstacle on the same side. Nothing
+    when nobody grazed the obstacle of the danger, or the touch was head-on.
     """
-    fall = verdict.falls[0] if verdict.falls else None
+    fall = next((f for f in verdict.falls if f.person == danger.person and f.obstacle == danger.obstacle), None)
     if (
         fall is None
-        or fall.walk_set != 0
-        or fall.person != danger.person
-        or fall.obstacle != danger.obstacle
         or fall.point is None
         or not _stays_put(scene, danger.obstacle)
         or move not in standoff_poses(scene, danger.obstacle)
