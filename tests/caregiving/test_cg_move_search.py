@@ -11,7 +11,7 @@ from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.imagine_reply import Answer, decode_answer, encode_answer
 from agents.caregiving.model.imagine_request import JointItem, uncertainty_to_wire
-from agents.caregiving.model.move_search import SearchSpec, choose, judge, replaces, search
+from agents.caregiving.model.move_search import SearchSpec, choose, holds, judge, replaces, search
 from agents.caregiving.model.robot_moves import RobotMove, robot_fits
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene
@@ -112,6 +112,20 @@ def test_choose_takes_the_first_safe_move_else_a_clearly_better_one_else_none() 
     assert choose([v(True, 0.4), v(True, 0.3)], 0.2, 1.0) == v(True, 0.3)
     assert choose([v(True, 0.4)], 0.2, 0.6) is None  # does not halve the risk of standing by
     assert choose([v(False, 0.0)], 0.2, 1.0) is None
+
+
+def test_a_move_under_way_holds_while_it_saves_the_person_at_the_gaze_found_risky_and_trips_nobody() -> None:
+    def v(clear: bool, risk: float, fall_in: int | None = None, into: str | None = "ball") -> Verdict:
+        falls = (Fall(fall_in, "person", into, (0.0, 0.0)),) if fall_in is not None else ()
+        return Verdict(RobotMove("ball", 0.0, 0.0, 0.0), clear, risk, 1.0, "", falls)
+
+    assert holds(v(True, 0.1), 0.2, "robot")  # safe
+    assert not holds(v(True, 0.3), 0.2, "robot")  # clear, but too risky
+    assert holds(v(False, 0.1, fall_in=1), 0.2, "robot")  # falls only at another gaze class, into the ball
+    assert not holds(v(False, 0.3, fall_in=1), 0.2, "robot")  # and too risky where found
+    assert not holds(v(False, 1.0, fall_in=0), 0.2, "robot")  # falls at the gaze found risky
+    assert not holds(v(False, 0.0, fall_in=1, into="robot"), 0.2, "robot")  # walks into the robot elsewhere
+    assert not holds(v(False, 0.0, fall_in=1, into=None), 0.2, "robot")  # stuck elsewhere
 
 
 def test_a_move_under_way_gives_way_only_to_a_clearly_better_one() -> None:

@@ -16,10 +16,12 @@ simulator to imagine the candidates, and writes the result:
 * when no single move keeps everyone safe, each danger is searched alone, most
   urgent first, and the move found is written with the people it leaves unsaved;
 * while a move is under way, a new risky intention first re-imagines that move
-  from the robot's current state, speed included; only if it no longer keeps
-  everyone safe is a new move searched, and only a move that ranks clearly above
-  it, judged in the same frame, replaces it (:func:`~agents.caregiving.model.move_search.replaces`);
-  the old one is then marked ``superseded``;
+  from the robot's current state, speed included; it is kept while it still keeps
+  everyone safe at the gaze found risky and trips nobody at any gaze
+  (:func:`~agents.caregiving.model.move_search.holds`); otherwise a new move is
+  searched, and only one that ranks clearly above it, judged in the same frame,
+  replaces it (:func:`~agents.caregiving.model.move_search.replaces`); the old one
+  is then marked ``superseded``;
 * a move is never sent when its imagination shows a fall that would not happen
   without it: every imagined walk with it is clear, but for a bystander's fall
   into the very object their own risky intention already heads for (a danger not
@@ -46,7 +48,7 @@ from itertools import count
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
-from agents.caregiving.model.move_search import SearchItem, SearchSpec, replaces
+from agents.caregiving.model.move_search import SearchItem, SearchSpec, holds, replaces
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.uncertainty import Uncertainty
@@ -143,9 +145,11 @@ class Action(Agent):
         if current is not None:
             again = await self._search(ctx, spec, 1.0, [move_of(current, ctx)])
             under_way = again.verdicts[0] if again is not None and again.verdicts else None
-            if under_way is not None and under_way.safe(self.args.risk_threshold):
-                return  # the move under way still keeps everyone safe
         robot = ctx.scene.robot_name
+        if under_way is not None and holds(under_way, self.args.risk_threshold, robot):
+            if not under_way.clear:
+                self.log.info("move kept", under_way=under_way.reason, risk=round(under_way.risk, 2))
+            return  # the move under way still keeps everyone safe, at least at the gaze found risky
         idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
         self.tried = []
         chosen, unsaved = await self._find(ctx, spec, idle_risk), ""

@@ -175,6 +175,19 @@ def standing(verdict: Verdict, robot: str | None) -> tuple[int, float]:
     return 2, 1.0
 
 
+def holds(under_way: Verdict, threshold: float, robot: str | None) -> bool:
+    """Whether the move under way, judged again, still does what a search would settle for, so no search is needed.
+
+    It holds when it is safe, or when it is still clear at the gaze class found risky with a risk under
+    ``threshold`` and walks nobody into the robot or leaves them stuck at any gaze: at the other gaze
+    classes where someone falls, they fall with the robot carrying on as it is, so it is what
+    :class:`NoWorse` accepts of a new candidate. A search started anyway could find a move clear at
+    every gaze on this frame's noise, and a robot that switches to it late, on one frame's word, loses
+    the time it has spent and turns up somewhere new in the person's view.
+    """
+    return under_way.clear_where_found and under_way.risk < threshold and not under_way.trips(robot)
+
+
 def replaces(new: Verdict, under_way: Verdict, samples: int, robot: str | None) -> bool:
     """Whether ``new`` should replace the move under way, both judged now from the robot's current state.
 
