@@ -104,50 +104,54 @@ def test_verdicts_say_why_a_move_is_refused(scene: Scene) -> None:
     assert front.clear and front.arrival is not None and front.in_time(spec.dangers[0].time_to_collision)
 
 
-def test_choose_takes_the_first_safe_move_else_a_clearly_better_one_else_none() -> None:
-    def v(clear: bool, risk: float) -> Verdict:
-        return Verdict(RobotMove("ball", risk, 0.0, 0.0), clear, risk, 1.0, "")
+def ball_verdict(clear: bool, risk: float, fall_in: int | None = None, into: str | None = "ball") -> Verdict:
+    """A verdict on a move to the ball (placed by its risk, so that verdicts differ), falling in walk set ``fall_in``."""
+    falls = (Fall(fall_in, "person", into, (0.0, 0.0)),) if fall_in is not None else ()
+    return Verdict(RobotMove("ball", risk, 0.0, 0.0), clear, risk, 1.0, "", falls)
 
-    assert choose([v(False, 1.0), v(True, 0.1), v(True, 0.0)], 0.2, 1.0) == v(True, 0.1)
-    assert choose([v(True, 0.4), v(True, 0.3)], 0.2, 1.0) == v(True, 0.3)
-    assert choose([v(True, 0.4)], 0.2, 0.6) is None  # does not halve the risk of standing by
-    assert choose([v(False, 0.0)], 0.2, 1.0) is None
+
+def test_choose_takes_the_first_safe_move_else_a_clearly_better_one_else_none() -> None:
+    assert choose(
+        [ball_verdict(False, 1.0), ball_verdict(True, 0.1), ball_verdict(True, 0.0)], 0.2, 1.0
+    ) == ball_verdict(True, 0.1)
+    assert choose([ball_verdict(True, 0.4), ball_verdict(True, 0.3)], 0.2, 1.0) == ball_verdict(True, 0.3)
+    assert choose([ball_verdict(True, 0.4)], 0.2, 0.6) is None  # does not halve the risk of standing by
+    assert choose([ball_verdict(False, 0.0)], 0.2, 1.0) is None
 
 
 def test_a_move_under_way_holds_while_it_saves_the_person_at_the_gaze_found_risky_and_trips_nobody() -> None:
-    def v(clear: bool, risk: float, fall_in: int | None = None, into: str | None = "ball") -> Verdict:
-        falls = (Fall(fall_in, "person", into, (0.0, 0.0)),) if fall_in is not None else ()
-        return Verdict(RobotMove("ball", 0.0, 0.0, 0.0), clear, risk, 1.0, "", falls)
-
-    assert holds(v(True, 0.1), 0.2, "robot")  # safe
-    assert not holds(v(True, 0.3), 0.2, "robot")  # clear, but too risky
-    assert holds(v(False, 0.1, fall_in=1), 0.2, "robot")  # falls only at another gaze class, into the ball
-    assert not holds(v(False, 0.3, fall_in=1), 0.2, "robot")  # and too risky where found
-    assert not holds(v(False, 1.0, fall_in=0), 0.2, "robot")  # falls at the gaze found risky
-    assert not holds(v(False, 0.0, fall_in=1, into="robot"), 0.2, "robot")  # walks into the robot elsewhere
-    assert not holds(v(False, 0.0, fall_in=1, into=None), 0.2, "robot")  # stuck elsewhere
+    assert holds(ball_verdict(True, 0.1), 0.2, "robot")  # safe
+    assert not holds(ball_verdict(True, 0.3), 0.2, "robot")  # clear, but too risky
+    assert holds(ball_verdict(False, 0.1, fall_in=1), 0.2, "robot")  # falls only at another gaze class, into the ball
+    assert not holds(ball_verdict(False, 0.3, fall_in=1), 0.2, "robot")  # and too risky where found
+    assert not holds(ball_verdict(False, 1.0, fall_in=0), 0.2, "robot")  # falls at the gaze found risky
+    assert not holds(ball_verdict(False, 0.0, fall_in=1, into="robot"), 0.2, "robot")  # walks into the robot elsewhere
+    assert not holds(ball_verdict(False, 0.0, fall_in=1, into=None), 0.2, "robot")  # stuck elsewhere
 
 
 def test_a_move_under_way_gives_way_only_to_a_clearly_better_one() -> None:
-    def v(clear: bool, risk: float, fall_in: int | None = None, into: str | None = "ball") -> Verdict:
-        falls = (Fall(fall_in, "person", into, (0.0, 0.0)),) if fall_in is not None else ()
-        return Verdict(RobotMove("ball", risk, 0.0, 0.0), clear, risk, 1.0, "", falls)
-
     def replaces_(new: Verdict, under_way: Verdict, samples: int = 64) -> bool:
         return replaces(new, under_way, samples, "robot")
 
-    order = [v(True, 0.0), v(True, 0.3), v(False, 0.1, fall_in=1), v(False, 1.0, fall_in=0)]
+    order = [
+        ball_verdict(True, 0.0),
+        ball_verdict(True, 0.3),
+        ball_verdict(False, 0.1, fall_in=1),
+        ball_verdict(False, 1.0, fall_in=0),
+    ]
     for k, better in enumerate(order):
         for worse in order[k + 1 :]:
             assert replaces_(better, worse) and not replaces_(worse, better)
     risky = order[1]
-    assert not replaces_(v(True, 0.19), v(True, 0.2))  # across the threshold, but within the sampling error
-    assert not replaces_(v(True, 0.27), risky) and replaces_(v(True, 0.2), risky)
-    assert not replaces_(v(True, 0.25), risky, 16) and replaces_(v(True, 0.25), risky, 4096)
+    assert not replaces_(
+        ball_verdict(True, 0.19), ball_verdict(True, 0.2)
+    )  # across the threshold, but within the sampling error
+    assert not replaces_(ball_verdict(True, 0.27), risky) and replaces_(ball_verdict(True, 0.2), risky)
+    assert not replaces_(ball_verdict(True, 0.25), risky, 16) and replaces_(ball_verdict(True, 0.25), risky, 4096)
     assert not replaces_(order[3], order[3])
     # Clear at the gaze found, but at another the person walks into the robot, or gets stuck: worse than refused,
     # so a move that makes nothing worse replaces it, and so does braking that leaves the person's fall as it was.
-    for tripping in (v(False, 0.0, fall_in=1, into="robot"), v(False, 0.0, fall_in=1, into=None)):
+    for tripping in (ball_verdict(False, 0.0, fall_in=1, into="robot"), ball_verdict(False, 0.0, fall_in=1, into=None)):
         assert replaces_(order[2], tripping) and not replaces_(tripping, order[2])
         assert replaces_(order[3], tripping) and not replaces_(tripping, order[3])
 

@@ -227,12 +227,9 @@ class NoWorse:
     _idle: dict[int, Verdict] = field(default_factory=dict)
 
     def __call__(self, verdict: Verdict) -> bool:
-        falls = verdict.falls
-        if verdict.clear or not verdict.clear_where_found or verdict.risk >= self.threshold:
+        if verdict.clear or not holds(verdict, self.threshold, self.robot):
             return False
-        if verdict.trips(self.robot):
-            return False
-        return all(any(g.person == f.person for g in self._idle_in(f.walk_set).falls) for f in falls)
+        return all(any(g.person == f.person for g in self._idle_in(f.walk_set).falls) for f in verdict.falls)
 
     def _idle_in(self, walk_set: int) -> Verdict:
         if walk_set not in self._idle:
