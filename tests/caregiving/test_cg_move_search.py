@@ -11,13 +11,13 @@ from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.imagine_reply import Answer, decode_answer, encode_answer
 from agents.caregiving.model.imagine_request import JointItem, uncertainty_to_wire
-from agents.caregiving.model.move_search import SearchSpec, choose, holds, judge, replaces, search
+from agents.caregiving.model.move_search import NoWorse, SearchSpec, Settles, choose, holds, judge, replaces, search
 from agents.caregiving.model.robot_moves import RobotMove, robot_fits
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import serve_one
-from agents.caregiving.model.uncertainty import Uncertainty
-from agents.caregiving.model.verdict import Fall, Verdict
+from agents.caregiving.model.uncertainty import Risk, Uncertainty
+from agents.caregiving.model.verdict import Fall, SearchResult, Verdict
 from agents.caregiving.model.world_model import Walk, World
 
 GAZE = math.radians(8)
@@ -219,6 +219,43 @@ def test_a_search_given_moves_judges_those_in_order(scene: Scene) -> None:
     assert braking is not None and [v.move for v in braking.verdicts] == [None, front]
     assert braking.verdicts[0].reason == "person walks into ball at gaze 8 deg"  # a robot at rest stays put
     assert "request.moves[0]" in (serve_one(scene, {**wire, "moves": ["brake"]}).error or "")
+
+
+def test_a_search_with_a_clear_move_in_hand_judges_only_a_few_more_for_a_safe_one(scene: Scene) -> None:
+    spec = SearchSpec((danger_of(scene),), {"person": (GAZE,)}, {})
+
+    def never(item: JointItem) -> Answer:
+        raise AssertionError("clear and refused-where-found verdicts need no idle imagination")
+
+    settles = Settles(NoWorse(spec, never, UNCERTAINTY, 0.2, "robot"), idle_risk=1.0, after_clear=2)
+    told = [ball_verdict(False, 1.0, 0), ball_verdict(True, 0.6), ball_verdict(True, 0.4)]  # the last halves 1.0
+    told += [ball_verdict(False, 1.0, 0), ball_verdict(True, 0.45)]
+    assert [settles(v) for v in told] == [False, False, False, False, True]
+    unhalved = Settles(NoWorse(spec, never, UNCERTAINTY, 0.2, "robot"), idle_risk=0.6, after_clear=0)
+    assert not any(unhalved(v) for v in told)
+
+    # In a real search: the front pose, judged first, is clear but, say, risky (judged again later, it is safe);
+    # the search stops two candidates past it. (The paper room's own search in the test above finds its safe move
+    # three candidates past a clear one, which the default waits for.)
+    inside_the_couch, front = RobotMove("couch", 3.5, 0.0, 0.0), RobotMove("ball", -0.46, 0.0, 0.0)
+    moves = [inside_the_couch, front, inside_the_couch, inside_the_couch, front]
+
+    def search_with_front_risky_at_first(after_clear: int) -> SearchResult:
+        fronts: list[JointItem] = []
+
+        def imagine(item: JointItem) -> Answer:
+            answer = serve_one(scene, item)
+            if item.move != front:
+                return answer
+            fronts.append(item)
+            return replace(answer, risk=Risk(0.3, None, None, "ball")) if len(fronts) == 1 else answer
+
+        return search(scene, spec, imagine, UNCERTAINTY, 0.2, 5, moves=moves, settle_after_clear=after_clear)
+
+    hasty = search_with_front_risky_at_first(2)
+    assert [v.move for v in hasty.verdicts] == moves[:4] and hasty.chosen is hasty.verdicts[1]
+    patient = search_with_front_risky_at_first(3)
+    assert len(patient.verdicts) == 5 and patient.chosen is patient.verdicts[4] and patient.chosen.safe(0.2)
 
 
 def test_braking_replaces_a_move_under_way_that_walks_the_person_into_the_robot() -> None:

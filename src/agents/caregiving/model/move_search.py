@@ -5,7 +5,8 @@ The candidates come from :mod:`agents.caregiving.model.candidates`. The joint im
 time, each with its robot starting later by the time the search has spent, and stops at the first
 safe one, or at the first that saves everyone at the gaze found risky and makes nothing worse at
 the others (:class:`NoWorse`). When none does, :func:`choose` may still pick a clear one that
-lowers the risk. A :class:`SearchSpec` travels to the simulator in its wire form, and the
+lowers the risk; once one such is in hand, the search judges only :data:`SETTLE_AFTER_CLEAR`
+candidates more for a safe one (:class:`Settles`). A :class:`SearchSpec` travels to the simulator in its wire form, and the
 :class:`SearchResult` comes back.
 """
 
@@ -35,6 +36,9 @@ if TYPE_CHECKING:
 MAX_MOVES = 256
 #: Candidates lent to the helper process at a time (see :mod:`agents.caregiving.model.judge_ahead`).
 AHEAD_DEPTH = 2
+#: Candidates judged past the first clear move that halves the idle risk before the search settles for the
+#: least risky clear move: each one judged sends whichever move is chosen later (see docs/caregiving.md).
+SETTLE_AFTER_CLEAR = 3
 
 
 @dataclass(frozen=True)
@@ -238,6 +242,32 @@ class NoWorse:
         return self._idle[walk_set]
 
 
+@dataclass
+class Settles:
+    """Whether the search may stop at a verdict short of a safe move, told each verdict once, in order.
+
+    It stops at a move :class:`NoWorse` accepts, and ``after_clear`` candidates past the first clear move
+    whose risk is under half ``idle_risk`` (one :func:`choose` would send): a search that goes on judging
+    for a safe move when none is there sends that clear move later by every candidate it judges.
+    """
+
+    no_worse: NoWorse
+    idle_risk: float
+    after_clear: int
+    _judged: int = 0
+    _first_clear: int | None = None
+    by_no_worse: bool = False
+
+    def __call__(self, verdict: Verdict) -> bool:
+        self._judged += 1
+        if self.no_worse(verdict):
+            self.by_no_worse = True
+            return True
+        if self._first_clear is None and verdict.clear and verdict.risk < self.idle_risk / 2:
+            self._first_clear = self._judged
+        return self._first_clear is not None and self._judged - self._first_clear >= self.after_clear
+
+
 def judge_move(spec: SearchSpec, move: RobotMove | None, imagine: Imagine, uncertainty: Uncertainty) -> Verdict:
     """Judge one move (``None``: braking): the first walk set alone (most fail there), then the others if clear."""
     items = spec.items(move, uncertainty)
@@ -259,11 +289,13 @@ def search(
     judging: float = 0.0,
     moves: Sequence[RobotMove | None] | None = None,
     ahead: JudgeAhead | None = None,
+    settle_after_clear: int = SETTLE_AFTER_CLEAR,
 ) -> SearchResult:
     """Algorithm 2's search: judge the candidates one at a time, likeliest first, and stop at the first safe one.
 
     It stops also at a move that saves everyone at the gaze found risky and makes nothing worse at the others
-    (:class:`NoWorse`): judging on for a move safe at every gaze would send any move later.
+    (:class:`NoWorse`), and ``settle_after_clear`` candidates past the first clear move that halves
+    ``idle_risk`` (:class:`Settles`): judging on for a move safe at every gaze would send any move later.
 
     Each candidate is imagined with the robot starting ``judging`` seconds later than the one before, since
     the move is sent only once the search has judged it: the k-th candidate (from 1) after
@@ -275,10 +307,10 @@ def search(
     verdicts: list[Verdict] = []
     generated = candidates(scene, spec.dangers, verdicts, spec.delay, judging)
     pool: Iterator[RobotMove | None] = islice(generated if moves is None else iter(moves), max_moves)
-    no_worse = NoWorse(spec, imagine, uncertainty, threshold, scene.robot_name)
-    settled = _Judging(scene, spec, imagine, uncertainty, judging, ahead).in_order(pool, threshold, verdicts, no_worse)
+    settles = Settles(NoWorse(spec, imagine, uncertainty, threshold, scene.robot_name), idle_risk, settle_after_clear)
+    _Judging(scene, spec, imagine, uncertainty, judging, ahead).in_order(pool, threshold, verdicts, settles)
     chosen = choose(verdicts, threshold, idle_risk)
-    if chosen is None and settled:  # by a move that makes nothing worse
+    if chosen is None and settles.by_no_worse:
         last = verdicts[-1]
         chosen = verdicts[-1] = replace(
             last, reason=f"clear at the gaze found risky; at another, {last.reason}, as with the robot as it is"
@@ -312,10 +344,10 @@ class _Judging:
         threshold: float,
         verdicts: list[Verdict],
         settles: Callable[[Verdict], bool],
-    ) -> bool:
+    ) -> None:
         """Fill ``verdicts`` in candidate order, up to the first safe one or one that ``settles`` the search.
 
-        True when the last verdict is such a one. ``moves`` may read ``verdicts`` as they come in.
+        ``moves`` may read ``verdicts`` as they come in.
         """
         positions = enumerate(moves, start=1)
         judged: dict[int, Verdict] = {}
@@ -356,14 +388,14 @@ class _Judging:
             judged[mine[0]] = self.judge(*mine)
             exchange()
             if gather():
-                return True
+                return
             mine = next(positions, None)
             exchange()
         while lent:
             exchange(wait=True)
             if gather():
-                return True
-        return gather()
+                return
+        gather()
 
     def judge(self, k: int, move: RobotMove | None) -> Verdict:
         return judge_move(self.spec_at(k), move, self.imagine, self.uncertainty)

@@ -1,0 +1,175 @@
+"""Algorithm 2's move search on a noisy belief, on every oracle-saveable trial of recorded experiment runs.
+
+``bench_move_search.py`` searches the exact scene. Live, the search sees what
+perception makes of it, and a move judged on that belief may fail in the truth,
+or a move that saves in the truth may be refused on it. This bench draws
+``--draws`` beliefs per trial at the moment the run first saw the danger (its
+``risk_at_time``), from the scenario's own sensor model, as perception's tracker
+would hold them then:
+
+* each object's position off by the sensor's sigma averaged over the frames seen
+  so far (the tracker averages a static object's detections), and its size off by
+  a factor drawn once within the sensor's ``size_error`` (a bias no averaging removes);
+* each person's position off by half the sensor's sigma (what a one-second
+  line fit leaves) and their heading by the sensor's heading sigma.
+
+Algorithm 1's danger is imagined on that belief (the first gaze class, nearest
+the true gaze, whose walk collides), the search runs with the same uncertainty
+as the action agent samples, and the chosen move is commanded in the ground truth
+``--delay`` s plus ``--judging`` s per candidate judged later. A draw counts as
+saved when nobody touches anything. The draws are seeded per trial, so two
+versions of the search are compared on the same beliefs.
+
+    python bench/bench_move_search_noisy.py [--draws N] [--json PATH] [RUN ...]
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+from functools import partial
+
+import numpy as np
+
+import benchlib
+from agents.caregiving.model import move_search
+from agents.caregiving.model.candidates import Danger
+from agents.caregiving.model.geometry import Box, Circle
+from agents.caregiving.model.imagine import imagine_person
+from agents.caregiving.model.move_search import SearchSpec
+from agents.caregiving.model.scenario import SensorSpec
+from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.service import serve_one
+from agents.caregiving.model.uncertainty import Uncertainty
+from agents.caregiving.model.visibility import WALL_KIND, gaze_classes
+from agents.caregiving.model.world_model import World
+from bench_move_search import RUNS, THRESHOLD, cases
+from bridges.experiment.oracle import saves, world_at
+
+SAMPLES = 64  # sampled worlds per imagined walk, as the action agent's default
+
+
+def sigmas(sensors: SensorSpec, at: float) -> tuple[float, float]:
+    """The tracker's position sigma at ``at`` s: of a static object (averaged frames), of a person (line fit)."""
+    if not sensors.enabled:
+        return 0.0, 0.0
+    frames = max(sensors.rate_hz * at, 1.0)
+    return sensors.position_sigma / math.sqrt(frames), sensors.position_sigma / 2
+
+
+def belief(truth: Scene, sensors: SensorSpec, at: float, rng: np.random.Generator) -> Scene:
+    """One draw of what perception holds of ``truth`` at ``at`` s (walls are known exactly)."""
+    object_sigma, person_sigma = sigmas(sensors, at)
+    obstacles = []
+    for o in truth.obstacles:
+        if o.kind == WALL_KIND:
+            obstacles.append(o)
+            continue
+        dx, dy = rng.normal(0.0, object_sigma, 2)
+        error = sensors.size_error if sensors.enabled else 0.0
+        f = rng.uniform(1 - error, 1 + error)
+        s = o.shape
+        seen = (
+            Circle(s.x + dx, s.y + dy, s.r * f)
+            if isinstance(s, Circle)
+            else Box(s.x + dx, s.y + dy, s.hx * f, s.hy * f, s.theta)
+        )
+        obstacles.append(replace(o, shape=seen))
+    people = []
+    for p in truth.people:
+        dx, dy = rng.normal(0.0, person_sigma, 2)
+        turn = rng.normal(0.0, math.radians(sensors.heading_sigma_deg)) if sensors.enabled else 0.0
+        people.append(p.moved(p.x + dx, p.y + dy, p.heading + turn))
+    return replace(truth, obstacles=tuple(obstacles), people=tuple(people))
+
+
+def noisy_spec(scene: Scene, idle: World, now: World, delay: float) -> SearchSpec | None:
+    """The dangers Algorithm 1 finds on the belief ``scene``, for the people who fall in the idle truth."""
+    objects = {o.name for o in scene.obstacles if o.kind != WALL_KIND}
+    dangers: list[Danger] = []
+    gazes: dict[str, tuple[float, ...]] = {}
+    known: dict[str, tuple[str, ...]] = {}
+    for c in idle.outcome().collisions:
+        if c.person in gazes:
+            continue
+        walker = idle.walker(c.person)
+        seen = tuple(sorted(objects & now.walker(c.person).known.keys()))
+        classes = gaze_classes(scene.person(c.person), scene.bodies_around(c.person))
+        order = sorted((g.gaze for g in classes), key=lambda g: abs(g - walker.gaze))
+        for gaze in order:
+            danger = Danger.of(imagine_person(scene, c.person, walker.target, gaze, known=seen))
+            if danger is not None:
+                dangers.append(danger)
+                gazes[c.person] = (gaze, *(g for g in order if g != gaze))
+                known[c.person] = seen
+                break
+    return SearchSpec(tuple(dangers), gazes, known, (), None, delay) if dangers else None
+
+
+def noisy_search(runs: list[str], draws: int, delay: float, judging: float) -> dict[str, object]:
+    """Search ``draws`` beliefs of every saveable case; how many chosen moves save in the truth."""
+    beliefs = flagged = chosen = saved = judged = 0
+    lost: dict[str, int] = {}
+    spent = 0.0
+    for case in cases(runs):
+        if not case.saveable:
+            continue
+        idle = World.from_scenario(case.trial, planner=case.planner)
+        idle.run(60.0)
+        now = world_at(case.trial, case.at, case.planner)
+        rng = np.random.default_rng([case.index, draws])
+        sensors = case.trial.sensors
+        for k in range(draws):
+            beliefs += 1
+            scene = belief(now.scene(), sensors, case.at, rng)
+            spec = noisy_spec(scene, idle, now, delay)
+            if spec is None:
+                continue
+            flagged += 1
+            object_sigma, person_sigma = sigmas(sensors, case.at)
+            sigma = {o.name: object_sigma for o in scene.obstacles} | {p.name: person_sigma for p in scene.people}
+            uncertainty = Uncertainty(sensors.size_error if sensors.enabled else 0.0, sigma, SAMPLES, seed=k)
+            started = time.perf_counter()
+            result = move_search.search(
+                scene, spec, partial(serve_one, scene), uncertainty, THRESHOLD, 24, judging=judging
+            )
+            spent += time.perf_counter() - started
+            judged += len(result.verdicts)
+            ok = False
+            if result.chosen is not None and result.chosen.move is not None:
+                chosen += 1
+                when = case.at + delay + judging * len(result.verdicts)
+                ok = saves(world_at(case.trial, when, case.planner), result.chosen.move)
+            saved += ok
+            if not ok:
+                name = f"{case.run}#{case.index}"
+                lost[name] = lost.get(name, 0) + 1
+    return {
+        "beliefs": beliefs,
+        "flagged": flagged,
+        "chosen": chosen,
+        "saved": saved,
+        "judged": judged,
+        "search_s": round(spent, 3),
+        "lost_draws": lost,
+    }
+
+
+def main() -> None:
+    p = benchlib.parser("bench_move_search_noisy", __doc__.splitlines()[0])
+    p.add_argument("runs", nargs="*", default=list(RUNS), help="recorded runs (docs/results/RUN.json)")
+    p.add_argument("--draws", type=int, default=3, help="beliefs drawn per saveable trial")
+    p.add_argument("--delay", type=float, default=0.1, help="seconds from the danger to the robot's start")
+    p.add_argument("--judging", type=float, default=0.02, help="seconds more per candidate judged")
+    args = p.parse_args()
+    found = noisy_search(args.runs, args.draws, args.delay, args.judging)
+    benchlib.print_table("Move search on a noisy belief", [(k, v) for k, v in found.items() if k != "lost_draws"])
+    print("lost draws:", found["lost_draws"])
+    benchlib.write_json(
+        args.json, {"runs": args.runs, "draws": args.draws, "delay": args.delay, "judging": args.judging, **found}
+    )
+
+
+if __name__ == "__main__":
+    main()
