@@ -20,14 +20,19 @@ as the action agent samples, and the chosen move is commanded in the ground trut
 saved when nobody touches anything. The draws are seeded per trial, so two
 versions of the search are compared on the same beliefs.
 
-    python bench/bench_move_search_noisy.py [--draws N] [--json PATH] [RUN ...]
+With ``--position-scale`` and ``--size-scale`` the noise drawn is scaled (0: none), and with
+``--no-sampled-risk`` the search judges without sampling the uncertainty, so that the cost of each
+part of perception's noise shows apart.
+
+    python bench/bench_move_search_noisy.py [--draws N] [--settle-after-clear N] [--position-scale K]
+        [--size-scale K] [--no-sampled-risk] [--json PATH] [RUN ...]
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
@@ -50,6 +55,15 @@ from bridges.experiment.oracle import saves, world_at
 SAMPLES = 64  # sampled worlds per imagined walk, as the action agent's default
 
 
+@dataclass(frozen=True)
+class Noise:
+    """How much of the sensor model's noise to draw, and whether the search samples its uncertainty."""
+
+    position: float = 1.0  # times the tracker's position and heading sigmas
+    size: float = 1.0  # times the size error bound
+    sampled_risk: bool = True
+
+
 def sigmas(sensors: SensorSpec, at: float) -> tuple[float, float]:
     """The tracker's position sigma at ``at`` s: of a static object (averaged frames), of a person (line fit)."""
     if not sensors.enabled:
@@ -58,16 +72,22 @@ def sigmas(sensors: SensorSpec, at: float) -> tuple[float, float]:
     return sensors.position_sigma / math.sqrt(frames), sensors.position_sigma / 2
 
 
-def belief(truth: Scene, sensors: SensorSpec, at: float, rng: np.random.Generator) -> Scene:
+def size_error(sensors: SensorSpec) -> float:
+    """The bound of the size bias the sensors draw per object."""
+    return sensors.size_error if sensors.enabled else 0.0
+
+
+def belief(truth: Scene, sensors: SensorSpec, at: float, noise: Noise, rng: np.random.Generator) -> Scene:
     """One draw of what perception holds of ``truth`` at ``at`` s (walls are known exactly)."""
-    object_sigma, person_sigma = sigmas(sensors, at)
+    object_sigma, person_sigma = (noise.position * s for s in sigmas(sensors, at))
+    heading_sigma = noise.position * math.radians(sensors.heading_sigma_deg) if sensors.enabled else 0.0
+    error = noise.size * size_error(sensors)
     obstacles = []
     for o in truth.obstacles:
         if o.kind == WALL_KIND:
             obstacles.append(o)
             continue
         dx, dy = rng.normal(0.0, object_sigma, 2)
-        error = sensors.size_error if sensors.enabled else 0.0
         f = rng.uniform(1 - error, 1 + error)
         s = o.shape
         seen = (
@@ -79,8 +99,7 @@ def belief(truth: Scene, sensors: SensorSpec, at: float, rng: np.random.Generato
     people = []
     for p in truth.people:
         dx, dy = rng.normal(0.0, person_sigma, 2)
-        turn = rng.normal(0.0, math.radians(sensors.heading_sigma_deg)) if sensors.enabled else 0.0
-        people.append(p.moved(p.x + dx, p.y + dy, p.heading + turn))
+        people.append(p.moved(p.x + dx, p.y + dy, p.heading + rng.normal(0.0, heading_sigma)))
     return replace(truth, obstacles=tuple(obstacles), people=tuple(people))
 
 
@@ -107,7 +126,9 @@ def noisy_spec(scene: Scene, idle: World, now: World, delay: float) -> SearchSpe
     return SearchSpec(tuple(dangers), gazes, known, (), None, delay) if dangers else None
 
 
-def noisy_search(runs: list[str], draws: int, delay: float, judging: float) -> dict[str, object]:
+def noisy_search(
+    runs: list[str], draws: int, delay: float, judging: float, settle_after_clear: int, noise: Noise
+) -> dict[str, object]:
     """Search ``draws`` beliefs of every saveable case; how many chosen moves save in the truth."""
     beliefs = flagged = chosen = saved = judged = 0
     lost: dict[str, int] = {}
@@ -122,17 +143,28 @@ def noisy_search(runs: list[str], draws: int, delay: float, judging: float) -> d
         sensors = case.trial.sensors
         for k in range(draws):
             beliefs += 1
-            scene = belief(now.scene(), sensors, case.at, rng)
+            scene = belief(now.scene(), sensors, case.at, noise, rng)
             spec = noisy_spec(scene, idle, now, delay)
             if spec is None:
                 continue
             flagged += 1
             object_sigma, person_sigma = sigmas(sensors, case.at)
             sigma = {o.name: object_sigma for o in scene.obstacles} | {p.name: person_sigma for p in scene.people}
-            uncertainty = Uncertainty(sensors.size_error if sensors.enabled else 0.0, sigma, SAMPLES, seed=k)
+            uncertainty = (
+                Uncertainty(size_error(sensors), sigma, SAMPLES, seed=k)
+                if noise.sampled_risk
+                else Uncertainty(0.0, {}, 1)
+            )
             started = time.perf_counter()
             result = move_search.search(
-                scene, spec, partial(serve_one, scene), uncertainty, THRESHOLD, 24, judging=judging
+                scene,
+                spec,
+                partial(serve_one, scene),
+                uncertainty,
+                THRESHOLD,
+                24,
+                judging=judging,
+                settle_after_clear=settle_after_clear,
             )
             spent += time.perf_counter() - started
             judged += len(result.verdicts)
@@ -162,12 +194,33 @@ def main() -> None:
     p.add_argument("--draws", type=int, default=3, help="beliefs drawn per saveable trial")
     p.add_argument("--delay", type=float, default=0.1, help="seconds from the danger to the robot's start")
     p.add_argument("--judging", type=float, default=0.02, help="seconds more per candidate judged")
+    p.add_argument(
+        "--settle-after-clear",
+        type=int,
+        default=move_search.SETTLE_AFTER_CLEAR,
+        help="candidates judged past the first clear move before settling (default: %(default)s; 24: never)",
+    )
+    p.add_argument("--position-scale", type=float, default=1.0, help="times the position and heading noise drawn")
+    p.add_argument("--size-scale", type=float, default=1.0, help="times the size bias drawn")
+    p.add_argument(
+        "--no-sampled-risk", action="store_true", help="search without sampling uncertainty (risk 0 when clear)"
+    )
     args = p.parse_args()
-    found = noisy_search(args.runs, args.draws, args.delay, args.judging)
+    noise = Noise(args.position_scale, args.size_scale, not args.no_sampled_risk)
+    found = noisy_search(args.runs, args.draws, args.delay, args.judging, args.settle_after_clear, noise)
     benchlib.print_table("Move search on a noisy belief", [(k, v) for k, v in found.items() if k != "lost_draws"])
     print("lost draws:", found["lost_draws"])
     benchlib.write_json(
-        args.json, {"runs": args.runs, "draws": args.draws, "delay": args.delay, "judging": args.judging, **found}
+        args.json,
+        {
+            "runs": args.runs,
+            "draws": args.draws,
+            "delay": args.delay,
+            "judging": args.judging,
+            "settle_after_clear": args.settle_after_clear,
+            "noise": {"position_scale": noise.position, "size_scale": noise.size, "sampled_risk": noise.sampled_risk},
+            **found,
+        },
     )
 
 
