@@ -254,6 +254,7 @@ def test_a_search_with_a_clear_move_in_hand_judges_only_a_few_more_for_a_safe_on
 
     hasty = search_with_front_risky_at_first(2)
     assert [v.move for v in hasty.verdicts] == moves[:4] and hasty.chosen is hasty.verdicts[1]
+    assert hasty.chosen.reason.endswith("; no safe move within 2 candidates past a clear one")
     patient = search_with_front_risky_at_first(3)
     assert len(patient.verdicts) == 5 and patient.chosen is patient.verdicts[4] and patient.chosen.safe(0.2)
 

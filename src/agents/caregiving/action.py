@@ -262,6 +262,7 @@ class Action(Agent):
             **({"target": move.target, "x": round(move.x, 2), "y": round(move.y, 2)} if move else {}),
             in_time=chosen.in_time(danger.time_to_collision),
             risk=round(chosen.risk, 2),
+            chosen=chosen.reason,
             people=len(dangers),
             tried=len(self.tried),
             refused=sorted({v.reason for v in self.tried if not v.clear})[:4],

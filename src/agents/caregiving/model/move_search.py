@@ -257,6 +257,7 @@ class Settles:
     _judged: int = 0
     _first_clear: int | None = None
     by_no_worse: bool = False
+    by_count: bool = False
 
     def __call__(self, verdict: Verdict) -> bool:
         self._judged += 1
@@ -265,7 +266,8 @@ class Settles:
             return True
         if self._first_clear is None and verdict.clear and verdict.risk < self.idle_risk / 2:
             self._first_clear = self._judged
-        return self._first_clear is not None and self._judged - self._first_clear >= self.after_clear
+        self.by_count = self._first_clear is not None and self._judged - self._first_clear >= self.after_clear
+        return self.by_count
 
 
 def judge_move(spec: SearchSpec, move: RobotMove | None, imagine: Imagine, uncertainty: Uncertainty) -> Verdict:
@@ -310,6 +312,11 @@ def search(
     settles = Settles(NoWorse(spec, imagine, uncertainty, threshold, scene.robot_name), idle_risk, settle_after_clear)
     _Judging(scene, spec, imagine, uncertainty, judging, ahead).in_order(pool, threshold, verdicts, settles)
     chosen = choose(verdicts, threshold, idle_risk)
+    if chosen is not None and settles.by_count and not chosen.safe(threshold):
+        k = next(k for k, v in enumerate(verdicts) if v is chosen)
+        chosen = verdicts[k] = replace(
+            chosen, reason=f"{chosen.reason}; no safe move within {settle_after_clear} candidates past a clear one"
+        )
     if chosen is None and settles.by_no_worse:
         last = verdicts[-1]
         chosen = verdicts[-1] = replace(
