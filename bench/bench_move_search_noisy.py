@@ -39,18 +39,16 @@ import numpy as np
 
 import benchlib
 from agents.caregiving.model import move_search
-from agents.caregiving.model.candidates import Danger
 from agents.caregiving.model.geometry import Box, Circle
-from agents.caregiving.model.imagine import imagine_person
-from agents.caregiving.model.move_search import SearchSpec
 from agents.caregiving.model.scenario import SensorSpec
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
-from agents.caregiving.model.visibility import WALL_KIND, gaze_classes
+from agents.caregiving.model.visibility import WALL_KIND
 from agents.caregiving.model.world_model import World
 from bench_move_search import RUNS, THRESHOLD, cases
 from bridges.experiment.oracle import saves, world_at
+from bridges.experiment.perfect_belief import spec_on
 
 SAMPLES = 64  # sampled worlds per imagined walk, as the action agent's default
 
@@ -103,29 +101,6 @@ def belief(truth: Scene, sensors: SensorSpec, at: float, noise: Noise, rng: np.r
     return replace(truth, obstacles=tuple(obstacles), people=tuple(people))
 
 
-def noisy_spec(scene: Scene, idle: World, now: World, delay: float) -> SearchSpec | None:
-    """The dangers Algorithm 1 finds on the belief ``scene``, for the people who fall in the idle truth."""
-    objects = {o.name for o in scene.obstacles if o.kind != WALL_KIND}
-    dangers: list[Danger] = []
-    gazes: dict[str, tuple[float, ...]] = {}
-    known: dict[str, tuple[str, ...]] = {}
-    for c in idle.outcome().collisions:
-        if c.person in gazes:
-            continue
-        walker = idle.walker(c.person)
-        seen = tuple(sorted(objects & now.walker(c.person).known.keys()))
-        classes = gaze_classes(scene.person(c.person), scene.bodies_around(c.person))
-        order = sorted((g.gaze for g in classes), key=lambda g: abs(g - walker.gaze))
-        for gaze in order:
-            danger = Danger.of(imagine_person(scene, c.person, walker.target, gaze, known=seen))
-            if danger is not None:
-                dangers.append(danger)
-                gazes[c.person] = (gaze, *(g for g in order if g != gaze))
-                known[c.person] = seen
-                break
-    return SearchSpec(tuple(dangers), gazes, known, (), None, delay) if dangers else None
-
-
 def noisy_search(
     runs: list[str], draws: int, delay: float, judging: float, settle_after_clear: int, noise: Noise
 ) -> dict[str, object]:
@@ -144,7 +119,7 @@ def noisy_search(
         for k in range(draws):
             beliefs += 1
             scene = belief(now.scene(), sensors, case.at, noise, rng)
-            spec = noisy_spec(scene, idle, now, delay)
+            spec = spec_on(scene, idle, now, delay, any_class=True)
             if spec is None:
                 continue
             flagged += 1

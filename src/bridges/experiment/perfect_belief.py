@@ -30,25 +30,39 @@ def perfect_belief_spec(
     ``knows`` edges would hold them.
     """
     idle = World.from_scenario(trial, planner=planner)
-    outcome = idle.run(60.0)
+    idle.run(60.0)
     now = world_at(trial, at, planner)
     scene = now.scene()
+    spec = spec_on(scene, idle, now, delay)
+    return (scene, spec) if spec is not None else None
+
+
+def spec_on(scene: Scene, idle: World, now: World, delay: float, any_class: bool = False) -> SearchSpec | None:
+    """The spec of the dangers Algorithm 1 finds on ``scene`` (exact or believed) for the people who fall in ``idle``.
+
+    ``idle`` is the trial run to its end with the robot idle, ``now`` the truth at the scene's moment (what each
+    person has seen so far). Each person's walk is imagined at their true gaze, or, with ``any_class``, at the
+    first of their gaze classes (the nearest the true gaze first) whose walk collides: on a belief, the true
+    gaze may show no danger where another class does, as Algorithm 1 would find.
+    """
     objects = {o.name for o in scene.obstacles if o.kind != WALL_KIND}
     dangers: list[Danger] = []
     gazes: dict[str, tuple[float, ...]] = {}
     known: dict[str, tuple[str, ...]] = {}
-    for c in outcome.collisions:
-        walker = idle.walker(c.person)
+    for c in idle.outcome().collisions:
         if c.person in gazes:
             continue
+        walker = idle.walker(c.person)
         seen = tuple(sorted(objects & now.walker(c.person).known.keys()))
-        danger = Danger.of(imagine_person(scene, c.person, walker.target, walker.gaze, known=seen))
-        if danger is None:
+        classes = gaze_classes(scene.person(c.person), scene.bodies_around(c.person))
+        order = tuple(sorted((g.gaze for g in classes), key=lambda g: abs(g - walker.gaze)))
+        for gaze in order if any_class else (walker.gaze,):
+            danger = Danger.of(imagine_person(scene, c.person, walker.target, gaze, known=seen))
+            if danger is not None:
+                break
+        else:
             continue
         dangers.append(danger)
-        classes = gaze_classes(scene.person(c.person), scene.bodies_around(c.person))
-        gazes[c.person] = tuple(sorted((g.gaze for g in classes), key=lambda g: abs(g - walker.gaze)))
+        gazes[c.person] = (gaze, *(g for g in order if g != gaze)) if any_class else order
         known[c.person] = seen
-    if not dangers:
-        return None
-    return scene, SearchSpec(tuple(dangers), gazes, known, (), None, delay)
+    return SearchSpec(tuple(dangers), gazes, known, (), None, delay) if dangers else None

@@ -6,8 +6,8 @@ time, each with its robot starting later by the time the search has spent, and s
 safe one, or at the first that saves everyone at the gaze found risky and makes nothing worse at
 the others (:class:`NoWorse`). When none does, :func:`choose` may still pick a clear one that
 lowers the risk; once one such is in hand, the search judges only :data:`SETTLE_AFTER_CLEAR`
-candidates more for a safe one (:class:`Settles`). A :class:`SearchSpec` travels to the simulator in its wire form, and the
-:class:`SearchResult` comes back.
+candidates more for a safe one (:class:`Settles`). A :class:`SearchSpec` travels to the
+simulator in its wire form, and the :class:`SearchResult` comes back.
 """
 
 from __future__ import annotations
@@ -149,6 +149,11 @@ def judge(move: RobotMove | None, answers: list[Answer], falling: Mapping[str, s
     return Verdict(move, True, risk, arrival, reason)
 
 
+def lowers_risk(verdict: Verdict, idle_risk: float) -> bool:
+    """Whether a move is clear and at least halves ``idle_risk``, the risk the person runs with the robot standing by."""
+    return verdict.clear and verdict.risk < idle_risk / 2
+
+
 def choose(verdicts: list[Verdict], threshold: float, idle_risk: float) -> Verdict | None:
     """The move to send: the first safe one; else the least risky clear one, if it at least halves the idle risk.
 
@@ -158,7 +163,7 @@ def choose(verdicts: list[Verdict], threshold: float, idle_risk: float) -> Verdi
     safe = next((v for v in verdicts if v.safe(threshold)), None)
     if safe is not None:
         return safe
-    clear = [v for v in verdicts if v.clear and v.risk < idle_risk / 2]
+    clear = [v for v in verdicts if lowers_risk(v, idle_risk)]
     return min(clear, key=lambda v: v.risk) if clear else None
 
 
@@ -264,7 +269,7 @@ class Settles:
         if self.no_worse(verdict):
             self.by_no_worse = True
             return True
-        if self._first_clear is None and verdict.clear and verdict.risk < self.idle_risk / 2:
+        if self._first_clear is None and lowers_risk(verdict, self.idle_risk):
             self._first_clear = self._judged
         self.by_count = self._first_clear is not None and self._judged - self._first_clear >= self.after_clear
         return self.by_count
