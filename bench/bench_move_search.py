@@ -151,7 +151,7 @@ def every_candidate(runs: list[str], delay: float) -> dict[str, object]:
         danger = spec.dangers[0]
         alone = replace(spec, dangers=(danger,))
         verdicts = [
-            (kind, move_search.judge_move(alone, m, partial(serve_one, scene), EXACT).safe(THRESHOLD))
+            (kind, move_search.judge_move(alone, m, partial(serve_one, scene), EXACT, scene.robot_name).safe(THRESHOLD))
             for kind, m in kinds(scene, danger)
         ]
         dangers += 1

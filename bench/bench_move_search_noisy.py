@@ -17,15 +17,17 @@ Algorithm 1's danger is imagined on that belief (the first gaze class, nearest
 the true gaze, whose walk collides), the search runs with the same uncertainty
 as the action agent samples, and the chosen move is commanded in the ground truth
 ``--delay`` s plus ``--judging`` s per candidate judged later. A draw counts as
-saved when nobody touches anything. The draws are seeded per trial, so two
+saved when nobody touches anything; ``into_robot`` counts the chosen moves that
+someone walks into in the truth. The draws are seeded per trial, so two
 versions of the search are compared on the same beliefs.
 
-With ``--position-scale`` and ``--size-scale`` the noise drawn is scaled (0: none), and with
+With ``--object-scale``, ``--size-scale`` and ``--people-scale`` the noise drawn on the objects'
+positions, on their sizes and on the people's positions and headings is scaled (0: none), and with
 ``--no-sampled-risk`` the search judges without sampling the uncertainty, so that the cost of each
 part of perception's noise shows apart.
 
-    python bench/bench_move_search_noisy.py [--draws N] [--settle-after-clear N] [--position-scale K]
-        [--size-scale K] [--no-sampled-risk] [--json PATH] [RUN ...]
+    python bench/bench_move_search_noisy.py [--draws N] [--settle-after-clear N] [--object-scale K]
+        [--size-scale K] [--people-scale K] [--no-sampled-risk] [--json PATH] [RUN ...]
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.visibility import WALL_KIND
 from agents.caregiving.model.world_model import World
 from bench_move_search import RUNS, THRESHOLD, cases
-from bridges.experiment.oracle import saves, world_at
+from bridges.experiment.oracle import commanded, world_at
 from bridges.experiment.perfect_belief import spec_on
 
 SAMPLES = 64  # sampled worlds per imagined walk, as the action agent's default
@@ -57,8 +59,9 @@ SAMPLES = 64  # sampled worlds per imagined walk, as the action agent's default
 class Noise:
     """How much of the sensor model's noise to draw, and whether the search samples its uncertainty."""
 
-    position: float = 1.0  # times the tracker's position and heading sigmas
+    objects: float = 1.0  # times the tracker's sigma of an object's position
     size: float = 1.0  # times the size error bound
+    people: float = 1.0  # times the tracker's sigmas of a person's position and heading
     sampled_risk: bool = True
 
 
@@ -77,8 +80,9 @@ def size_error(sensors: SensorSpec) -> float:
 
 def belief(truth: Scene, sensors: SensorSpec, at: float, noise: Noise, rng: np.random.Generator) -> Scene:
     """One draw of what perception holds of ``truth`` at ``at`` s (walls are known exactly)."""
-    object_sigma, person_sigma = (noise.position * s for s in sigmas(sensors, at))
-    heading_sigma = noise.position * math.radians(sensors.heading_sigma_deg) if sensors.enabled else 0.0
+    object_sigma, person_sigma = sigmas(sensors, at)
+    object_sigma, person_sigma = noise.objects * object_sigma, noise.people * person_sigma
+    heading_sigma = noise.people * math.radians(sensors.heading_sigma_deg) if sensors.enabled else 0.0
     error = noise.size * size_error(sensors)
     obstacles = []
     for o in truth.obstacles:
@@ -105,7 +109,7 @@ def noisy_search(
     runs: list[str], draws: int, delay: float, judging: float, settle_after_clear: int, noise: Noise
 ) -> dict[str, object]:
     """Search ``draws`` beliefs of every saveable case; how many chosen moves save in the truth."""
-    beliefs = flagged = chosen = saved = judged = 0
+    beliefs = flagged = chosen = saved = judged = into_robot = 0
     lost: dict[str, int] = {}
     spent = 0.0
     for case in cases(runs):
@@ -147,7 +151,9 @@ def noisy_search(
             if result.chosen is not None and result.chosen.move is not None:
                 chosen += 1
                 when = case.at + delay + judging * len(result.verdicts)
-                ok = saves(world_at(case.trial, when, case.planner), result.chosen.move)
+                outcome = commanded(world_at(case.trial, when, case.planner), result.chosen.move)
+                ok = outcome is not None and not outcome.collided
+                into_robot += outcome is not None and any(c.obstacle == scene.robot_name for c in outcome.collisions)
             saved += ok
             if not ok:
                 name = f"{case.run}#{case.index}"
@@ -157,6 +163,7 @@ def noisy_search(
         "flagged": flagged,
         "chosen": chosen,
         "saved": saved,
+        "into_robot": into_robot,
         "judged": judged,
         "search_s": round(spent, 3),
         "lost_draws": lost,
@@ -175,13 +182,14 @@ def main() -> None:
         default=move_search.SETTLE_AFTER_CLEAR,
         help="candidates judged past the first clear move before settling (default: %(default)s; 24: never)",
     )
-    p.add_argument("--position-scale", type=float, default=1.0, help="times the position and heading noise drawn")
+    p.add_argument("--object-scale", type=float, default=1.0, help="times the noise drawn on objects' positions")
     p.add_argument("--size-scale", type=float, default=1.0, help="times the size bias drawn")
+    p.add_argument("--people-scale", type=float, default=1.0, help="times the people's position and heading noise")
     p.add_argument(
         "--no-sampled-risk", action="store_true", help="search without sampling uncertainty (risk 0 when clear)"
     )
     args = p.parse_args()
-    noise = Noise(args.position_scale, args.size_scale, not args.no_sampled_risk)
+    noise = Noise(args.object_scale, args.size_scale, args.people_scale, not args.no_sampled_risk)
     found = noisy_search(args.runs, args.draws, args.delay, args.judging, args.settle_after_clear, noise)
     benchlib.print_table("Move search on a noisy belief", [(k, v) for k, v in found.items() if k != "lost_draws"])
     print("lost draws:", found["lost_draws"])
@@ -193,7 +201,12 @@ def main() -> None:
             "delay": args.delay,
             "judging": args.judging,
             "settle_after_clear": args.settle_after_clear,
-            "noise": {"position_scale": noise.position, "size_scale": noise.size, "sampled_risk": noise.sampled_risk},
+            "noise": {
+                "object_scale": noise.objects,
+                "size_scale": noise.size,
+                "people_scale": noise.people,
+                "sampled_risk": noise.sampled_risk,
+            },
             **found,
         },
     )

@@ -79,7 +79,7 @@ def test_the_search_stops_at_the_first_safe_move_and_leftovers_stay_out_of_the_n
     assert danger is not None
     spec = SearchSpec((danger,), {"person": (GAZE,)}, {})
     inside_the_couch = [RobotMove("couch", 3.5, y, 0.0) for y in (0.0, 0.2, 0.4, 0.6, 0.8)]  # unreachable
-    moves = [*inside_the_couch, RobotMove("ball", -0.46, 0.0, 0.0), *inside_the_couch]
+    moves = [*inside_the_couch, RobotMove("ball", 0.46, 0.0, -math.pi), *inside_the_couch]
     alone = lone(scene, spec, moves, judging=0.0)
     assert len(alone.verdicts) == 6 and alone.chosen is alone.verdicts[-1]
 

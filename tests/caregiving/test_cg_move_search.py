@@ -2,6 +2,7 @@
 
 import math
 from dataclasses import replace
+from functools import partial
 
 import pytest
 
@@ -11,7 +12,17 @@ from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.imagine_reply import Answer, decode_answer, encode_answer
 from agents.caregiving.model.imagine_request import JointItem, uncertainty_to_wire
-from agents.caregiving.model.move_search import NoWorse, SearchSpec, Settles, choose, holds, judge, replaces, search
+from agents.caregiving.model.move_search import (
+    NoWorse,
+    SearchSpec,
+    Settles,
+    choose,
+    holds,
+    judge,
+    judge_move,
+    replaces,
+    search,
+)
 from agents.caregiving.model.robot_moves import RobotMove, robot_fits
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene
@@ -199,11 +210,11 @@ def test_a_search_and_its_spec_survive_the_wire(scene: Scene) -> None:
 
 def test_a_search_given_moves_judges_those_in_order(scene: Scene) -> None:
     spec = SearchSpec((danger_of(scene),), {"person": (GAZE,)}, {})
-    inside_the_couch, front = RobotMove("couch", 3.5, 0.0, 0.0), RobotMove("ball", -0.46, 0.0, 0.0)
+    inside_the_couch, behind = RobotMove("couch", 3.5, 0.0, 0.0), RobotMove("ball", 0.46, 0.0, -math.pi)
     found = search(
-        scene, spec, lambda item: serve_one(scene, item), UNCERTAINTY, 0.2, 5, moves=[inside_the_couch, front]
+        scene, spec, lambda item: serve_one(scene, item), UNCERTAINTY, 0.2, 5, moves=[inside_the_couch, behind]
     )
-    assert [v.move for v in found.verdicts] == [inside_the_couch, front]
+    assert [v.move for v in found.verdicts] == [inside_the_couch, behind]
     assert found.chosen is found.verdicts[1] and not found.verdicts[0].clear
     wire = {
         "kind": "search",
@@ -212,11 +223,11 @@ def test_a_search_given_moves_judges_those_in_order(scene: Scene) -> None:
         "threshold": 0.2,
         "max_moves": 1,
     }
-    served = serve_one(scene, {**wire, "moves": [front.to_wire()]}).search
-    assert served is not None and [v.move for v in served.verdicts] == [front]
+    served = serve_one(scene, {**wire, "moves": [behind.to_wire()]}).search
+    assert served is not None and [v.move for v in served.verdicts] == [behind]
     assert "request.moves[0].x: is required" in (serve_one(scene, {**wire, "moves": [{"target": "ball"}]}).error or "")
-    braking = serve_one(scene, {**wire, "max_moves": 2, "moves": [None, front.to_wire()]}).search
-    assert braking is not None and [v.move for v in braking.verdicts] == [None, front]
+    braking = serve_one(scene, {**wire, "max_moves": 2, "moves": [None, behind.to_wire()]}).search
+    assert braking is not None and [v.move for v in braking.verdicts] == [None, behind]
     assert braking.verdicts[0].reason == "person walks into ball at gaze 8 deg"  # a robot at rest stays put
     assert "request.moves[0]" in (serve_one(scene, {**wire, "moves": ["brake"]}).error or "")
 
@@ -234,21 +245,21 @@ def test_a_search_with_a_clear_move_in_hand_judges_only_a_few_more_for_a_safe_on
     unhalved = Settles(NoWorse(spec, never, UNCERTAINTY, 0.2, "robot"), idle_risk=0.6, after_clear=0)
     assert not any(unhalved(v) for v in told)
 
-    # In a real search: the front pose, judged first, is clear but, say, risky (judged again later, it is safe);
-    # the search stops two candidates past it. (The paper room's own search in the test above finds its safe move
-    # three candidates past a clear one, which the default waits for.)
-    inside_the_couch, front = RobotMove("couch", 3.5, 0.0, 0.0), RobotMove("ball", -0.46, 0.0, 0.0)
-    moves = [inside_the_couch, front, inside_the_couch, inside_the_couch, front]
+    # In a real search: the pose behind the ball, judged first, is clear but, say, risky (judged again later, it is
+    # safe); the search stops two candidates past it. (The paper room's own search in the test above finds its safe
+    # move three candidates past a clear one, which the default waits for.)
+    inside_the_couch, behind = RobotMove("couch", 3.5, 0.0, 0.0), RobotMove("ball", 0.46, 0.0, -math.pi)
+    moves = [inside_the_couch, behind, inside_the_couch, inside_the_couch, behind]
 
     def search_with_front_risky_at_first(after_clear: int) -> SearchResult:
-        fronts: list[JointItem] = []
+        judged: list[JointItem] = []
 
         def imagine(item: JointItem) -> Answer:
             answer = serve_one(scene, item)
-            if item.move != front:
+            if item.move != behind:
                 return answer
-            fronts.append(item)
-            return replace(answer, risk=Risk(0.3, None, None, "ball")) if len(fronts) == 1 else answer
+            judged.append(item)
+            return replace(answer, risk=Risk(0.3, None, None, "ball")) if len(judged) == 1 else answer
 
         return search(scene, spec, imagine, UNCERTAINTY, 0.2, 5, moves=moves, settle_after_clear=after_clear)
 
@@ -257,6 +268,27 @@ def test_a_search_with_a_clear_move_in_hand_judges_only_a_few_more_for_a_safe_on
     assert hasty.chosen.reason.endswith("; no safe move within 2 candidates past a clear one")
     patient = search_with_front_risky_at_first(3)
     assert len(patient.verdicts) == 5 and patient.chosen is patient.verdicts[4] and patient.chosen.safe(0.2)
+
+
+def test_a_robot_driving_up_to_an_unaware_person_keeps_a_margin_of_their_position_error(scene: Scene) -> None:
+    """Sent into the person's way, the robot comes to rest a millimetre in front of them as they walk on: clear
+    in the imagination, but perception may hold the person that much off, and then the robot bumps them. Behind
+    the ball it rests where the person, having seen it, walks round it by their own plan: no margin applies."""
+    spec = SearchSpec((danger_of(scene),), {"person": (GAZE,)}, {})
+    front, behind = RobotMove("ball", -0.46, 0.0, 0.0), RobotMove("ball", 0.46, 0.0, -math.pi)
+
+    def verdict(move: RobotMove, uncertainty: Uncertainty) -> Verdict:
+        return judge_move(spec, move, partial(serve_one, scene), uncertainty, scene.robot_name)
+
+    assert verdict(front, replace(UNCERTAINTY, sigma={})).clear
+    refused = verdict(front, UNCERTAINTY)
+    assert not refused.clear and refused.trips(scene.robot_name)
+    assert refused.reason == "person passes 0 cm from the robot at gaze 8 deg"
+    assert verdict(behind, UNCERTAINTY).safe(0.2)
+    world = World(scene, [Walk("person", "couch", GAZE)])
+    world.command_robot(behind)
+    world.run(30.0)
+    assert world.walker("person").robot_clearance > 0.5  # only while the robot drove, far off
 
 
 def test_braking_replaces_a_move_under_way_that_walks_the_person_into_the_robot() -> None:

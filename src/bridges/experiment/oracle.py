@@ -33,7 +33,7 @@ from agents.caregiving.model.robot_moves import RobotMove, robot_fits, standoff_
 from agents.caregiving.model.scenario import Scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.visibility import WALL_KIND
-from agents.caregiving.model.world_model import World
+from agents.caregiving.model.world_model import Outcome, World
 
 LATTICE = 0.2
 HEADINGS = (0.0, math.pi / 4, math.pi / 2, 3 * math.pi / 4)
@@ -103,12 +103,18 @@ def broad_moves(world: World) -> Iterator[tuple[RobotMove, bool]]:
             yield move, False
 
 
-def saves(world: World, move: RobotMove) -> bool:
-    """Whether commanding ``move`` now leaves everybody untouched to the end."""
+def commanded(world: World, move: RobotMove) -> Outcome | None:
+    """How the trial ends when ``move`` is commanded now; None when the robot cannot reach it."""
     trial = world.fork()
     if not trial.command_robot(move):
-        return False
-    return not trial.run(trial.time + 30.0).collided
+        return None
+    return trial.run(trial.time + 30.0)
+
+
+def saves(world: World, move: RobotMove) -> bool:
+    """Whether commanding ``move`` now leaves everybody untouched to the end."""
+    outcome = commanded(world, move)
+    return outcome is not None and not outcome.collided
 
 
 def oracle(trial: Scenario, at: float, planner: GridPlanner) -> OracleVerdict:

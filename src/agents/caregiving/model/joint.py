@@ -49,6 +49,8 @@ class WalkOutcome:
     collision_object: str | None
     min_clearance: float
     saw_robot_at: float | None
+    # Closest approach to the robot while it drives, or stands where the person does not know it to be.
+    robot_clearance: float = math.inf
 
     @property
     def collided(self) -> bool:
@@ -92,6 +94,7 @@ class WalkOutcome:
             "collision_object": self.collision_object,
             "min_clearance": self.min_clearance if math.isfinite(self.min_clearance) else None,
             "saw_robot_at": self.saw_robot_at,
+            "robot_clearance": self.robot_clearance if math.isfinite(self.robot_clearance) else None,
         }
 
     @classmethod
@@ -101,6 +104,7 @@ class WalkOutcome:
         collided = status == "collided"
         point = f.numbers("collision_point", 2) if collided else None
         clearance = f.optional_number("min_clearance")
+        robot_clearance = f.optional_number("robot_clearance")
         return cls(
             walk_from_fields(f),
             status,
@@ -111,6 +115,7 @@ class WalkOutcome:
             f.string("collision_object") if collided else None,
             math.inf if clearance is None else clearance,
             f.optional_number("saw_robot_at"),
+            math.inf if robot_clearance is None else robot_clearance,
         )
 
 
@@ -218,4 +223,5 @@ def _outcome(world: World, walk: Walk, start: float) -> WalkOutcome:
         hit.obstacle if hit else None,
         w.min_clearance,
         saw - start if saw is not None else None,
+        w.robot_clearance,
     )

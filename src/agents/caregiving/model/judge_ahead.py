@@ -121,6 +121,6 @@ def _serve(conn: Connection) -> None:
         except (EOFError, OSError, KeyboardInterrupt):
             return
         try:
-            conn.send(judge_move(spec, move, partial(serve_one, scene), uncertainty))
+            conn.send(judge_move(spec, move, partial(serve_one, scene), uncertainty, scene.robot_name))
         except Exception:  # the search judges the move itself and meets the error there
             conn.send(None)

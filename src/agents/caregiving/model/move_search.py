@@ -22,7 +22,7 @@ from .candidates import Danger, candidates
 from .fields import Fields
 from .imagine_reply import Answer
 from .imagine_request import MAX_DELAY, JointItem, falling_from_fields, uncertainty_from_fields, uncertainty_to_wire
-from .joint import walk_from_fields, walk_to_wire
+from .joint import WalkOutcome, walk_from_fields, walk_to_wire
 from .robot_moves import RobotMove
 from .scene import Scene
 from .uncertainty import NO_RISK, Uncertainty
@@ -39,6 +39,9 @@ AHEAD_DEPTH = 2
 #: Candidates judged past the first clear move that halves the idle risk before the search settles for the
 #: least risky clear move: each one judged sends whichever move is chosen later (see docs/caregiving.md).
 SETTLE_AFTER_CLEAR = 3
+#: Sigmas of perception's error in a person's position that the robot keeps clear of them when they cannot
+#: keep clear of it themselves (see :class:`RobotMargin`).
+MARGIN_SIGMAS = 2.0
 
 
 @dataclass(frozen=True)
@@ -119,10 +122,33 @@ class SearchSpec:
         )
 
 
-def judge(move: RobotMove | None, answers: list[Answer], falling: Mapping[str, str] | None = None) -> Verdict:
+@dataclass(frozen=True)
+class RobotMargin:
+    """How near the robot may come to a person while it drives, or stands where they do not know it to be.
+
+    Perception may hold a person up to :data:`MARGIN_SIGMAS` sigmas of their position off, so an imagined
+    pass closer than that may be a touch in truth. Someone who knows where the resting robot stands walks
+    round it by their own plan, wherever they really are, and is not held to the margin.
+    """
+
+    robot: str
+    sigma: Mapping[str, float]
+
+    def too_close(self, walk: WalkOutcome) -> bool:
+        """Whether the walk passes the robot closer than the margin for that person."""
+        return walk.robot_clearance < MARGIN_SIGMAS * self.sigma.get(walk.walk.person, 0.0)
+
+
+def judge(
+    move: RobotMove | None,
+    answers: list[Answer],
+    falling: Mapping[str, str] | None = None,
+    margin: RobotMargin | None = None,
+) -> Verdict:
     """Fold a move's answers (one per walk set) into a verdict; the first walk that is not clear says why.
 
     A fall that ``falling`` names (``{bystander: object}``, see :class:`SearchSpec`) does not refuse the move.
+    With ``margin``, a walk that passes the robot closer than it allows refuses the move as a fall into the robot.
     """
     falling = falling or {}
     arrival, risk, worst, refused = None, 0.0, "", ""
@@ -138,6 +164,15 @@ def judge(move: RobotMove | None, answers: list[Answer], falling: Mapping[str, s
             falls.append(Fall(k, w.walk.person, w.collision_object if w.collided else None, w.collision_point))
             what = f"into {w.collision_object}" if w.collided else "stuck"
             refused = refused or f"{w.walk.person} walks {what} at gaze {math.degrees(w.walk.gaze):.0f} deg"
+            continue
+        close = next((w for w in a.joint.walks if margin is not None and margin.too_close(w)), None)
+        if close is not None and margin is not None:
+            falls.append(Fall(k, close.walk.person, margin.robot, None))
+            gap = f"{close.robot_clearance * 100:.0f} cm"
+            refused = (
+                refused
+                or f"{close.walk.person} passes {gap} from the robot at gaze {math.degrees(close.walk.gaze):.0f} deg"
+            )
             continue
         sampled = a.risk or NO_RISK
         if sampled.probability >= risk:
@@ -243,7 +278,8 @@ class NoWorse:
     def _idle_in(self, walk_set: int) -> Verdict:
         if walk_set not in self._idle:
             item = self.spec.items(self.spec.current, self.uncertainty)[walk_set]
-            self._idle[walk_set] = judge(self.spec.current, [self.imagine(item)], self.spec.falling)
+            margin = RobotMargin(self.robot, self.uncertainty.sigma) if self.robot is not None else None
+            self._idle[walk_set] = judge(self.spec.current, [self.imagine(item)], self.spec.falling, margin)
         return self._idle[walk_set]
 
 
@@ -275,14 +311,20 @@ class Settles:
         return self.by_count
 
 
-def judge_move(spec: SearchSpec, move: RobotMove | None, imagine: Imagine, uncertainty: Uncertainty) -> Verdict:
-    """Judge one move (``None``: braking): the first walk set alone (most fail there), then the others if clear."""
+def judge_move(
+    spec: SearchSpec, move: RobotMove | None, imagine: Imagine, uncertainty: Uncertainty, robot: str | None
+) -> Verdict:
+    """Judge one move (``None``: braking): the first walk set alone (most fail there), then the others if clear.
+
+    Everyone imagined is held to the :class:`RobotMargin` of ``robot`` (the scene's robot) under ``uncertainty``.
+    """
     items = spec.items(move, uncertainty)
+    margin = RobotMargin(robot, uncertainty.sigma) if robot is not None else None
     first = [imagine(items[0])]
-    verdict = judge(move, first, spec.falling)
+    verdict = judge(move, first, spec.falling, margin)
     if not verdict.clear or len(items) == 1:
         return verdict
-    return judge(move, first + [imagine(item) for item in items[1:]], spec.falling)
+    return judge(move, first + [imagine(item) for item in items[1:]], spec.falling, margin)
 
 
 def search(
@@ -410,7 +452,7 @@ class _Judging:
         gather()
 
     def judge(self, k: int, move: RobotMove | None) -> Verdict:
-        return judge_move(self.spec_at(k), move, self.imagine, self.uncertainty)
+        return judge_move(self.spec_at(k), move, self.imagine, self.uncertainty, self.scene.robot_name)
 
 
 @dataclass(frozen=True)

@@ -105,6 +105,8 @@ class _Walker:
     closest: str = ""
     arrival: float | None = None
     track: list[tuple[float, float]] = field(default_factory=list)
+    # Closest approach to the robot while it drives or stands where the walker does not know it to be.
+    robot_clearance: float = math.inf
 
 
 @dataclass
@@ -351,7 +353,15 @@ class World:
         w.track.append((w.state.x, w.state.y))
         if w.walked >= length - 1e-9:
             w.status, w.arrival = "arrived", self.time + self.dt
+        if self._drive is not None or self._speed > 0.0 or not self._knows_robot(w):
+            robot = self._fixed[-1]
+            w.robot_clearance = min(w.robot_clearance, point_distance(robot.shape, x, y) - w.state.radius)
         self._check_contacts(w, around)
+
+    def _knows_robot(self, w: _Walker) -> bool:
+        """Whether ``w`` knows where the resting robot stands, so that their plan already keeps clear of it."""
+        known = w.known.get(self.robot.name)
+        return known is not None and not moved_more_than(known.shape, self.robot.body().shape, REPLAN_SHIFT)
 
     def _check_contacts(self, w: _Walker, around: tuple[Obstacle, ...]) -> None:
         """Record ``w``'s closest approach to anything ``around`` but their target, and a contact as a collision."""
@@ -464,6 +474,8 @@ class World:
         bodies = [o for o in around if o.name != w.target]
         pts = np.stack((xs, ys), axis=1)
         clear = np.stack([signed_distance(o.shape, pts) for o in bodies], axis=1) - s.radius
+        # The resting robot: what the walker knows of it does not change before ``stop``.
+        unaware = not self._knows_robot(w)
         nearest = clear.min(axis=1)
         touching = np.flatnonzero(nearest <= 0.0)
         arrived = np.flatnonzero(walked >= route.length - 1e-9)
@@ -479,6 +491,9 @@ class World:
         best = int(np.argmin(nearest[:last]))
         if nearest[best] < w.min_clearance:
             w.min_clearance, w.closest = float(nearest[best]), bodies[int(np.argmin(clear[best]))].name
+        if unaware:
+            robot_column = next(k for k, o in enumerate(bodies) if o.kind == ROBOT_KIND)
+            w.robot_clearance = min(w.robot_clearance, float(clear[:last, robot_column].min()))
         w.walked = float(walked[last - 1])
         w.state = s.moved(float(xs[last - 1]), float(ys[last - 1]), headings[last - 1])
         w.track.extend(zip(xs[:last].tolist(), ys[:last].tolist(), strict=True))
