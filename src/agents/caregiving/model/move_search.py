@@ -134,6 +134,11 @@ class RobotMargin:
     robot: str
     sigma: Mapping[str, float]
 
+    @classmethod
+    def of(cls, robot: str | None, uncertainty: Uncertainty) -> RobotMargin | None:
+        """The margin of ``robot`` under perception's ``uncertainty``; None for a scene without a robot."""
+        return cls(robot, uncertainty.sigma) if robot is not None else None
+
     def too_close(self, walk: WalkOutcome) -> bool:
         """Whether the walk passes the robot closer than the margin for that person."""
         return walk.robot_clearance < MARGIN_SIGMAS * self.sigma.get(walk.walk.person, 0.0)
@@ -165,8 +170,7 @@ def judge(
             what = f"into {w.collision_object}" if w.collided else "stuck"
             refused = refused or f"{w.walk.person} walks {what} at gaze {math.degrees(w.walk.gaze):.0f} deg"
             continue
-        close = next((w for w in a.joint.walks if margin is not None and margin.too_close(w)), None)
-        if close is not None and margin is not None:
+        if margin is not None and (close := next((w for w in a.joint.walks if margin.too_close(w)), None)):
             falls.append(Fall(k, close.walk.person, margin.robot, None))
             gap = f"{close.robot_clearance * 100:.0f} cm"
             refused = (
@@ -278,7 +282,7 @@ class NoWorse:
     def _idle_in(self, walk_set: int) -> Verdict:
         if walk_set not in self._idle:
             item = self.spec.items(self.spec.current, self.uncertainty)[walk_set]
-            margin = RobotMargin(self.robot, self.uncertainty.sigma) if self.robot is not None else None
+            margin = RobotMargin.of(self.robot, self.uncertainty)
             self._idle[walk_set] = judge(self.spec.current, [self.imagine(item)], self.spec.falling, margin)
         return self._idle[walk_set]
 
@@ -319,7 +323,7 @@ def judge_move(
     Everyone imagined is held to the :class:`RobotMargin` of ``robot`` (the scene's robot) under ``uncertainty``.
     """
     items = spec.items(move, uncertainty)
-    margin = RobotMargin(robot, uncertainty.sigma) if robot is not None else None
+    margin = RobotMargin.of(robot, uncertainty)
     first = [imagine(items[0])]
     verdict = judge(move, first, spec.falling, margin)
     if not verdict.clear or len(items) == 1:

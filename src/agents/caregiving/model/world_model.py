@@ -359,9 +359,12 @@ class World:
         self._check_contacts(w, around)
 
     def _knows_robot(self, w: _Walker) -> bool:
-        """Whether ``w`` knows where the resting robot stands, so that their plan already keeps clear of it."""
+        """Whether ``w`` knows where the resting robot stands, so that their plan already keeps clear of it.
+
+        The robot's body this step is the last of :attr:`_fixed`, set before anyone walks.
+        """
         known = w.known.get(self.robot.name)
-        return known is not None and not moved_more_than(known.shape, self.robot.body().shape, REPLAN_SHIFT)
+        return known is not None and not moved_more_than(known.shape, self._fixed[-1].shape, REPLAN_SHIFT)
 
     def _check_contacts(self, w: _Walker, around: tuple[Obstacle, ...]) -> None:
         """Record ``w``'s closest approach to anything ``around`` but their target, and a contact as a collision."""
