@@ -1,4 +1,4 @@
-"""Swerves and moves that make nothing worse: the search's answers to the dangers its first stand-offs leave.
+"""Swerves, crossings and moves that make nothing worse: the search's answers to the dangers its first stand-offs leave.
 
 The recorded cases are truly risky trials with perfect belief, at the moment a live run first saw the
 danger, the robot starting one world step later and 20 ms later per candidate judged, as
@@ -11,7 +11,16 @@ from pathlib import Path
 
 import pytest
 
-from agents.caregiving.model.candidates import Danger, candidates, path_poses, swerves, travel_direction
+from agents.caregiving.model.candidates import (
+    Danger,
+    candidates,
+    crossing_time,
+    crossings,
+    ordered_moves,
+    path_poses,
+    swerves,
+    travel_direction,
+)
 from agents.caregiving.model.errors import ReplyError
 from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.imagine import imagine_person
@@ -31,6 +40,7 @@ EXACT = Uncertainty(0.0, {}, 1)
 DELAY, JUDGING, THRESHOLD = 0.05, 0.02, 0.2
 HELD_OUT = Path(__file__).resolve().parents[2] / "docs" / "results" / "heldout"
 NOISY_SLOW_ROBOT = HELD_OUT / "noisy_slow_robot.yaml"
+HURRIED_WALKER = HELD_OUT / "hurried_walker.yaml"
 GAZE = math.radians(8)
 
 
@@ -167,3 +177,43 @@ def test_a_move_that_makes_someone_fall_who_would_not_with_the_robot_as_it_is_is
     low = NoWorse(spec_low, partial(serve_one, scene), EXACT, THRESHOLD, "robot")
     assert low(refused(Fall(1, "person", "couch", None)))  # at the low gaze they fall idle too
     assert not low(refused(Fall(1, "person", "couch", None), risk=0.5))  # too risky where it is clear
+
+
+def test_a_drive_across_the_persons_route_to_a_far_object_saves_them() -> None:
+    """Seed 6's trial 11: every stand-off of the slipper fails, and the wardrobe is too far to reach in time.
+
+    The robot's drive to a stand-off of the wardrobe crosses the person's route past the slipper; they see
+    it in their way, plan anew round it, and the new route misses the slipper.
+    """
+    trial, planner, scene, spec = recorded_case(HURRIED_WALKER, 6, 11, 0.6)
+    danger = spec.dangers[0]
+    result = search(scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 24, judging=JUDGING)
+
+    assert result.chosen is not None and result.chosen.safe(THRESHOLD)
+    move = result.chosen.move
+    assert move is not None and move.target != danger.obstacle
+    assert move in list(crossings(scene, danger)) and move not in list(ordered_moves(scene, danger))
+    assert not any(v.clear for v in result.verdicts[:-1])
+    sent_at = 0.6 + DELAY + JUDGING * len(result.verdicts)
+    assert saves(world_at(trial, sent_at, planner), move)
+
+
+def test_a_crossing_is_timed_where_the_drive_first_stands_in_the_persons_way() -> None:
+    _, _, scene, spec = recorded_case(HURRIED_WALKER, 6, 11, 0.6)
+    danger = spec.dangers[0]
+    robot = scene.robot
+    assert robot is not None
+    straight_up = RobotMove("wardrobe", robot.x, robot.y + 2.5, 0.0)  # across the route to the door
+    away = RobotMove("wardrobe", robot.x + 0.5, robot.y, 0.0)  # along the wall, behind the robot
+    crossed = crossing_time(scene, danger, straight_up, 0.0)
+    assert crossed is not None and 0.0 < crossed < danger.time_to_collision
+    assert crossing_time(scene, danger, straight_up, 0.2) == crossed + 0.2
+    assert crossing_time(scene, danger, straight_up, danger.time_to_collision) is None
+    assert crossing_time(scene, danger, away, 0.0) is None
+
+
+def test_a_person_without_a_route_has_no_crossings() -> None:
+    scene = load_scenario("paper_experiment1").scene()
+    person = scene.person("person")
+    danger = Danger("person", "couch", ((person.x, person.y),), (person.x, person.y), "ball", 1.0)
+    assert list(crossings(scene, danger)) == []

@@ -9,7 +9,10 @@ would hit, where and when. The robot's moves are ``move_to`` a pose:
   between the person and the obstacle: in front of the obstacle on the person's
   side, and farther back along the path, where the person will see the robot sooner;
 * **swerves**: the first stand-off shifted sideways, when the search found that the
-  person, walking round the robot there, still grazes the obstacle on one side.
+  person, walking round the robot there, still grazes the obstacle on one side;
+* **crossings**: stand-offs too far to reach in time, of any object, whose drive crosses
+  the rest of the person's route ahead of them: a robot that appears in someone's way,
+  anywhere along it, makes them plan their walk anew, and the new route may miss the obstacle.
 
 :func:`ordered_moves` yields them lazily in the order the search tries them:
 the stand-offs around the obstacle, straight behind it and straight in front
@@ -23,7 +26,8 @@ straight drive (the travel-time lower bound, from the robot's current speed),
 started when the robot would start on that candidate, must come within
 :data:`REACH` of it before the person passes it (path poses) or before the
 collision (stand-offs). :func:`candidates` interleaves the dangers'
-orders and puts the :func:`swerves` of the first candidate third, once its verdict is in.
+orders and puts the :func:`swerves` of the first candidate third, once its verdict is in; the
+dangers' :func:`crossings` come after every other candidate, those the robot crosses soonest first.
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ from .robot_moves import RobotMove, robot_fits, standoff_poses, time_to_cover
 from .scene import Scene
 from .verdict import Verdict
 from .visibility import WALL_KIND
+from .world_model import REPLAN_SHIFT
 
 #: Lateral offsets (m) of path poses from the person's path, on the path first.
 LATERAL = (0.0, 0.3, -0.3)
@@ -50,6 +55,8 @@ SPACING = 0.25
 #: A pose the robot cannot come this close to (m) before the person passes it is pruned: a robot
 #: farther off when the person goes by is beside their way, not in it.
 REACH = 1.0
+#: Spacing (m) of the points of a person's route that a crossing drive is tested against.
+CROSSING_STEP = 0.1
 #: Sideways shifts (m) of a swerve, the smaller first.
 SWERVE_SHIFTS = (0.15, 0.3)
 #: A touch this close to straight ahead (rad) is head-on: the person passed the obstacle on neither side,
@@ -123,6 +130,50 @@ def drive_time(scene: Scene, x: float, y: float, within: float = 0.0) -> float:
 def in_reach(scene: Scene, move: RobotMove, until: float) -> bool:
     """Whether a straight drive can bring the robot within :data:`REACH` of the move's pose before ``until`` s."""
     return drive_time(scene, move.x, move.y, REACH) < until
+
+
+def crossing_time(scene: Scene, danger: Danger, move: RobotMove, start: float) -> float | None:
+    """When a straight drive to the move's pose, started ``start`` s from now, first stands in the way of the
+    person's route where they have not passed yet, before they would hit the obstacle; None if never.
+
+    In the way is as the world's people judge it: the robot's body within
+    :data:`~agents.caregiving.model.world_model.REPLAN_SHIFT` of the person's disc on their route. Seen
+    there, it makes them plan anew, so a point of their route past the obstacle counts too, as long as the
+    robot is there before the collision.
+    """
+    robot, person = scene.robot, scene.person(danger.person)
+    assert robot is not None
+    if len(danger.path) < 2:
+        return None
+    route = Polyline.of(danger.path).remaining(0.0, CROSSING_STEP)
+    walked = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(route, axis=0).T))))
+    passes = np.minimum(walked / max(person.speed, 1e-9), danger.time_to_collision)
+    trip = math.hypot(move.x - robot.x, move.y - robot.y)
+    ux, uy = ((move.x - robot.x) / trip, (move.y - robot.y) / trip) if trip > 0.0 else (0.0, 0.0)
+    along = np.clip((route[:, 0] - robot.x) * ux + (route[:, 1] - robot.y) * uy, 0.0, trip)
+    off = np.hypot(route[:, 0] - robot.x - along * ux, route[:, 1] - robot.y - along * uy)
+    blocking = person.radius + max(robot.length, robot.width) / 2 + REPLAN_SHIFT
+    best: float | None = None
+    for k in np.flatnonzero(off < blocking).tolist():
+        entry = max(float(along[k]) - math.sqrt(blocking**2 - float(off[k]) ** 2), 0.0)
+        t = start + time_to_cover(trip, entry, robot.max_speed, robot.max_accel, robot.speed)
+        if t < passes[k] and (best is None or t < best):
+            best = t
+    return best
+
+
+def crossings(scene: Scene, danger: Danger, start: Callable[[], float] = lambda: 0.0) -> Iterator[RobotMove]:
+    """The stand-offs of every object (the danger's first) whose drive crosses the person's route in time
+    (:func:`crossing_time`), soonest crossed first; the robot must fit at the pose."""
+    names = [danger.obstacle] if _stays_put(scene, danger.obstacle) else []
+    names += [o.name for o in scene.obstacles if o.kind != WALL_KIND and o.name != danger.obstacle]
+    now = start()
+    timed = [
+        (t, k, m)
+        for k, m in enumerate(m for name in names for m in standoffs(scene, danger, name))
+        if (t := crossing_time(scene, danger, m, now)) is not None
+    ]
+    yield from (m for _, _, m in sorted(timed, key=lambda c: (c[0], c[1])) if robot_fits(scene, m))
 
 
 def path_poses(scene: Scene, danger: Danger) -> Iterator[tuple[RobotMove, float]]:
@@ -241,7 +292,7 @@ def candidates(
 
     def in_order() -> Iterator[RobotMove]:
         seen: set[tuple[float, float, float]] = set()
-        stream = _unseen(_interleaved(scene, urgent, start), seen)
+        stream = _unseen(_interleaved([ordered_moves(scene, d, start) for d in urgent]), seen)
         first = next(stream, None)
         if first is None:
             return
@@ -252,14 +303,15 @@ def candidates(
         if verdicts:
             yield from _unseen(swerves(scene, urgent[0], first, verdicts[0]), seen)
         yield from stream
+        yield from _unseen(_interleaved([crossings(scene, d, start) for d in urgent]), seen)
 
     for move in in_order():
         yielded += 1
         yield move
 
 
-def _interleaved(scene: Scene, dangers: list[Danger], start: Callable[[], float]) -> Iterator[RobotMove]:
-    streams = [ordered_moves(scene, d, start) for d in dangers]
+def _interleaved(streams: list[Iterator[RobotMove]]) -> Iterator[RobotMove]:
+    """The streams' moves taken in turn, one from each, until every stream runs out."""
     while streams:
         for stream in list(streams):
             move = next(stream, None)
