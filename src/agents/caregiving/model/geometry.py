@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import bisect
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
@@ -42,16 +42,17 @@ class Box:
     hx: float
     hy: float
     theta: float = 0.0
+    #: ``(cos theta, sin theta)``.
+    rotation: tuple[float, float] = field(init=False, repr=False, compare=False)
+    #: Radius of the smallest circle about the centre that contains it.
+    bound: float = field(init=False, repr=False, compare=False)
 
-    @cached_property
-    def rotation(self) -> tuple[float, float]:
-        """``(cos theta, sin theta)``, worked out once per box: the distance queries of every step ask for it."""
-        return math.cos(self.theta), math.sin(self.theta)
-
-    @cached_property
-    def bound(self) -> float:
-        """Radius of the smallest circle about the centre that contains it."""
-        return math.hypot(self.hx, self.hy)
+    def __post_init__(self) -> None:
+        # Worked out once per box, as plain attributes: the distance queries of every step ask for them, and
+        # a cached_property takes a lock the first time it is read (in every new box, such as the robot's
+        # body at each step).
+        object.__setattr__(self, "rotation", (math.cos(self.theta), math.sin(self.theta)))
+        object.__setattr__(self, "bound", math.hypot(self.hx, self.hy))
 
 
 Shape = Circle | Box
@@ -151,13 +152,20 @@ def displacement(before: Shape, after: Shape) -> float:
 
 
 def moved_more_than(before: Shape, after: Shape, distance: float) -> bool:
-    """``displacement(before, after) > distance``, without the corners when the centre alone moved farther.
+    """``displacement(before, after) > distance``, without the corners when the centre's shift settles it.
 
     Two opposite corners of a box move by ``t + v`` and ``t - v`` (``t`` the centre's shift), and one of
-    them moves at least ``|t|``: so a centre shift beyond ``distance`` settles it.
+    them moves at least ``|t|``: so a centre shift beyond ``distance`` settles it. Each corner of a box of
+    the same size moves at most ``|t|`` plus the chord its turn sweeps at the box's bounding radius: a sum
+    short of ``distance`` settles it the other way.
     """
-    if math.hypot(after.x - before.x, after.y - before.y) > distance:
+    shift = math.hypot(after.x - before.x, after.y - before.y)
+    if shift > distance:
         return True
+    if isinstance(before, Box) and isinstance(after, Box) and before.hx == after.hx and before.hy == after.hy:
+        chord = 2.0 * abs(math.sin((after.theta - before.theta) / 2.0)) * before.bound
+        if shift + chord < distance - 1e-9:
+            return False
     return displacement(before, after) > distance
 
 

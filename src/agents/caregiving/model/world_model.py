@@ -130,6 +130,7 @@ class World:
             raise CaregivingError("the world needs a robot")
         intents = {w.person: w for w in walks}
         self._standing = tuple(p for p in scene.people if p.name not in intents)
+        self._standing_bodies = tuple(p.body() for p in self._standing)
         # What a walker knows of: the walls, and whatever their intent names, the robot and other people
         # where they are now.
         bodies = [*scene.obstacles, scene.robot.body(), *(p.body() for p in scene.people)]
@@ -287,7 +288,7 @@ class World:
     def _others(self, me: str) -> tuple[Obstacle, ...]:
         """Everything ``me`` can bump into, as :meth:`Scene.bodies_around` orders it."""
         people = tuple(w.state.body() for w in self._walkers if w.state.name != me)
-        return self._fixed + people + tuple(p.body() for p in self._standing)
+        return self._fixed + people + self._standing_bodies
 
     def _look(self, w: _Walker, around: tuple[Obstacle, ...]) -> bool:
         """Update what ``w`` knows; True when that calls for a new plan.
