@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 
 from .fields import Fields
-from .geometry import Polyline, bounding_radius
+from .geometry import FloatArray, Polyline, bounding_radius
 from .imagine import Imagination
 from .robot_moves import RobotMove, robot_fits, standoff_poses, time_to_cover
 from .scene import Scene
@@ -132,26 +132,41 @@ def in_reach(scene: Scene, move: RobotMove, until: float) -> bool:
     return drive_time(scene, move.x, move.y, REACH) < until
 
 
-def crossing_time(scene: Scene, danger: Danger, move: RobotMove, start: float) -> float | None:
+def route_ahead(scene: Scene, danger: Danger) -> tuple[FloatArray, FloatArray] | None:
+    """Points of the person's route every :data:`CROSSING_STEP` metres, and the seconds until they pass each
+    (at most until the collision); None for a route of a single point."""
+    if len(danger.path) < 2:
+        return None
+    points = Polyline.of(danger.path).remaining(0.0, CROSSING_STEP)
+    walked = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))))
+    return points, np.minimum(walked / max(scene.person(danger.person).speed, 1e-9), danger.time_to_collision)
+
+
+def crossing_time(
+    scene: Scene,
+    danger: Danger,
+    move: RobotMove,
+    start: float,
+    route: tuple[FloatArray, FloatArray] | None = None,
+) -> float | None:
     """When a straight drive to the move's pose, started ``start`` s from now, first stands in the way of the
     person's route where they have not passed yet, before they would hit the obstacle; None if never.
 
     In the way is as the world's people judge it: the robot's body within
     :data:`~agents.caregiving.model.world_model.REPLAN_SHIFT` of the person's disc on their route. Seen
     there, it makes them plan anew, so a point of their route past the obstacle counts too, as long as the
-    robot is there before the collision.
+    robot is there before the collision. ``route`` is :func:`route_ahead`'s, if already worked out.
     """
     robot, person = scene.robot, scene.person(danger.person)
     assert robot is not None
-    if len(danger.path) < 2:
+    ahead = route if route is not None else route_ahead(scene, danger)
+    if ahead is None:
         return None
-    route = Polyline.of(danger.path).remaining(0.0, CROSSING_STEP)
-    walked = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(route, axis=0).T))))
-    passes = np.minimum(walked / max(person.speed, 1e-9), danger.time_to_collision)
+    points, passes = ahead
     trip = math.hypot(move.x - robot.x, move.y - robot.y)
     ux, uy = ((move.x - robot.x) / trip, (move.y - robot.y) / trip) if trip > 0.0 else (0.0, 0.0)
-    along = np.clip((route[:, 0] - robot.x) * ux + (route[:, 1] - robot.y) * uy, 0.0, trip)
-    off = np.hypot(route[:, 0] - robot.x - along * ux, route[:, 1] - robot.y - along * uy)
+    along = np.clip((points[:, 0] - robot.x) * ux + (points[:, 1] - robot.y) * uy, 0.0, trip)
+    off = np.hypot(points[:, 0] - robot.x - along * ux, points[:, 1] - robot.y - along * uy)
     blocking = person.radius + max(robot.length, robot.width) / 2 + REPLAN_SHIFT
     best: float | None = None
     for k in np.flatnonzero(off < blocking).tolist():
@@ -165,13 +180,16 @@ def crossing_time(scene: Scene, danger: Danger, move: RobotMove, start: float) -
 def crossings(scene: Scene, danger: Danger, start: Callable[[], float] = lambda: 0.0) -> Iterator[RobotMove]:
     """The stand-offs of every object (the danger's first) whose drive crosses the person's route in time
     (:func:`crossing_time`), soonest crossed first; the robot must fit at the pose."""
+    route = route_ahead(scene, danger)
+    if route is None:
+        return
     names = [danger.obstacle] if _stays_put(scene, danger.obstacle) else []
     names += [o.name for o in scene.obstacles if o.kind != WALL_KIND and o.name != danger.obstacle]
     now = start()
     timed = [
         (t, k, m)
         for k, m in enumerate(m for name in names for m in standoffs(scene, danger, name))
-        if (t := crossing_time(scene, danger, m, now)) is not None
+        if (t := crossing_time(scene, danger, m, now, route)) is not None
     ]
     yield from (m for _, _, m in sorted(timed, key=lambda c: (c[0], c[1])) if robot_fits(scene, m))
 
