@@ -15,6 +15,9 @@ Items are served one at a time, by one request handler at a time: it serves the
 queued batches' items, batches that judge robot moves (searches and joint
 imaginations: Algorithm 2, where the reaction time is spent) before batches of
 person-only imaginations, until its own batch is done, and hands over to the next.
+Each batch of robot moves logs where its time went (``served robot moves``):
+reading W, serving its items (and the CPU time of that), and waiting for the
+items of other batches.
 With ``--judge-ahead`` (on with two or more cores), once a search's first
 candidate has failed, a helper process judges later candidates beside it
 (:mod:`agents.caregiving.model.judge_ahead`).
@@ -53,6 +56,8 @@ class _Job:
     scene: Scene
     items: list[Any]
     results: list[Answer] = field(default_factory=list)
+    wall_s: float = 0.0  # spent serving its items
+    cpu_s: float = 0.0  # of which this process's CPU time (the helper's is not counted)
 
     @property
     def done(self) -> bool:
@@ -119,10 +124,23 @@ class Simulation(Agent):
         ctx = self._context()
         scene, items = batch_scene(request, ctx.scene if ctx else None)
         job = _Job(0 if judges_robot_moves(items) else 1, next(self._seq), scene, items)
+        read = time.perf_counter()
         self.jobs.append(job)
         async with self._serving:
             await self._serve_until(job)
         self.served += len(job.results)
+        if job.priority == 0:
+            total = time.perf_counter() - start
+            self.log.info(
+                "served robot moves",
+                items=len(items),
+                judged=sum(len(a.search.verdicts) for a in job.results if a.search is not None),
+                ms=round(total * 1e3, 1),
+                context_ms=round((read - start) * 1e3, 1),
+                serving_ms=round(job.wall_s * 1e3, 1),
+                cpu_ms=round(job.cpu_s * 1e3, 1),
+                waiting_ms=round((total - (read - start) - job.wall_s) * 1e3, 1),
+            )
         context = ctx if ctx is not None and scene is ctx.scene else None  # None: the request pinned its scene
         return imagine_reply.encode(
             ImagineReply(
@@ -142,7 +160,10 @@ class Simulation(Agent):
         """
         while not mine.done:
             job = min(self.jobs, key=lambda j: (j.priority, j.seq))
+            wall, cpu = time.perf_counter(), time.process_time()
             job.results.append(serve_one(job.scene, job.items[len(job.results)], self.rollout, self.ahead))
+            job.wall_s += time.perf_counter() - wall
+            job.cpu_s += time.process_time() - cpu
             if job.done:
                 self.jobs.remove(job)
             await asyncio.sleep(0)
