@@ -16,7 +16,7 @@ from agents.caregiving.model.candidates import (
     candidates,
     crossing_time,
     crossings,
-    ordered_moves,
+    in_reach,
     path_poses,
     swerves,
     travel_direction,
@@ -192,7 +192,8 @@ def test_a_drive_across_the_persons_route_to_a_far_object_saves_them() -> None:
     assert result.chosen is not None and result.chosen.safe(THRESHOLD)
     move = result.chosen.move
     assert move is not None and move.target != danger.obstacle
-    assert move in list(crossings(scene, danger)) and move not in list(ordered_moves(scene, danger))
+    assert move in list(crossings(scene, danger))
+    assert move.target != danger.obstacle and not in_reach(scene, move, danger.time_to_collision)
     assert not any(v.clear for v in result.verdicts[:-1])
     sent_at = 0.6 + DELAY + JUDGING * len(result.verdicts)
     assert saves(world_at(trial, sent_at, planner), move)

@@ -10,7 +10,7 @@ would hit, where and when. The robot's moves are ``move_to`` a pose:
   side, and farther back along the path, where the person will see the robot sooner;
 * **swerves**: the first stand-off shifted sideways, when the search found that the
   person, walking round the robot there, still grazes the obstacle on one side;
-* **crossings**: stand-offs too far to reach in time, of any object, whose drive crosses
+* **crossings**: stand-offs of any object, within reach in time or not, whose drive crosses
   the rest of the person's route ahead of them: a robot that appears in someone's way,
   anywhere along it, makes them plan their walk anew, and the new route may miss the obstacle.
 
@@ -20,14 +20,15 @@ of it along the person's way first (a robot there is in view, and the detour
 around it also clears the obstacle; over 50 dangers of four scenarios the first
 of them removed the danger in 18 of the 28 the search could remove); then the
 path poses, those where the robot has the most seconds in hand first; then the
-stand-offs around the other objects by distance to the collision point. Two
+crossings, soonest crossed first; then the stand-offs around the other objects
+by distance to the collision point. Two
 cheap tests prune before any imagination: the robot must fit at the pose, and a
 straight drive (the travel-time lower bound, from the robot's current speed),
 started when the robot would start on that candidate, must come within
 :data:`REACH` of it before the person passes it (path poses) or before the
-collision (stand-offs). :func:`candidates` interleaves the dangers'
-orders and puts the :func:`swerves` of the first candidate third, once its verdict is in; the
-dangers' :func:`crossings` come after every other candidate, those the robot crosses soonest first.
+collision (stand-offs), or, for a crossing, must come into the person's way before the
+collision (:func:`crossing_time`). :func:`candidates` interleaves the dangers'
+orders and puts the :func:`swerves` of the first candidate third, once its verdict is in.
 """
 
 from __future__ import annotations
@@ -233,11 +234,17 @@ def standoffs(scene: Scene, danger: Danger, obstacle: str) -> list[RobotMove]:
 
 
 def ordered_moves(scene: Scene, danger: Danger, start: Callable[[], float] = lambda: 0.0) -> Iterator[RobotMove]:
-    """Every candidate move for ``danger``, likeliest first (see the module documentation), generated lazily.
+    """Every candidate move for ``danger``, likeliest first (see the module documentation), generated lazily,
+    each pose once.
 
     ``start()`` is when the robot would start on the next move yielded, in seconds from the scene's time:
     a move is pruned unless the robot, starting then, can come within :data:`REACH` of it in time.
     """
+    return _unseen(_by_kind(scene, danger, start), set())
+
+
+def _by_kind(scene: Scene, danger: Danger, start: Callable[[], float]) -> Iterator[RobotMove]:
+    """:func:`ordered_moves`, kind after kind: a crossing may repeat a stand-off of another kind."""
 
     def reachable(move: RobotMove, until: float) -> bool:
         return in_reach(scene, move, until - start()) and robot_fits(scene, move)
@@ -256,6 +263,7 @@ def ordered_moves(scene: Scene, danger: Danger, start: Callable[[], float] = lam
         (o for o in scene.obstacles if o.kind != WALL_KIND and o.name != danger.obstacle),
         key=lambda o: math.hypot(o.shape.x - point[0], o.shape.y - point[1]),
     )
+    yield from crossings(scene, danger, start)  # stand-offs of any object, pruned above or not, crossing in time
     for o in others:
         yield from (m for m in standoffs(scene, danger, o.name) if reachable(m, deadline))
 
@@ -321,7 +329,6 @@ def candidates(
         if verdicts:
             yield from _unseen(swerves(scene, urgent[0], first, verdicts[0]), seen)
         yield from stream
-        yield from _unseen(_interleaved([crossings(scene, d, start) for d in urgent]), seen)
 
     for move in in_order():
         yielded += 1
