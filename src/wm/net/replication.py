@@ -70,6 +70,28 @@ class Confirmation:
         return bool(self.on_disk if self.durable else self.acked)
 
 
+class _Handoff:
+    """Hands what Zenoh's callbacks receive over to the event loop, as calls of the replicator's methods.
+
+    The callbacks hold this, not the replicator: Zenoh may keep a callback, and even call it, for a moment
+    after it is undeclared (a read task can take it just before), so :meth:`cut` lets go of the replicator
+    when it stops, and a late call does nothing. Nothing of a stopped replica then outlives it in Zenoh.
+    """
+
+    def __init__(self, loop: asyncio.AbstractEventLoop, replicator: Replicator) -> None:
+        self._loop = loop
+        self._replicator: Replicator | None = replicator
+
+    def __call__(self, method: Callable[..., None], *args: Any) -> None:
+        replicator = self._replicator
+        if replicator is not None:
+            self._loop.call_soon_threadsafe(method, replicator, *args)
+
+    def cut(self) -> None:
+        """Let go of the replicator: later calls are dropped."""
+        self._replicator = None
+
+
 class Replicator:
     """Replication of one graph over one (shared) Zenoh session."""
 
@@ -101,6 +123,7 @@ class Replicator:
         self._tasks: set[asyncio.Task[Any]] = set()
         self._declared: list[Any] = []
         self._loop: asyncio.AbstractEventLoop | None = None
+        self._handoff: _Handoff | None = None  # what Zenoh's callbacks hold, while started
         self._publisher: zenoh.Publisher | None = None
         self._observing: Any = None  # the subscription to the graph's local updates, while started
         self.on_disk: Callable[[str], int] | None = None  # a durable member: sender -> last sequence number on disk
@@ -119,7 +142,7 @@ class Replicator:
         self._observing = self.graph.observe_updates(self._on_local_update)
         self.graph.add_write_listener(self._schedule_flush)
         remote = zenoh.Locality.REMOTE
-        handoff = loop.call_soon_threadsafe
+        self._handoff = handoff = _Handoff(loop, self)
         if not self.read_only:
             self._publisher = session.declare_publisher(
                 keys.delta(self.name, me), congestion_control=zenoh.CongestionControl.BLOCK, express=True
@@ -127,23 +150,25 @@ class Replicator:
             self._declared += [
                 self._publisher,
                 session.declare_queryable(
-                    keys.sync(self.name, me), lambda q: handoff(self._answer, q), allowed_origin=remote
+                    keys.sync(self.name, me), lambda q: handoff(Replicator._answer, q), allowed_origin=remote
                 ),
                 session.liveliness().declare_token(keys.alive(self.name, me, self.agent)),
             ]
         self._declared += [
             session.declare_subscriber(
                 keys.delta(self.name),
-                lambda s: handoff(self._on_delta, str(s.key_expr), s.payload.to_bytes()),
+                lambda s: handoff(Replicator._on_delta, str(s.key_expr), s.payload.to_bytes()),
                 allowed_origin=remote,
             ),
             session.declare_subscriber(
                 keys.heartbeat(self.name),
-                lambda s: handoff(self._on_heartbeat, str(s.key_expr), s.payload.to_bytes()),
+                lambda s: handoff(Replicator._on_heartbeat, str(s.key_expr), s.payload.to_bytes()),
                 allowed_origin=remote,
             ),
             session.liveliness().declare_subscriber(
-                keys.alive(self.name), lambda s: handoff(self._on_liveliness, str(s.key_expr), s.kind), history=True
+                keys.alive(self.name),
+                lambda s: handoff(Replicator._on_liveliness, str(s.key_expr), s.kind),
+                history=True,
             ),
         ]
         self.graph.note_member(me, self.agent, True)
@@ -163,6 +188,9 @@ class Replicator:
             except zenoh.ZError:
                 pass
         self._declared.clear()
+        if self._handoff is not None:
+            self._handoff.cut()
+            self._handoff = None
         self.graph.remove_write_listener(self._schedule_flush)
         if self._observing is not None:
             self.graph.unobserve_updates(self._observing)
