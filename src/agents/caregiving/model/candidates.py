@@ -44,7 +44,7 @@ from .fields import Fields
 from .geometry import FloatArray, Polyline, bounding_radius
 from .imagine import Imagination
 from .robot_moves import RobotMove, robot_fits, standoff_poses, time_to_cover
-from .scene import Scene
+from .scene import Obstacle, Scene
 from .verdict import Verdict
 from .visibility import WALL_KIND
 from .world_model import REPLAN_SHIFT
@@ -185,7 +185,7 @@ def crossings(scene: Scene, danger: Danger, start: Callable[[], float] = lambda:
     if route is None:
         return
     names = [danger.obstacle] if _stays_put(scene, danger.obstacle) else []
-    names += [o.name for o in scene.obstacles if o.kind != WALL_KIND and o.name != danger.obstacle]
+    names += [o.name for o in _other_objects(scene, danger)]
     now = start()
     timed = [
         (t, k, m)
@@ -260,7 +260,7 @@ def _by_kind(scene: Scene, danger: Danger, start: Callable[[], float]) -> Iterat
     yield from (m for _, _, m, until in sorted(slack, key=lambda t: (-t[0], t[1])) if reachable(m, until))
     point = danger.point
     others = sorted(
-        (o for o in scene.obstacles if o.kind != WALL_KIND and o.name != danger.obstacle),
+        _other_objects(scene, danger),
         key=lambda o: math.hypot(o.shape.x - point[0], o.shape.y - point[1]),
     )
     yield from crossings(scene, danger, start)  # stand-offs of any object, pruned above or not, crossing in time
@@ -353,6 +353,11 @@ def _unseen(moves: Iterable[RobotMove], seen: set[tuple[float, float, float]]) -
         if key not in seen:
             seen.add(key)
             yield move
+
+
+def _other_objects(scene: Scene, danger: Danger) -> list[Obstacle]:
+    """The scene's objects but the walls and the danger's obstacle, in scene order."""
+    return [o for o in scene.obstacles if o.kind != WALL_KIND and o.name != danger.obstacle]
 
 
 def _stays_put(scene: Scene, name: str) -> bool:
