@@ -16,7 +16,7 @@ queued batches' items, batches that judge robot moves (searches and joint
 imaginations: Algorithm 2, where the reaction time is spent) before batches of
 person-only imaginations, until its own batch is done, and hands over to the next.
 Each batch of robot moves logs where its time went (``served robot moves``):
-reading W, serving its items (and the CPU time of that), and waiting for the
+reading W and parsing the request, serving its items (and the CPU time of that), and waiting for the
 items of other batches.
 With ``--judge-ahead`` (on with two or more cores), once a search's first
 candidate has failed, a helper process judges later candidates beside it
