@@ -18,10 +18,12 @@ simulator to imagine the candidates, and writes the result:
 * while a move is under way, a new risky intention first re-imagines that move
   from the robot's current state, speed included; it is kept while it still keeps
   everyone safe at the gaze found risky and trips nobody at any gaze
-  (:func:`~agents.caregiving.model.move_search.holds`); otherwise a new move is
-  searched, and only one that ranks clearly above it, judged in the same frame,
-  replaces it (:func:`~agents.caregiving.model.move_search.replaces`); the old one
-  is then marked ``superseded``;
+  (:func:`~agents.caregiving.model.move_search.holds`). One that fails without
+  walking anyone into the robot is kept for one more look, and given up only if it
+  fails again (:func:`~agents.caregiving.model.move_search.gives_up`); then a new
+  move is searched, and only one that ranks clearly above it, judged in the same
+  frame, replaces it (:func:`~agents.caregiving.model.move_search.replaces`); the
+  old one is then marked ``superseded``;
 * a move is never sent when its imagination shows a fall that would not happen
   without it: every imagined walk with it is clear, but for a bystander's fall
   into the very object their own risky intention already heads for (a danger not
@@ -48,7 +50,7 @@ from itertools import count
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
-from agents.caregiving.model.move_search import SearchItem, SearchSpec, holds, replaces
+from agents.caregiving.model.move_search import SearchItem, SearchSpec, gives_up, holds, replaces
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.uncertainty import Uncertainty
@@ -110,6 +112,7 @@ class Action(Agent):
         self.clock = OdometryClock()
         self.new_episode = True
         self.failed: dict[int, float] = {}  # person node id -> simulated time their last search found no move
+        self.doubted: str | None = None  # the move under way that failed its last judgement, if it did
         self.log.info("acting", size_error=self.size_error)
 
     @on(kind=["edge_added", "edge_updated", "node_added", "node_updated"], type=[HAS_INTENTION, WORLD], coalesce=True)
@@ -130,6 +133,7 @@ class Action(Agent):
             clear_intentions(self.g)
             self.episode = ctx.episode
             self.failed.clear()
+            self.doubted = None
             self.clock.reset()
         landed = [self.g.find_edge(src, dst, HAS_INTENTION) for src, dst in self.pending]
         self.pending.clear()
@@ -147,9 +151,18 @@ class Action(Agent):
             under_way = again.verdicts[0] if again is not None and again.verdicts else None
         robot = ctx.scene.robot_name
         if under_way is not None and holds(under_way, self.args.risk_threshold, robot):
+            self.doubted = None
             if not under_way.clear:
                 self.log.info("move kept", under_way=under_way.reason, risk=round(under_way.risk, 2))
             return  # the move under way still keeps everyone safe, at least at the gaze found risky
+        if (
+            current is not None
+            and under_way is not None
+            and not gives_up(under_way, self.doubted == current.name, robot)
+        ):
+            self.doubted = current.name
+            self.log.info("move doubted", under_way=under_way.reason, risk=round(under_way.risk, 2))
+            return  # kept for one more look
         idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
         self.tried = []
         chosen, unsaved = await self._find(ctx, spec, idle_risk), ""

@@ -236,6 +236,17 @@ def holds(under_way: Verdict, threshold: float, robot: str | None) -> bool:
     return under_way.clear_where_found and under_way.risk < threshold and not under_way.trips(robot)
 
 
+def gives_up(under_way: Verdict, failed_before: bool, robot: str | None) -> bool:
+    """Whether to look for a move to replace the move under way, which no longer :func:`holds`.
+
+    A move that walks someone into the robot or leaves them stuck is given up at once. Any other only
+    when it also failed on the look before (``failed_before``): one frame's belief may refuse a move that
+    the next frame's clears again, and a robot that switches on every such frame goes back and forth
+    between two poses and reaches neither.
+    """
+    return failed_before or under_way.trips(robot)
+
+
 def replaces(new: Verdict, under_way: Verdict, samples: int, robot: str | None) -> bool:
     """Whether ``new`` should replace the move under way, both judged now from the robot's current state.
 
