@@ -12,8 +12,11 @@ from what perception's noise costs: the live runs lose both.
 
 With ``--every``, every candidate of every danger is judged (not only up to the
 first safe one), by kind: the stand-offs straight behind and in front of the
-obstacle, the other stand-offs and the path poses, and for the dangers whose
-first two stand-offs fail, which kinds still hold a safe move.
+obstacle, the other stand-offs, the path poses and the other objects' stand-offs,
+and for the dangers whose first two stand-offs fail, which kinds still hold a safe
+move. ``by_way`` splits each kind by whether a straight drive there comes into the
+person's way in time (``candidates.crossing_time``) and whether the robot reaches
+the pose before the person passes it.
 
     python bench/bench_move_search.py [--every] [--json PATH] [RUN ...]
 """
@@ -38,6 +41,7 @@ from agents.caregiving.model.scenario import Scenario, load_scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
+from agents.caregiving.model.visibility import WALL_KIND
 from bridges.experiment.oracle import saves, world_at
 from bridges.experiment.perfect_belief import perfect_belief_spec
 from bridges.world.bridge import trial_for
@@ -126,22 +130,34 @@ def first_safe(runs: list[str], delay: float, judging: float) -> dict[str, objec
     }
 
 
-def kinds(scene: Scene, danger: Danger) -> list[tuple[str, RobotMove]]:
-    """Every candidate of one danger, pruned as the search prunes, with its kind."""
+def kinds(scene: Scene, danger: Danger, delay: float) -> list[tuple[str, RobotMove, float]]:
+    """Every candidate of one danger, pruned as the search prunes, with its kind and the seconds until the
+    person passes it (the collision, for a stand-off)."""
 
     def reachable(move: RobotMove, until: float) -> bool:
-        return candidates.in_reach(scene, move, until) and robot_fits(scene, move)
+        return candidates.in_reach(scene, move, until - delay) and robot_fits(scene, move)
 
     ttc = danger.time_to_collision
     near = [m for m in candidates.standoffs(scene, danger, danger.obstacle) if reachable(m, ttc)]
-    out = [("first stand-offs" if k < FIRST_STANDOFFS else "other stand-offs", m) for k, m in enumerate(near)]
-    out += [("path poses", m) for m, until in candidates.path_poses(scene, danger) if reachable(m, until)]
+    out = [("first stand-offs" if k < FIRST_STANDOFFS else "other stand-offs", m, ttc) for k, m in enumerate(near)]
+    out += [("path poses", m, until) for m, until in candidates.path_poses(scene, danger) if reachable(m, until)]
+    route = candidates.route_ahead(scene, danger)
+    for o in scene.obstacles:
+        if o.kind == WALL_KIND or o.name == danger.obstacle:
+            continue
+        for m in candidates.standoffs(scene, danger, o.name):
+            crosses = route is not None and candidates.crossing_time(scene, danger, m, delay, route) is not None
+            if robot_fits(scene, m) and (crosses or reachable(m, ttc)):
+                out.append(("other objects' stand-offs", m, ttc))
     return out
 
 
 def every_candidate(runs: list[str], delay: float) -> dict[str, object]:
-    """Judge every candidate of every case's first danger; what each kind saves, alone and after the first two fail."""
+    """Judge every candidate of every case's first danger; what each kind saves, alone and after the first two
+    fail, and what the candidates whose drive never comes into the person's way in time, or that the robot
+    reaches only after the person passes, save."""
     judged, safe, rescues = Counter[str](), Counter[str](), Counter[str]()
+    by_way_judged, by_way_safe = Counter[str](), Counter[str]()
     dangers = after_first = still_saveable = 0
     for case in cases(runs):
         found = search_spec(case, delay)
@@ -150,10 +166,19 @@ def every_candidate(runs: list[str], delay: float) -> dict[str, object]:
         scene, spec = found
         danger = spec.dangers[0]
         alone = replace(spec, dangers=(danger,))
-        verdicts = [
-            (kind, move_search.judge_move(alone, m, partial(serve_one, scene), EXACT, scene.robot_name).safe(THRESHOLD))
-            for kind, m in kinds(scene, danger)
-        ]
+        route = candidates.route_ahead(scene, danger)
+        verdicts = []
+        for kind, m, until in kinds(scene, danger, delay):
+            ok = move_search.judge_move(alone, m, partial(serve_one, scene), EXACT, scene.robot_name).safe(THRESHOLD)
+            verdicts.append((kind, ok))
+            in_the_way = route is not None and candidates.crossing_time(scene, danger, m, delay, route) is not None
+            reached = candidates.drive_time(scene, m.x, m.y) < until - delay
+            way = (
+                f"{kind}, {'in the way' if in_the_way else 'never in the way'}, "
+                f"{'reached in time' if reached else 'reached late'}"
+            )
+            by_way_judged[way] += 1
+            by_way_safe[way] += ok
         dangers += 1
         for kind, ok in verdicts:
             judged[kind] += 1
@@ -169,6 +194,7 @@ def every_candidate(runs: list[str], delay: float) -> dict[str, object]:
         "first_two_stand_offs_fail": after_first,
         "of_those_some_move_safe": still_saveable,
         "of_those_safe_by_kind": dict(rescues),
+        "by_way": {k: {"judged": by_way_judged[k], "safe": by_way_safe[k]} for k in sorted(by_way_judged)},
     }
 
 
