@@ -41,7 +41,6 @@ from agents.caregiving.model.scenario import Scenario, load_scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
-from agents.caregiving.model.visibility import WALL_KIND
 from bridges.experiment.oracle import saves, world_at
 from bridges.experiment.perfect_belief import perfect_belief_spec
 from bridges.world.bridge import trial_for
@@ -70,6 +69,7 @@ class Case:
     run: str
     index: int
     saveable: bool
+    collided: bool  # in the recorded run, with the robot acting
     trial: Scenario
     planner: GridPlanner
     at: float
@@ -83,7 +83,7 @@ def cases(runs: list[str]) -> Iterator[Case]:
         for t in recorded["per_trial"]:
             if t["truly_risky"] and t["risk_at_time"] is not None:
                 trial = trial_for(scenario, recorded["seed"], t["index"])
-                yield Case(run, t["index"], bool(t["saveable"]), trial, planner, t["risk_at_time"])
+                yield Case(run, t["index"], bool(t["saveable"]), t["collided"], trial, planner, t["risk_at_time"])
 
 
 def search_spec(case: Case, delay: float) -> tuple[Scene, SearchSpec] | None:
@@ -130,26 +130,28 @@ def first_safe(runs: list[str], delay: float, judging: float) -> dict[str, objec
     }
 
 
-def kinds(scene: Scene, danger: Danger, delay: float) -> list[tuple[str, RobotMove, float]]:
-    """Every candidate of one danger, pruned as the search prunes, with its kind and the seconds until the
-    person passes it (the collision, for a stand-off)."""
+def kinds(scene: Scene, danger: Danger, delay: float) -> list[tuple[str, RobotMove, float, bool]]:
+    """Every candidate of one danger, pruned as the search prunes, with its kind, the seconds until the person
+    passes it (the collision, for a stand-off) and whether a straight drive there comes into their way in time."""
+    route = candidates.route_ahead(scene, danger)
 
     def reachable(move: RobotMove, until: float) -> bool:
         return candidates.in_reach(scene, move, until - delay) and robot_fits(scene, move)
+
+    def in_the_way(move: RobotMove) -> bool:
+        return route is not None and candidates.crossing_time(scene, danger, move, delay, route) is not None
 
     ttc = danger.time_to_collision
     near = [m for m in candidates.standoffs(scene, danger, danger.obstacle) if reachable(m, ttc)]
     out = [("first stand-offs" if k < FIRST_STANDOFFS else "other stand-offs", m, ttc) for k, m in enumerate(near)]
     out += [("path poses", m, until) for m, until in candidates.path_poses(scene, danger) if reachable(m, until)]
-    route = candidates.route_ahead(scene, danger)
-    for o in scene.obstacles:
-        if o.kind == WALL_KIND or o.name == danger.obstacle:
-            continue
+    found = [(kind, m, until, in_the_way(m)) for kind, m, until in out]
+    for o in candidates.other_objects(scene, danger):
         for m in candidates.standoffs(scene, danger, o.name):
-            crosses = route is not None and candidates.crossing_time(scene, danger, m, delay, route) is not None
+            crosses = in_the_way(m)
             if robot_fits(scene, m) and (crosses or reachable(m, ttc)):
-                out.append(("other objects' stand-offs", m, ttc))
-    return out
+                found.append(("other objects' stand-offs", m, ttc, crosses))
+    return found
 
 
 def every_candidate(runs: list[str], delay: float) -> dict[str, object]:
@@ -166,12 +168,10 @@ def every_candidate(runs: list[str], delay: float) -> dict[str, object]:
         scene, spec = found
         danger = spec.dangers[0]
         alone = replace(spec, dangers=(danger,))
-        route = candidates.route_ahead(scene, danger)
         verdicts = []
-        for kind, m, until in kinds(scene, danger, delay):
+        for kind, m, until, in_the_way in kinds(scene, danger, delay):
             ok = move_search.judge_move(alone, m, partial(serve_one, scene), EXACT, scene.robot_name).safe(THRESHOLD)
             verdicts.append((kind, ok))
-            in_the_way = route is not None and candidates.crossing_time(scene, danger, m, delay, route) is not None
             reached = candidates.drive_time(scene, m.x, m.y) < until - delay
             way = (
                 f"{kind}, {'in the way' if in_the_way else 'never in the way'}, "

@@ -15,15 +15,12 @@ by acting at once on an exact guess of the person's gaze, which no pipeline does
 
 from __future__ import annotations
 
-import json
 from dataclasses import replace
 
 import benchlib
-from agents.caregiving.model.planner import GridPlanner
-from agents.caregiving.model.scenario import Scenario, load_scenario
-from bench_move_search import RECORDED
+from agents.caregiving.model.scenario import Scenario
+from bench_move_search import cases
 from bridges.experiment.oracle import saves, saving_moves, world_at
-from bridges.world.bridge import trial_for
 
 
 def gazed(trial: Scenario, degrees: float) -> Scenario:
@@ -35,26 +32,22 @@ def robustness(runs: list[str], later: list[float], gaze: float) -> list[dict[st
     """Per saveable trial: its saving moves, how many still save under every perturbation, and whether it was
     prevented in the run."""
     trials: list[dict[str, object]] = []
-    for run in runs:
-        recorded = json.loads((RECORDED / f"{run}.json").read_text())
-        scenario = load_scenario(recorded.get("scenario_file", recorded["scenario"]))
-        planner = GridPlanner(scenario.scene().bounds)
-        for t in recorded["per_trial"]:
-            if not t["saveable"] or t["risk_at_time"] is None:
-                continue
-            trial, at = trial_for(scenario, recorded["seed"], t["index"]), t["risk_at_time"]
-            moves = saving_moves(trial, at, planner)
-            worlds = [world_at(trial, at + s, planner) for s in later]
-            worlds += [world_at(gazed(trial, d), at, planner) for d in (-gaze, gaze)]
-            robust = [m for m in moves if all(saves(w, m) for w in worlds)]
-            trials.append(
-                {
-                    "trial": f"{run}#{t['index']}",
-                    "saving_moves": len(moves),
-                    "robust_moves": len(robust),
-                    "prevented": not t["collided"],
-                }
-            )
+    for case in cases(runs):
+        if not case.saveable:
+            continue
+        trial, at, planner = case.trial, case.at, case.planner
+        moves = saving_moves(trial, at, planner)
+        worlds = [world_at(trial, at + s, planner) for s in later]
+        worlds += [world_at(gazed(trial, d), at, planner) for d in (-gaze, gaze)]
+        robust = [m for m in moves if all(saves(w, m) for w in worlds)]
+        trials.append(
+            {
+                "trial": f"{case.run}#{case.index}",
+                "saving_moves": len(moves),
+                "robust_moves": len(robust),
+                "prevented": not case.collided,
+            }
+        )
     return trials
 
 

@@ -185,7 +185,7 @@ def crossings(scene: Scene, danger: Danger, start: Callable[[], float] = lambda:
     if route is None:
         return
     names = [danger.obstacle] if _stays_put(scene, danger.obstacle) else []
-    names += [o.name for o in _other_objects(scene, danger)]
+    names += [o.name for o in other_objects(scene, danger)]
     now = start()
     timed = [
         (t, k, m)
@@ -260,7 +260,7 @@ def _by_kind(scene: Scene, danger: Danger, start: Callable[[], float]) -> Iterat
     yield from (m for _, _, m, until in sorted(slack, key=lambda t: (-t[0], t[1])) if reachable(m, until))
     point = danger.point
     others = sorted(
-        _other_objects(scene, danger),
+        other_objects(scene, danger),
         key=lambda o: math.hypot(o.shape.x - point[0], o.shape.y - point[1]),
     )
     yield from crossings(scene, danger, start)  # stand-offs of any object, pruned above or not, crossing in time
@@ -355,7 +355,7 @@ def _unseen(moves: Iterable[RobotMove], seen: set[tuple[float, float, float]]) -
             yield move
 
 
-def _other_objects(scene: Scene, danger: Danger) -> list[Obstacle]:
+def other_objects(scene: Scene, danger: Danger) -> list[Obstacle]:
     """The scene's objects but the walls and the danger's obstacle, in scene order."""
     return [o for o in scene.obstacles if o.kind != WALL_KIND and o.name != danger.obstacle]
 
