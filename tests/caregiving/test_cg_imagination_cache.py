@@ -83,3 +83,15 @@ def test_sweep_forgets_what_was_not_looked_up() -> None:
     cache.sweep()
     assert cache.lookup(KEY, footing(SCENE, "p", {})) is None
     assert cache.hits == 0 and cache.misses == 1
+
+
+def test_a_walk_clear_by_less_than_the_tolerance_is_redone_once_things_move_that_far() -> None:
+    close = Answer(imagination=replace(WALK, min_clearance=0.03))
+    cache = ImaginationCache(move_tol=0.1, reach=0.6, max_age=1.0)
+    cache.store(KEY, footing(SCENE, "p", {}), close)
+    assert cache.lookup(KEY, footing(at(-1.5, 0.02), "p", {})) is not None
+    assert cache.lookup(KEY, footing(at(-1.5, 0.05), "p", {})) is None  # off the path by more than the 3 cm
+    assert cache.lookup(KEY, footing(with_obstacles(COUCH, moved(BALL, 0.0, 0.05), FAR), "p", {})) is None
+    touching = Answer(imagination=replace(WALK, collided=True, min_clearance=-0.01))
+    cache.store(KEY, footing(SCENE, "p", {}), touching)
+    assert cache.lookup(KEY, footing(at(-1.5, 0.05), "p", {})) is not None  # risky already: the full tolerance

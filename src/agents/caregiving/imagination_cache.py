@@ -17,6 +17,12 @@ reused while
   orientation and sigma to ``size_tol``, and none appeared or vanished there;
 * it is younger than ``max_age`` simulated seconds.
 
+A clear walk that passes something closer than ``move_tol`` is decided by less than that: for it, the
+person and the bodies near the walk may move only as far as its closest approach before it is imagined
+again. Reused at the full tolerance, a walk imagined clear by a few millimetres on an early belief stays
+clear while the belief of the person, now nearer, has them touching (a walk that collides is risky
+already, and keeps the full tolerance).
+
 An answer stored as *aside* (a walk the person is plainly not taking: its path
 sets off far from where they head) is kept instead while the person stays
 within ``aside_tol`` of where it was imagined and turns less than ``turn_tol``.
@@ -125,13 +131,14 @@ class ImaginationCache:
         """The cached answer for ``key`` and its ``advance`` (s), or None when it must be imagined."""
         self._used.add(key)
         e = self._entries.get(key)
-        advance = None if e is None else self._advance(e, now)
+        tol = self.move_tol if e is None else self._tolerance(e.answer)
+        advance = None if e is None else self._advance(e, now, tol)
         if (
             e is None
             or advance is None
             or not 0.0 <= now.time - e.footing.time <= self.max_age
             or self._differs(e.footing.person, now.person, math.inf)
-            or self._bodies_changed(e, now, key[1])
+            or self._bodies_changed(e, now, key[1], tol)
         ):
             self.misses += 1
             return None
@@ -159,8 +166,15 @@ class ImaginationCache:
         self._entries.clear()
         self._used.clear()
 
-    def _advance(self, e: _Entry, now: Footing) -> float | None:
-        """Seconds of the imagined walk behind the person, or None when they left it."""
+    def _tolerance(self, answer: Answer) -> float:
+        """How far the person and the bodies near the walk may move: ``move_tol``, or a clear walk's closest approach."""
+        im = answer.imagination
+        if im is None or im.collided:
+            return self.move_tol
+        return min(self.move_tol, max(im.min_clearance, 0.0))
+
+    def _advance(self, e: _Entry, now: Footing, tol: float) -> float | None:
+        """Seconds of the imagined walk behind the person, or None when they left it (by more than ``tol``)."""
         was, me = e.footing, now.person
         if e.aside:
             turned = abs((now.heading - was.heading + math.pi) % (2 * math.pi) - math.pi)
@@ -168,7 +182,7 @@ class ImaginationCache:
             return 0.0 if moved <= self.aside_tol and turned <= self.turn_tol else None
         gaps = np.hypot(e.path[:, 0] - me.x, e.path[:, 1] - me.y)
         k = int(np.argmin(gaps))
-        return k * STEP / max(me.params[0], 1e-3) if gaps[k] <= self.move_tol else None
+        return k * STEP / max(me.params[0], 1e-3) if gaps[k] <= tol else None
 
     def _differs(self, a: Body, b: Body, move_tol: float | None = None) -> bool:
         tol = self.move_tol if move_tol is None else move_tol
@@ -185,11 +199,11 @@ class ImaginationCache:
         gap = float(np.min(np.hypot(path[:, 0] - body.x, path[:, 1] - body.y))) - body.extent
         return gap <= self.reach
 
-    def _bodies_changed(self, e: _Entry, now: Footing, target: str) -> bool:
+    def _bodies_changed(self, e: _Entry, now: Footing, target: str, tol: float) -> bool:
         for name in e.footing.bodies.keys() | now.bodies.keys():
             old, new = e.footing.bodies.get(name), now.bodies.get(name)
             if old == new or not (name == target or self._near(e.path, old) or self._near(e.path, new)):
                 continue
-            if old is None or new is None or self._differs(old, new):
+            if old is None or new is None or self._differs(old, new, tol):
                 return True
         return False
