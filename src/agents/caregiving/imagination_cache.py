@@ -184,10 +184,9 @@ class ImaginationCache:
         k = int(np.argmin(gaps))
         return k * STEP / max(me.params[0], 1e-3) if gaps[k] <= tol else None
 
-    def _differs(self, a: Body, b: Body, move_tol: float | None = None) -> bool:
-        tol = self.move_tol if move_tol is None else move_tol
+    def _differs(self, a: Body, b: Body, move_tol: float) -> bool:
         return (
-            math.hypot(a.x - b.x, a.y - b.y) > tol
+            math.hypot(a.x - b.x, a.y - b.y) > move_tol
             or len(a.params) != len(b.params)
             or any(abs(u - v) > self.size_tol for u, v in zip(a.params, b.params, strict=True))
             or abs(a.sigma - b.sigma) > self.size_tol
