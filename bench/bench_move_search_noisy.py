@@ -11,7 +11,9 @@ would hold them then:
   so far (the tracker averages a static object's detections), and its size off by
   a factor drawn once within the sensor's ``size_error`` (a bias no averaging removes);
 * each person's position off by half the sensor's sigma (what a one-second
-  line fit leaves) and their heading by the sensor's heading sigma.
+  line fit leaves) and their heading by the sensor's heading sigma, and where
+  their walk began likewise (the tracker fits their first second back to its
+  start), drawn apart so that the other draws stay as they were.
 
 Algorithm 1's danger is imagined on that belief (the first gaze class, nearest
 the true gaze, whose walk collides), the search runs with the same uncertainty
@@ -78,7 +80,9 @@ def size_error(sensors: SensorSpec) -> float:
     return sensors.size_error if sensors.enabled else 0.0
 
 
-def belief(truth: Scene, sensors: SensorSpec, at: float, noise: Noise, rng: np.random.Generator) -> Scene:
+def belief(
+    truth: Scene, sensors: SensorSpec, at: float, noise: Noise, rng: np.random.Generator, origins: np.random.Generator
+) -> Scene:
     """One draw of what perception holds of ``truth`` at ``at`` s (walls are known exactly)."""
     object_sigma, person_sigma = sigmas(sensors, at)
     object_sigma, person_sigma = noise.objects * object_sigma, noise.people * person_sigma
@@ -101,7 +105,11 @@ def belief(truth: Scene, sensors: SensorSpec, at: float, noise: Noise, rng: np.r
     people = []
     for p in truth.people:
         dx, dy = rng.normal(0.0, person_sigma, 2)
-        people.append(p.moved(p.x + dx, p.y + dy, p.heading + rng.normal(0.0, heading_sigma)))
+        seen = p.moved(p.x + dx, p.y + dy, p.heading + rng.normal(0.0, heading_sigma))
+        if p.origin is not None:
+            ox, oy = origins.normal(0.0, person_sigma, 2)
+            seen = replace(seen, origin=(p.origin[0] + ox, p.origin[1] + oy))
+        people.append(seen)
     return replace(truth, obstacles=tuple(obstacles), people=tuple(people))
 
 
@@ -118,11 +126,11 @@ def noisy_search(
         idle = World.from_scenario(case.trial, planner=case.planner)
         idle.run(60.0)
         now = world_at(case.trial, case.at, case.planner)
-        rng = np.random.default_rng([case.index, draws])
+        rng, origins = np.random.default_rng([case.index, draws]), np.random.default_rng([case.index, draws, 1])
         sensors = case.trial.sensors
         for k in range(draws):
             beliefs += 1
-            scene = belief(now.scene(), sensors, case.at, noise, rng)
+            scene = belief(now.scene(), sensors, case.at, noise, rng, origins)
             spec = spec_on(scene, idle, now, delay, any_class=True)
             if spec is None:
                 continue

@@ -170,3 +170,25 @@ def test_the_reused_search_returns_path2d_s_path_among_equally_short_ones(seed: 
         assert got is None
     else:
         assert got is not None and np.array_equal(got, reference[::-1][1:])
+
+
+def test_a_walk_begun_elsewhere_follows_the_rest_of_the_route_planned_at_its_origin() -> None:
+    planner = GridPlanner(BOUNDS)
+    shelf = Obstacle("shelf", "cabinet", Box(0.0, 0.6, 0.3, 0.9), 1.8)
+    origin = (-3.0, 2.0)
+    route = planner.plan_to_object(origin, COUCH, [*walls(), shelf], 0.25)
+    assert len(route.path) >= 3  # the route turns round the shelf
+    a, b = route.path[0], route.path[1]
+    midway = (float(a[0] + 0.4 * (b[0] - a[0])), float(a[1] + 0.4 * (b[1] - a[1]) + 0.03))
+    walk = planner.plan_walk(midway, origin, COUCH, [*walls(), shelf], 0.25)
+    assert walk.path[0].tolist() == list(midway)
+    assert walk.path[1:].tolist() == route.path[1:].tolist()
+    assert walk.length == pytest.approx(polyline_length(walk.path))
+    # Unknown origin, or a walker who has left its route: planned from where they stand.
+    for start, known_origin in ((midway, None), ((midway[0], midway[1] - 0.3), origin)):
+        fresh = planner.plan_to_object(start, COUCH, [*walls(), shelf], 0.25)
+        assert (
+            planner.plan_walk(start, known_origin, COUCH, [*walls(), shelf], 0.25).path.tolist() == fresh.path.tolist()
+        )
+    # At the origin itself the walk is the route.
+    assert planner.plan_walk(origin, origin, COUCH, [*walls(), shelf], 0.25).path.tolist() == route.path.tolist()

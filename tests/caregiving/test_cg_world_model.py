@@ -1,6 +1,7 @@
 """Ground truth: idle outcomes of the shipped scenarios, replanning, commanded robot."""
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,7 @@ from agents.caregiving.model.world_model import Walk, World, run_idle
 from bridges.world.bridge import trial_for
 
 STACK_SCENARIOS = Path(__file__).parents[1] / "caregiving_stack" / "scenarios"
+HELD_OUT = Path(__file__).resolve().parents[2] / "docs" / "results" / "heldout"
 
 
 def test_paper_default_person_does_not_see_the_ball_and_collides() -> None:
@@ -180,3 +182,24 @@ def test_advancing_in_bulk_ends_as_stepping_does(scenario: str) -> None:
             bulk_steps += bulk.steps
             single_steps += round(stepped.time / stepped.dt)
     assert checked == 24 and bulk_steps < 0.8 * single_steps  # many steps went in bulk
+
+
+def test_a_world_begun_midway_walks_the_route_planned_where_the_walk_began() -> None:
+    """The imagination starts from a scene mid-walk; a route planned afresh there bends elsewhere than the truth's."""
+    truth = World.from_scenario(trial_for(load_scenario(str(HELD_OUT / "corner_flat.yaml")), 3, 12))
+    while truth.time < 0.6 - 1e-9:
+        truth.step()
+    scene, walker = truth.scene(), truth.walker("resident")
+    walk = Walk("resident", walker.target, walker.gaze, tuple(walker.known))
+    steps = len(walker.track)
+    truth.run()
+    tracks = {}
+    for origin in (scene.person("resident").origin, None):
+        person = replace(scene.person("resident"), origin=origin)
+        twin = World(replace(scene, people=(person,)), [walk])
+        twin.run()
+        tracks[origin is not None] = np.array(twin.walker("resident").track)
+    expected = np.array(truth.walker("resident").track[steps - 1 :])
+    assert tracks[True].shape == expected.shape
+    assert np.abs(tracks[True] - expected).max() < 1e-9
+    assert np.abs(tracks[False][: len(expected) // 2] - expected[: len(expected) // 2]).max() > 0.02

@@ -104,6 +104,7 @@ def read_context(g: Graph) -> Context | None:
                 node.get("vfov", math.radians(40)),
                 gaze[0],
                 gaze[1],
+                _point(node.get("origin")),
             )
         )
         ids[node.name] = node.id
@@ -140,3 +141,10 @@ def _pose(g: Graph, node: Node) -> tuple[float, float, float] | None:
     t = edge.get("rt_translation")
     rot = edge.get("rt_rotation_euler_xyz", (0.0, 0.0, 0.0))
     return float(t[0]), float(t[1]), float(rot[2])
+
+
+def _point(value: object) -> tuple[float, float] | None:
+    """An ``[x, y]`` attribute as a point, ``None`` when absent."""
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        return None
+    return float(value[0]), float(value[1])

@@ -162,6 +162,8 @@ class Perception(Agent):
         node = self.nodes.get(t.id)
         if t.kind == PERSON_TRACK:
             volatile.update(velocity=[t.vx, t.vy])
+            if stamp - t.first <= self.tracker.window:  # the first second refines where the walk began
+                volatile.update(origin=list(t.origin(self.tracker.window)))
             if node is None:
                 node = self.nodes[t.id] = g.insert_node(
                     PERSON,

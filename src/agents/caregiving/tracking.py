@@ -49,6 +49,16 @@ class Track:
         sx, sy, h = np.mean(np.asarray(self.sizes), axis=0)
         return float(sx), float(sy), float(h)
 
+    def origin(self, window: float) -> tuple[float, float]:
+        """Where the track began: a constant-velocity line over its first ``window`` seconds, at its first stamp."""
+        data = np.asarray(self.samples)
+        data = data[data[:, 0] <= self.first + window]
+        if len(data) < 3:
+            return float(data[0, 1]), float(data[0, 2])
+        design = np.stack([np.ones(len(data)), data[:, 0] - self.first], axis=1)
+        coef, *_ = np.linalg.lstsq(design, data[:, 1:3], rcond=None)
+        return float(coef[0, 0]), float(coef[0, 1])
+
     def predict(self, stamp: float) -> tuple[float, float]:
         dt = stamp - self.last
         return self.x + self.vx * dt, self.y + self.vy * dt

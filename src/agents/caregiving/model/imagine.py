@@ -2,9 +2,12 @@
 
 :func:`imagine_person`: the person plans a path to the target with only what
 they see at the given gaze (plus what they are known to remember), then walks it
-in the full scene. The result is a plain dataclass with ``to_wire``/``from_wire``
-(msgpack-friendly dicts); malformed input raises :class:`RequestError`. The
-robot's moves are imagined in time by :mod:`agents.caregiving.model.joint`.
+in the full scene. A person still on the route planned where their walk began
+(``PersonState.origin``) walks the rest of that route
+(:meth:`GridPlanner.plan_walk`). The result is a plain dataclass with
+``to_wire``/``from_wire`` (msgpack-friendly dicts); malformed input raises
+:class:`RequestError`. The robot's moves are imagined in time by
+:mod:`agents.caregiving.model.joint`.
 """
 
 from __future__ import annotations
@@ -103,7 +106,8 @@ def imagine_person(
     planner: GridPlanner | None = None,
     known: Iterable[str] = (),
 ) -> Imagination:
-    """Plan with only what ``person`` sees at ``gaze`` (and the objects ``known`` to them), then walk the plan.
+    """Plan with only what ``person`` sees at ``gaze`` (and the objects ``known`` to them), then walk the plan
+    (the rest of the route planned where their walk began, while they are on it).
 
     ``known`` names objects the person is sure to have seen before (out of view now, still remembered).
     """
@@ -114,7 +118,7 @@ def imagine_person(
     around = scene.bodies_around(person)
     remembered = set(known)
     seen = tuple(o for o in around if o.name in remembered or can_see(p, o, gaze))
-    plan = (planner or planner_for(scene.bounds)).plan_to_object((p.x, p.y), goal, seen, p.radius)
+    plan = (planner or planner_for(scene.bounds)).plan_walk((p.x, p.y), p.origin, goal, seen, p.radius)
     names = tuple(o.name for o in seen)
     if not plan.reachable:
         return Imagination(person, target, gaze, names, False, (), False, None, None, None, math.inf, 0.0)

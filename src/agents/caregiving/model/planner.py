@@ -40,6 +40,8 @@ _EIGHT = np.ones((3, 3), dtype=bool)
 K = TypeVar("K")
 V = TypeVar("V")
 _CARDINAL, _DIAGONAL = 70, 99
+#: How far (m) a walker may stand from the route planned where their walk began and still be walking it.
+ON_ROUTE = 0.1
 
 
 @dataclass(frozen=True)
@@ -173,6 +175,29 @@ class GridPlanner:
         self._plans.put(key, plan)
         return plan
 
+    def plan_walk(
+        self,
+        position: tuple[float, float],
+        origin: tuple[float, float] | None,
+        target: Obstacle,
+        obstacles: Sequence[Obstacle],
+        radius: float,
+    ) -> Plan:
+        """The walk to ``target`` of someone at ``position`` whose walk began at ``origin`` (``None``: unknown).
+
+        A plan depends on where it starts (string pulling keeps the turns of the grid path from there), so a
+        route planned afresh midway may part by some degrees from the one planned at the origin, which is the
+        one a walker follows. While ``position`` lies within :data:`ON_ROUTE` of the origin's route, the walk
+        is the rest of that route; otherwise (no origin, or the walker has left it) it is planned from
+        ``position``.
+        """
+        if origin is not None:
+            planned = self.plan_to_object(origin, target, obstacles, radius)
+            rest = _rest_of(planned.path, position) if planned.reachable else None
+            if rest is not None:
+                return Plan(True, rest, polyline_length(rest))
+        return self.plan_to_object(position, target, obstacles, radius)
+
     def _ring(self, shape: Shape, inflate: float) -> NDArray[np.intp]:
         """The cells just outside the shape's inflated footprint (the goals of a walk to it), cached with its mask."""
         key = (shape, round(inflate, 6))
@@ -279,6 +304,24 @@ class GridPlanner:
         np.maximum(idx, 0, out=idx)
         np.minimum(idx, self._last_cell, out=idx)
         return ~grid[idx[..., 0], idx[..., 1]].any(axis=1)
+
+
+def _rest_of(path: FloatArray, position: tuple[float, float]) -> FloatArray | None:
+    """``position`` followed by the waypoints of ``path`` past its nearest point, or None if that is farther
+    than :data:`ON_ROUTE` (or ``path`` is a single point)."""
+    if len(path) < 2:
+        return None
+    p = np.asarray(position, dtype=np.float64)
+    a, b = path[:-1], path[1:]
+    ab = b - a
+    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-18), 0.0, 1.0)
+    gaps = np.hypot(*(a + t[:, None] * ab - p).T)
+    k = len(gaps) - 1 - int(np.argmin(gaps[::-1]))  # the later segment where two meet at a waypoint
+    if gaps[k] > ON_ROUTE:
+        return None
+    ahead = path[k + 1 :]
+    ahead = ahead[np.hypot(*(ahead - p).T) > 1e-9]
+    return np.vstack((p, ahead)) if len(ahead) else None
 
 
 @functools.cache

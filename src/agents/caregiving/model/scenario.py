@@ -211,6 +211,7 @@ def person_state(p: PersonSpec) -> PersonState:
         math.radians(p.vfov_deg),
         math.radians(p.gaze_range_deg[0]),
         math.radians(p.gaze_range_deg[1]),
+        (p.x, p.y),
     )
 
 

@@ -32,7 +32,10 @@ class Obstacle:
 
 @dataclass(frozen=True)
 class PersonState:
-    """A person's pose and the parameters of their body, walk and view (angles in radians)."""
+    """A person's pose and the parameters of their body, walk and view (angles in radians).
+
+    ``origin`` is where their walk began, where they planned the route they follow (``None``: unknown).
+    """
 
     name: str
     x: float
@@ -45,6 +48,7 @@ class PersonState:
     vfov: float
     gaze_min: float
     gaze_max: float
+    origin: tuple[float, float] | None = None
 
     def moved(self, x: float, y: float, heading: float) -> PersonState:
         """The same person at another pose (spelled out: ``dataclasses.replace`` costs thrice as much per step)."""
@@ -60,6 +64,7 @@ class PersonState:
             self.vfov,
             self.gaze_min,
             self.gaze_max,
+            self.origin,
         )
 
     def body(self) -> Obstacle:
@@ -221,7 +226,12 @@ def _person_from_wire(f: Fields) -> PersonState:
         vfov=f.number("vfov", positive=True),
         gaze_min=f.number("gaze_min"),
         gaze_max=f.number("gaze_max"),
+        origin=_point(f.numbers("origin", 2)) if f.has("origin") else None,
     )
+
+
+def _point(xy: tuple[float, ...]) -> tuple[float, float]:
+    return xy[0], xy[1]
 
 
 def _robot_from_wire(f: Fields) -> RobotState:

@@ -333,7 +333,11 @@ class World:
 
     def _replan(self, w: _Walker) -> None:
         target = next(o for o in self._static if o.name == w.target)
-        plan = self.planner.plan_to_object((w.state.x, w.state.y), target, list(w.known.values()), w.state.radius)
+        known = list(w.known.values())
+        if w.route is None:  # the walk they were on when the world began: the rest of the route planned at its origin
+            plan = self.planner.plan_walk((w.state.x, w.state.y), w.state.origin, target, known, w.state.radius)
+        else:
+            plan = self.planner.plan_to_object((w.state.x, w.state.y), target, known, w.state.radius)
         if plan.reachable:
             w.route, w.walked = Polyline.of(plan.path), 0.0
         elif w.route is None:

@@ -1,0 +1,37 @@
+"""Tracking people: where a person's walk began, from the first second of their track."""
+
+import math
+
+import numpy as np
+
+from agents.caregiving.tracking import Tracker
+
+START, HEADING, SPEED = (1.0, 2.0), math.radians(30), 0.7
+
+
+def _position(stamp: float) -> tuple[float, float]:
+    return START[0] + SPEED * math.cos(HEADING) * stamp, START[1] + SPEED * math.sin(HEADING) * stamp
+
+
+def _detect(tracker: Tracker, stamps: range, rng: np.random.Generator) -> None:
+    for k in stamps:
+        stamp = 0.05 * k
+        x, y = np.array(_position(stamp)) + rng.normal(0.0, 0.04, 2)
+        shape = {"type": "circle", "x": float(x), "y": float(y), "r": 0.25}
+        tracker.update(stamp, [{"kind": "person", "shape": shape, "heading": HEADING, "target": False, "height": 1.7}])
+
+
+def test_the_origin_of_a_walk_is_fitted_back_to_the_first_stamp_and_then_stays() -> None:
+    misses = []
+    for seed in range(20):
+        rng = np.random.default_rng(seed)
+        tracker = Tracker(0.04)
+        _detect(tracker, range(1, 22), rng)  # the first second from the first stamp
+        track = next(iter(tracker.tracks.values()))
+        origin = track.origin(tracker.window)
+        misses.append(math.dist(origin, _position(0.05)))
+        _detect(tracker, range(22, 41), rng)  # a second more leaves it as it was
+        assert track.origin(tracker.window) == origin
+        assert math.dist((track.x, track.y), _position(2.0)) < 0.1
+    # A line fitted over 21 detections of 4 cm error, at its end: about 2 cm, far below one detection's.
+    assert float(np.sqrt(np.mean(np.square(misses)))) < 0.03
