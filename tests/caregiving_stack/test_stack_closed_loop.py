@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+import math
+
 from stack_helpers import run_trial, stack  # noqa: F401 - the fixture
+
+from agents.caregiving.model.scenario import load_scenario
+from bridges.world.bridge import trial_for
 
 #: Trial 6 of seed 7: the ball is on the person's way, below their gaze, and the robot can get there in time.
 RISKY = ("paper_experiment1", 7, 6)
@@ -17,6 +22,13 @@ def test_risky_walk_gets_flagged_the_robot_acts_and_nobody_collides(stack) -> No
     assert r.reaction_ms is not None and r.reaction_ms > 0.0
     assert [c for c in r.outcome["commands"] if c["accepted"]], "the executor drove the robot through the world"
     assert r.outcome["collisions"] == []
+    # The person saw the robot from the start (it stands in their one gaze class) and remembers it, and
+    # perception knows where their walk began.
+    assert r.snapshot is not None
+    (person,) = r.snapshot.scene["people"]
+    assert "robot" in r.snapshot.knows[person["name"]]
+    start = trial_for(load_scenario(scenario), seed, index).people[0]
+    assert math.dist(person["origin"], (start.x, start.y)) < 0.1
 
 
 def test_safe_walk_gives_no_risky_intention_and_no_action(stack) -> None:  # noqa: F811

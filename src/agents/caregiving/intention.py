@@ -13,9 +13,9 @@ walks to imagine go in one request (the simulator samples perception's
 uncertainty around each), all people at once, and each person's intentions are
 written as soon as their reply lands.
 
-Objects a person sees in every gaze class are surely seen: they are marked
-``knows`` person -> object in W and the person is imagined to remember them
-(plan around them) even once they are out of view.
+Objects a person sees in every gaze class are surely seen, and so is the robot:
+they are marked ``knows`` person -> object (or robot) in W and the person is
+imagined to remember them (plan around them) even once they are out of view.
 
 A walking person's heading tells where they are going: a target whose imagined
 path starts more than ``--heading-gate-deg`` away from it is not their intention.
@@ -51,7 +51,7 @@ from wm import Event
 from ..runtime import Agent, main, on
 from .context import Context, read_context
 from .imagination_cache import ImaginationCache, Key, footing
-from .names import COLLISION, HAS_INTENTION, KNOWS, OBJECT, PERSON
+from .names import COLLISION, HAS_INTENTION, KNOWS, OBJECT, PERSON, ROBOT
 from .risk_options import add_risk_arguments, size_error
 
 HEADING_PROBE = 0.4  # metres along the imagined path where its direction is measured
@@ -220,9 +220,10 @@ class Intention(Agent):
         return bool(path) and heading_error(path, heading) > 2 * math.radians(self.args.heading_gate_deg)
 
     def _remember(self, ctx: Context, person: str, classes: tuple[GazeClass, ...]) -> list[str]:
-        """Objects the person sees in every gaze class are surely seen: mark them ``knows`` in W, for good.
+        """Objects (and the robot) the person sees in every gaze class are surely seen: mark them ``knows`` in W.
 
-        The person plans around them later too, even once they are out of view (as people do).
+        The person plans around them later too, even once they are out of view (as people do); a robot that has
+        been seen is remembered where it stands, so that a walk imagined later does not re-plan on first sight.
         """
         pid = ctx.ids[person]
         sure = frozenset.intersection(*(c.visible for c in classes)) if classes else frozenset()
@@ -234,7 +235,7 @@ class Intention(Agent):
             and n not in known
             and ctx.ids[n] != pid
             and self.g.find_node(ctx.ids[n]) is not None
-            and self.g.get_node(ctx.ids[n]).type == OBJECT
+            and self.g.get_node(ctx.ids[n]).type in (OBJECT, ROBOT)
         ]
         if fresh:
             with self.g.batch():

@@ -3,8 +3,8 @@
 The ground truth of a trial at a moment is the context: no sensor noise. Each person the idle world
 sees fall is a danger, imagined as the intention agent imagines it (their planned walk at their true
 gaze, around the objects they have truly seen so far), with every gaze class of theirs to judge moves
-at, the class of their true gaze first. This separates what the move search can do from what
-perception's noise costs.
+at, the class of their true gaze first; everyone else still walking walks to their true target beside
+them. This separates what the move search can do from what perception's noise costs.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import Scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.visibility import WALL_KIND, gaze_classes
-from agents.caregiving.model.world_model import World
+from agents.caregiving.model.world_model import Walk, World
 
 from .oracle import world_at
 
@@ -26,8 +26,8 @@ def perfect_belief_spec(
 ) -> tuple[Scene, SearchSpec] | None:
     """The exact scene at ``at`` and the spec of its dangers, the robot starting ``delay`` s later; None if none.
 
-    Each endangered person knows the objects they have truly seen by then, as the intention agent's
-    ``knows`` edges would hold them.
+    Each endangered person knows the objects (and the robot) they have truly seen by then, as the intention
+    agent's ``knows`` edges would hold them.
     """
     idle = World.from_scenario(trial, planner=planner)
     idle.run(60.0)
@@ -45,7 +45,8 @@ def spec_on(scene: Scene, idle: World, now: World, delay: float, any_class: bool
     first of their gaze classes (the nearest the true gaze first) whose walk collides: on a belief, the true
     gaze may show no danger where another class does, as Algorithm 1 would find.
     """
-    objects = {o.name for o in scene.obstacles if o.kind != WALL_KIND}
+    # What the intention agent's ``knows`` edges can hold: the objects and the robot.
+    objects = {o.name for o in scene.obstacles if o.kind != WALL_KIND} | {scene.robot_name}
     dangers: list[Danger] = []
     gazes: dict[str, tuple[float, ...]] = {}
     known: dict[str, tuple[str, ...]] = {}
@@ -65,4 +66,14 @@ def spec_on(scene: Scene, idle: World, now: World, delay: float, any_class: bool
         dangers.append(danger)
         gazes[c.person] = (gaze, *(g for g in order if g != gaze)) if any_class else order
         known[c.person] = seen
-    return SearchSpec(tuple(dangers), gazes, known, (), None, delay) if dangers else None
+    if not dangers:
+        return None
+    # The others walk to their true targets beside them, as the action agent imagines them on their likeliest walk.
+    bystanders = tuple(
+        Walk(
+            name, now.walker(name).target, now.walker(name).gaze, tuple(sorted(objects & now.walker(name).known.keys()))
+        )
+        for name in now.walking()
+        if name not in gazes
+    )
+    return SearchSpec(tuple(dangers), gazes, known, bystanders, None, delay)

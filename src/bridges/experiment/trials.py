@@ -25,7 +25,7 @@ import zenoh
 import wm
 from agents.caregiving import keys
 from agents.caregiving.context import read_context
-from agents.caregiving.names import HAS_INTENTION, INTENTION, OBJECT, PERSON, WORLD
+from agents.caregiving.names import HAS_INTENTION, INTENTION, KNOWS, OBJECT, PERSON, WORLD
 from agents.messaging import Messaging, TaskSet, logging_guard
 from wm import Event, Graph
 from wm.net.connection import close_session, open_session
@@ -39,11 +39,13 @@ class TrialError(RuntimeError):
 
 @dataclass
 class Snapshot:
-    """What W held when the robot decided: the scene, the person's intentions and the chosen move."""
+    """What W held when the robot decided: the scene, the person's intentions and the chosen move, and what
+    each person is known to have seen (``knows``: person -> names)."""
 
     scene: dict[str, Any]
     intentions: list[dict[str, Any]]
     action: dict[str, Any] | None
+    knows: dict[str, list[str]] = field(default_factory=dict)
 
 
 @dataclass
@@ -87,7 +89,11 @@ def snapshot(g: Graph, action: dict[str, Any] | None) -> Snapshot | None:
     intentions = [
         {"person": names.get(e.src), "target": names.get(e.dst), **dict(e.attrs)} for e in g.edges(type=HAS_INTENTION)
     ]
-    return Snapshot(ctx.scene.to_wire(), intentions, action)
+    knows: dict[str, list[str]] = {}
+    for e in g.edges(type=KNOWS):
+        if e.src in names and e.dst in names:
+            knows.setdefault(names[e.src], []).append(names[e.dst])
+    return Snapshot(ctx.scene.to_wire(), intentions, action, {p: sorted(n) for p, n in knows.items()})
 
 
 class Harness:

@@ -198,6 +198,10 @@ class World:
         """Whether nobody is walking any more."""
         return all(w.status != "walking" for w in self._walkers)
 
+    def walking(self) -> list[str]:
+        """The people still walking."""
+        return [w.state.name for w in self._walkers if w.status == "walking"]
+
     def someone_fell(self, excused: Mapping[str, str]) -> bool:
         """Whether someone has touched something or got stuck, but for the falls ``excused`` names ({person: object})."""
         for w in self._walkers:
