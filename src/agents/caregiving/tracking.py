@@ -55,8 +55,7 @@ class Track:
         data = data[data[:, 0] <= self.first + window]
         if len(data) < 3:
             return float(data[0, 1]), float(data[0, 2])
-        design = np.stack([np.ones(len(data)), data[:, 0] - self.first], axis=1)
-        coef, *_ = np.linalg.lstsq(design, data[:, 1:3], rcond=None)
+        coef = _line(data, self.first)
         return float(coef[0, 0]), float(coef[0, 1])
 
     def predict(self, stamp: float) -> tuple[float, float]:
@@ -145,10 +144,17 @@ class Tracker:
             t.sigma = self.sensor_sigma
             return
         time = data[:, 0] - data[-1, 0]
-        design = np.stack([np.ones(n), time], axis=1)
-        coef, *_ = np.linalg.lstsq(design, data[:, 1:3], rcond=None)
+        coef = _line(data, data[-1, 0])
         t.x, t.y = float(coef[0, 0]), float(coef[0, 1])
         t.vx, t.vy = float(coef[1, 0]), float(coef[1, 1])
         # Variance of a least-squares line at its end point: sigma^2 (1/n + tbar^2 / Sxx).
         sxx = float(((time - time.mean()) ** 2).sum())
         t.sigma = self.sensor_sigma * math.sqrt(1 / n + time.mean() ** 2 / max(sxx, 1e-9))
+
+
+def _line(data: np.ndarray, at: float) -> np.ndarray:
+    """A constant-velocity least-squares line through rows (stamp, x, y, ...): position (row 0) and velocity
+    (row 1) at stamp ``at``."""
+    design = np.stack([np.ones(len(data)), data[:, 0] - at], axis=1)
+    coef, *_ = np.linalg.lstsq(design, data[:, 1:3], rcond=None)
+    return coef

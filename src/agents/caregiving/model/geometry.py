@@ -169,20 +169,30 @@ def moved_more_than(before: Shape, after: Shape, distance: float) -> bool:
     return displacement(before, after) > distance
 
 
-def polyline_distance(points: FloatArray, x: float, y: float) -> float:
-    """Distance from ``(x, y)`` to the nearest point of the polyline through ``points`` (an ``(N, 2)`` array)."""
-    best = math.inf
+def nearest_segment(points: FloatArray, x: float, y: float) -> tuple[int, float]:
+    """The segment of the polyline through ``points`` (an ``(N, 2)`` array) nearest ``(x, y)``, and its distance.
+
+    Of two segments equally near (where they meet at a waypoint), the later one; a single point is segment 0.
+    """
     pts = points.tolist()
     ax, ay = pts[0]
     if len(pts) == 1:
-        return math.hypot(x - ax, y - ay)
-    for bx, by in pts[1:]:
+        return 0, math.hypot(x - ax, y - ay)
+    best, nearest = math.inf, 0
+    for k, (bx, by) in enumerate(pts[1:]):
         dx, dy = bx - ax, by - ay
         norm = dx * dx + dy * dy
         t = 0.0 if norm == 0.0 else min(max(((x - ax) * dx + (y - ay) * dy) / norm, 0.0), 1.0)
-        best = min(best, math.hypot(x - ax - t * dx, y - ay - t * dy))
+        gap = math.hypot(x - ax - t * dx, y - ay - t * dy)
+        if gap <= best:
+            best, nearest = gap, k
         ax, ay = bx, by
-    return best
+    return nearest, best
+
+
+def polyline_distance(points: FloatArray, x: float, y: float) -> float:
+    """Distance from ``(x, y)`` to the nearest point of the polyline through ``points`` (an ``(N, 2)`` array)."""
+    return nearest_segment(points, x, y)[1]
 
 
 def bounding_radius(shape: Shape) -> float:

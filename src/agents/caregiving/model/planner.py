@@ -33,7 +33,7 @@ import tcod.path
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from .geometry import FloatArray, Shape, aabb, grid_distance, polyline_length
+from .geometry import FloatArray, Shape, aabb, grid_distance, nearest_segment, polyline_length
 from .scene import Obstacle
 
 _EIGHT = np.ones((3, 3), dtype=bool)
@@ -311,14 +311,10 @@ def _rest_of(path: FloatArray, position: tuple[float, float]) -> FloatArray | No
     than :data:`ON_ROUTE` (or ``path`` is a single point)."""
     if len(path) < 2:
         return None
-    p = np.asarray(position, dtype=np.float64)
-    a, b = path[:-1], path[1:]
-    ab = b - a
-    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-18), 0.0, 1.0)
-    gaps = np.hypot(*(a + t[:, None] * ab - p).T)
-    k = len(gaps) - 1 - int(np.argmin(gaps[::-1]))  # the later segment where two meet at a waypoint
-    if gaps[k] > ON_ROUTE:
+    k, gap = nearest_segment(path, *position)
+    if gap > ON_ROUTE:
         return None
+    p = np.asarray(position, dtype=np.float64)
     ahead = path[k + 1 :]
     ahead = ahead[np.hypot(*(ahead - p).T) > 1e-9]
     return np.vstack((p, ahead)) if len(ahead) else None
