@@ -10,6 +10,10 @@ commanded in the ground truth at that time, and the trial counts as saved when
 nobody touches anything. This separates what the move set and its order can do
 from what perception's noise costs: the live runs lose both.
 
+With several ``--judging`` values, the search runs once per value, and the table gives the trials
+saved against the seconds each candidate takes to judge, beside what one takes on this machine:
+how much a faster search would prevent.
+
 With ``--every``, every candidate of every danger is judged (not only up to the
 first safe one), by kind: the stand-offs straight behind and in front of the
 obstacle, the other stand-offs, the path poses and the other objects' stand-offs,
@@ -18,7 +22,7 @@ move. ``by_way`` splits each kind by whether a straight drive there comes into t
 person's way in time (``candidates.crossing_time``) and whether the robot reaches
 the pose before the person passes it.
 
-    python bench/bench_move_search.py [--every] [--json PATH] [RUN ...]
+    python bench/bench_move_search.py [--delay S] [--judging S [S ...]] [--every] [--json PATH] [RUN ...]
 """
 
 from __future__ import annotations
@@ -202,12 +206,33 @@ def main() -> None:
     p = benchlib.parser("bench_move_search", __doc__.splitlines()[0])
     p.add_argument("runs", nargs="*", default=list(RUNS), help="recorded runs (docs/results/RUN.json)")
     p.add_argument("--delay", type=float, default=0.15, help="seconds from the danger to the robot's start")
-    p.add_argument("--judging", type=float, default=0.02, help="seconds more per candidate judged")
+    p.add_argument(
+        "--judging",
+        type=float,
+        nargs="+",
+        default=[0.02],
+        help="seconds more per candidate judged; several values give prevention against the search's speed",
+    )
     p.add_argument("--every", action="store_true", help="judge every candidate of every danger, by kind")
     args = p.parse_args()
-    found = first_safe(args.runs, args.delay, args.judging)
+    found = first_safe(args.runs, args.delay, args.judging[0])
     benchlib.print_table("Move search with perfect belief", list(found.items()))
-    figures: dict[str, object] = {"runs": args.runs, "delay": args.delay, "judging": args.judging, "first_safe": found}
+    figures: dict[str, object] = {
+        "runs": args.runs,
+        "delay": args.delay,
+        "judging": args.judging[0],
+        "first_safe": found,
+    }
+    if len(args.judging) > 1:
+        by_speed = [{"judging": j, **first_safe(args.runs, args.delay, j)} for j in args.judging[1:]]
+        by_speed.insert(0, {"judging": args.judging[0], **found})
+        spent = sum(float(f["search_s"]) for f in by_speed) / max(sum(int(f["judged"]) for f in by_speed), 1)
+        benchlib.print_table(
+            f"Saved of saveable against seconds per candidate (this machine judges one in {spent * 1e3:.1f} ms)",
+            [(f"{f['judging'] * 1e3:g} ms", f"{f['saved_of_saveable']} of {f['oracle_saveable']}") for f in by_speed],
+        )
+        figures["by_judging"] = by_speed
+        figures["seconds_per_candidate_here"] = spent
     if args.every:
         every = every_candidate(args.runs, args.delay)
         benchlib.print_table("Every candidate judged", list(every.items()))
