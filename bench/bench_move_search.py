@@ -224,8 +224,10 @@ def main() -> None:
         "first_safe": found,
     }
     if len(args.judging) > 1:
-        by_speed = [{"judging": j, **first_safe(args.runs, args.delay, j)} for j in args.judging[1:]]
-        by_speed.insert(0, {"judging": args.judging[0], **found})
+        by_speed = [
+            {"judging": j, **(found if k == 0 else first_safe(args.runs, args.delay, j))}
+            for k, j in enumerate(args.judging)
+        ]
         spent = sum(float(f["search_s"]) for f in by_speed) / max(sum(int(f["judged"]) for f in by_speed), 1)
         benchlib.print_table(
             f"Saved of saveable against seconds per candidate (this machine judges one in {spent * 1e3:.1f} ms)",

@@ -69,11 +69,6 @@ def spec_on(scene: Scene, idle: World, now: World, delay: float, any_class: bool
     if not dangers:
         return None
     # The others walk to their true targets beside them, as the action agent imagines them on their likeliest walk.
-    bystanders = tuple(
-        Walk(
-            name, now.walker(name).target, now.walker(name).gaze, tuple(sorted(objects & now.walker(name).known.keys()))
-        )
-        for name in now.walking()
-        if name not in gazes
-    )
+    others = (now.walker(name) for name in now.walking() if name not in gazes)
+    bystanders = tuple(Walk(w.state.name, w.target, w.gaze, tuple(sorted(objects & w.known.keys()))) for w in others)
     return SearchSpec(tuple(dangers), gazes, known, bystanders, None, delay)
