@@ -45,6 +45,7 @@ from agents.caregiving.model.scenario import Scenario, load_scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
+from agents.caregiving.model.verdict import SearchResult
 from bridges.experiment.oracle import saves, world_at
 from bridges.experiment.perfect_belief import perfect_belief_spec
 from bridges.world.bridge import trial_for
@@ -95,9 +96,28 @@ def search_spec(case: Case, delay: float) -> tuple[Scene, SearchSpec] | None:
     return perfect_belief_spec(case.trial, case.at, case.planner, delay)
 
 
-def first_safe(runs: list[str], delay: float, judging: float) -> dict[str, object]:
-    """Search each case up to its first safe move and check that move in the ground truth."""
-    risky = saveable = chosen = saved = saved_of_saveable = judged = judged_when_chosen = 0
+def in_truth(case: Case, delay: float, judging: float, result: SearchResult) -> bool:
+    """Whether the search's moves, commanded in the ground truth when the search would send them, save the trial.
+
+    A head start is commanded one judgement after the first candidate, and the chosen move (if any)
+    replaces it once the candidates before it, and the head start's own judgement, are judged.
+    """
+    chosen = result.chosen.move if result.chosen is not None else None
+    if result.lead is None or result.lead.move is None:
+        if chosen is None:
+            return False
+        return saves(world_at(case.trial, case.at + delay + judging * len(result.verdicts), case.planner), chosen)
+    world = world_at(case.trial, case.at + delay + judging * 2, case.planner)
+    world.command_robot(result.lead.move)
+    if chosen is not None:
+        world.advance(case.at + delay + judging * (len(result.verdicts) + 1))
+        return saves(world, chosen)
+    return not world.run(world.time + 30.0).collided
+
+
+def first_safe(runs: list[str], delay: float, judging: float, head_start: bool = False) -> dict[str, object]:
+    """Search each case up to its first safe move and check its moves in the ground truth (:func:`in_truth`)."""
+    risky = saveable = chosen = saved = saved_of_saveable = judged = judged_when_chosen = leads = 0
     lost: list[str] = []
     spent = 0.0
     for case in cases(runs):
@@ -106,14 +126,22 @@ def first_safe(runs: list[str], delay: float, judging: float) -> dict[str, objec
             continue
         scene, spec = found
         started = time.perf_counter()
-        result = move_search.search(scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 24, judging=judging)
+        result = move_search.search(
+            scene,
+            spec,
+            partial(serve_one, scene),
+            EXACT,
+            THRESHOLD,
+            24,
+            judging=judging,
+            head_start=(lambda _lead: None) if head_start else None,
+        )
         spent += time.perf_counter() - started
-        ok = False
+        leads += result.lead is not None
         if result.chosen is not None and result.chosen.move is not None:
             chosen += 1
             judged_when_chosen += len(result.verdicts)
-            when = case.at + delay + judging * len(result.verdicts)
-            ok = saves(world_at(case.trial, when, case.planner), result.chosen.move)
+        ok = in_truth(case, delay, judging, result)
         risky += 1
         saveable += case.saveable
         judged += len(result.verdicts)
@@ -129,6 +157,7 @@ def first_safe(runs: list[str], delay: float, judging: float) -> dict[str, objec
         "saved_of_saveable": saved_of_saveable,
         "judged": judged,
         "judged_when_chosen": judged_when_chosen,
+        "head_starts": leads,
         "search_s": round(spent, 3),
         "saveable_lost": lost,
     }
@@ -214,18 +243,22 @@ def main() -> None:
         help="seconds more per candidate judged; several values give prevention against the search's speed",
     )
     p.add_argument("--every", action="store_true", help="judge every candidate of every danger, by kind")
+    p.add_argument(
+        "--head-start", action="store_true", help="send the first candidate as a head start when it is harmless"
+    )
     args = p.parse_args()
-    found = first_safe(args.runs, args.delay, args.judging[0])
+    found = first_safe(args.runs, args.delay, args.judging[0], args.head_start)
     benchlib.print_table("Move search with perfect belief", list(found.items()))
     figures: dict[str, object] = {
         "runs": args.runs,
         "delay": args.delay,
         "judging": args.judging[0],
+        "head_start": args.head_start,
         "first_safe": found,
     }
     if len(args.judging) > 1:
         by_speed = [
-            {"judging": j, **(found if k == 0 else first_safe(args.runs, args.delay, j))}
+            {"judging": j, **(found if k == 0 else first_safe(args.runs, args.delay, j, args.head_start))}
             for k, j in enumerate(args.judging)
         ]
         spent = sum(float(f["search_s"]) for f in by_speed) / max(sum(int(f["judged"]) for f in by_speed), 1)

@@ -11,6 +11,9 @@ in the owner's task group (or, for an owner without one, a :class:`TaskSet`):
 * a service's handler runs in its own task for each query, and its return
   value is the reply; a request that cannot be decoded or handled gets an
   error reply ``{"error": type, "message": text}`` and the service carries on;
+  a service declared with :meth:`Messaging.serve_progress` may also send
+  replies on the way (progress), each at once, which an asker that wants them
+  gets in order before the final reply;
 * a handler that fails is logged through the owner's guard, never raised.
 
 On the way out, the owner's task group cancels and awaits the handlers (a
@@ -41,6 +44,10 @@ import zenoh
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
+#: Sends one progress reply to the query being answered, at once.
+Progress = Callable[[Any], None]
+#: The attachment that marks a reply as progress, with the final reply still to come.
+PROGRESS = b"progress"
 #: Awaits ``method(*args)`` on behalf of the handler named ``what``; logs a failure and returns False, never raises.
 Guard = Callable[..., Awaitable[bool]]
 
@@ -159,7 +166,7 @@ class _Subscription:
 @dataclass(frozen=True)
 class _Service:
     key: str
-    handler: Callable[[Any], Awaitable[Any]]
+    handler: Callable[[Any, Progress], Awaitable[Any]]
     decode: Callable[[Any], Any]
 
 
@@ -205,6 +212,16 @@ class Messaging:
 
     def serve(self, key: str, handler: Callable[[T], Awaitable[Any]], *, decode: Callable[[Any], T] = plain) -> None:
         """Answer each query on ``key`` with ``await handler(decode(request))``; an exception is an error reply."""
+
+        async def answer(request: T, _progress: Progress) -> Any:
+            return await handler(request)
+
+        self.serve_progress(key, answer, decode=decode)
+
+    def serve_progress(
+        self, key: str, handler: Callable[[T, Progress], Awaitable[Any]], *, decode: Callable[[Any], T] = plain
+    ) -> None:
+        """:meth:`serve`, the handler also given a function that sends a progress reply at once (see :meth:`ask`)."""
         self._session()
         service = _Service(key, handler, decode)
         self._services.append(service)
@@ -213,13 +230,43 @@ class Messaging:
 
     # -- asking ------------------------------------------------------------------------------------
 
-    async def ask(self, key: str, request: Any, *, decode: Callable[[Any], T] = plain, timeout: float = 5.0) -> T:
-        """Send one request and return ``decode`` of the first reply; raises :class:`RemoteError` or :class:`NoReply`."""
+    async def ask(
+        self,
+        key: str,
+        request: Any,
+        *,
+        decode: Callable[[Any], T] = plain,
+        timeout: float = 5.0,
+        progress: Callable[[T], None] | None = None,
+    ) -> T:
+        """Send one request and return ``decode`` of the first final reply; raises :class:`RemoteError` or
+        :class:`NoReply`.
+
+        Progress replies that come before it (see :meth:`serve_progress`) are decoded and handed to
+        ``progress`` on the event loop, in order, before this returns; one ``decode`` refuses is logged and
+        dropped. Without ``progress`` they are passed over.
+        """
         session, payload = self._session(), pack(request)
+        loop = asyncio.get_running_loop()
+
+        def deliver(body: bytes) -> None:
+            assert progress is not None
+            try:
+                message = decode(unpack(body))
+            except Exception as exc:
+                log.warning("dropped a progress reply on %s: %s", key, exc)
+                return
+            progress(message)
 
         def get() -> tuple[bool, bytes] | None:
-            for reply in session.get(key, payload=payload, timeout=timeout):
+            # Unconsolidated: each reply as it comes (consolidated, progress would wait for the final reply).
+            replies = session.get(key, payload=payload, timeout=timeout, consolidation=zenoh.ConsolidationMode.NONE)
+            for reply in replies:
                 ok, err = reply.ok, reply.err
+                if ok is not None and ok.attachment is not None and ok.attachment.to_bytes() == PROGRESS:
+                    if progress is not None:
+                        loop.call_soon_threadsafe(deliver, ok.payload.to_bytes())
+                    continue
                 if ok is not None:
                     return True, ok.payload.to_bytes()
                 if err is not None:
@@ -307,8 +354,13 @@ class Messaging:
     async def _answer(self, service: _Service, query: zenoh.Query) -> None:
         try:
             payload = query.payload.to_bytes() if query.payload is not None else b""
-            reply = await service.handler(service.decode(unpack(payload)))
-            query.reply(str(query.key_expr), pack(reply))
+            key = str(query.key_expr)
+
+            def send(message: Any) -> None:
+                query.reply(key, pack(message), attachment=PROGRESS)
+
+            reply = await service.handler(service.decode(unpack(payload)), send)
+            query.reply(key, pack(reply))
         except Exception as exc:
             log.info("request refused on %s: %s: %s", service.key, type(exc).__name__, exc)
             query.reply_err(pack({"error": type(exc).__name__, "message": str(exc)}))

@@ -81,7 +81,7 @@ from wm.reaper import install_reaper
 
 from . import logs
 from .agent_node import AgentNode
-from .messaging import Messaging, Publisher, plain
+from .messaging import Messaging, Progress, Publisher, plain
 
 F = TypeVar("F", bound=Callable[..., Any])
 T = TypeVar("T")
@@ -213,9 +213,25 @@ class Agent:
         """A publisher on ``key``, undeclared by the runtime on the way out."""
         return self.messaging.publisher(key, express=express)
 
-    async def ask(self, key: str, request: Any, *, decode: Callable[[Any], T] = plain, timeout: float = 5.0) -> T:
-        """Send one request and return ``decode`` of the reply (see :meth:`Messaging.ask`)."""
-        return await self.messaging.ask(key, request, decode=decode, timeout=timeout)
+    def serve_progress(
+        self, key: str, handler: Callable[[T, Progress], Awaitable[Any]], *, decode: Callable[[Any], T] = plain
+    ) -> None:
+        """:meth:`serve`, the handler also given a function that sends progress replies (see
+        :meth:`Messaging.serve_progress`)."""
+        self.messaging.serve_progress(key, handler, decode=decode)
+
+    async def ask(
+        self,
+        key: str,
+        request: Any,
+        *,
+        decode: Callable[[Any], T] = plain,
+        timeout: float = 5.0,
+        progress: Callable[[T], None] | None = None,
+    ) -> T:
+        """Send one request and return ``decode`` of the reply, progress replies to ``progress`` (see
+        :meth:`Messaging.ask`)."""
+        return await self.messaging.ask(key, request, decode=decode, timeout=timeout, progress=progress)
 
     # -- declared handlers ----------------------------------------------------
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import asyncio
 import math
+from collections.abc import Callable
+from pathlib import Path
 
 import pytest
 
@@ -13,16 +15,22 @@ from agents.caregiving.model.candidates import Danger
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.imagine_reply import ImagineReply
 from agents.caregiving.model.joint import imagine_joint
+from agents.caregiving.model.move_search import SearchItem
+from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.robot_moves import standoff_moves
 from agents.caregiving.model.rollout import BulletRollout
 from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.world_model import Walk
 from agents.messaging import Messaging, NoReply, RemoteError
+from bridges.experiment.perfect_belief import perfect_belief_spec
+from bridges.world.bridge import trial_for
 from procs import PYTHON, Proc, endpoint, free_port
 from wm.net.connection import close_session, open_session
 
 GRAPH = "simtest"
 GAZES = [math.radians(8), math.radians(-30)]
+HURRIED_WALKER = Path(__file__).resolve().parents[2] / "docs" / "results" / "heldout" / "hurried_walker.yaml"
 
 
 @pytest.fixture(scope="module")
@@ -48,14 +56,14 @@ def sim_endpoint():
         proc.stop()
 
 
-def ask(ep: str, request: object) -> ImagineReply:
+def ask(ep: str, request: object, progress: Callable[[ImagineReply], None] | None = None) -> ImagineReply:
     async def go() -> ImagineReply:
         session = await open_session(connect=[ep])
         try:
             for _ in range(100):  # until the agent's queryable is declared
                 try:
                     return await Messaging(session).ask(
-                        keys.imagine(GRAPH), request, decode=imagine_reply.decode, timeout=2.0
+                        keys.imagine(GRAPH), request, decode=imagine_reply.decode, timeout=2.0, progress=progress
                     )
                 except NoReply:
                     await asyncio.sleep(0.1)
@@ -151,3 +159,26 @@ def test_malformed_requests_get_errors_and_the_service_carries_on(sim_endpoint) 
     assert "request.spec.gazes.person: is required" in (bad_search.error or "")
     assert searched.search is not None and searched.search.chosen is not None and searched.search.chosen.clear
     assert proc.popen.poll() is None
+
+
+def test_a_head_start_comes_back_before_the_search_ends(sim_endpoint) -> None:
+    """Trial 0 of the held-out hurried walker: the first candidate fails harmlessly and is sent on the way."""
+    ep, _ = sim_endpoint
+    s = load_scenario(HURRIED_WALKER)
+    trial = trial_for(s, 6, 0)
+    found = perfect_belief_spec(trial, 0.55, GridPlanner(s.scene().bounds), 0.05)
+    assert found is not None
+    scene, spec = found
+    item = SearchItem(spec, Uncertainty(0.0, {}, 1), 0.2, 24, judging=0.02, head_start=True)
+    request = {"items": [item.to_wire()], "scene": scene.to_wire()}
+    early: list[ImagineReply] = []
+    final = ask(ep, request, early.append)
+    assert len(early) == 1
+    lead = early[0].results[0].search
+    searched = final.results[0].search
+    assert lead is not None and searched is not None
+    assert lead.verdicts == () and lead.chosen is None and lead.lead is not None
+    assert searched.lead == lead.lead and searched.verdicts[0].move == lead.lead.move
+    assert searched.chosen is not None and searched.chosen.safe(0.2)
+    # An asker that takes no progress gets the same final reply, and nothing else.
+    assert ask(ep, request).results[0].search == searched

@@ -13,6 +13,12 @@ simulator to imagine the candidates, and writes the result:
   (:mod:`agents.caregiving.model.joint`) with every gaze class of each endangered
   person, the other people walking their likeliest intentions beside them, and
   perception's uncertainty sampled, one at a time up to the first safe one;
+* a robot at rest does not stand idle while the search judges on: when the first
+  candidate is not safe but harms nobody (it trips nobody, and whoever falls with
+  it falls with the robot idle too), the simulator sends it back at once as a head
+  start, written as an intention with ``head_start`` set, and every later
+  candidate is judged as a switch from it; the move chosen supersedes it, and when
+  none is chosen the robot drives on with it until a later search replaces it;
 * when no single move keeps everyone safe, each danger is searched alone, most
   urgent first, and the move found is written with the people it leaves unsaved;
 * while a move is under way, a new risky intention first re-imagines that move
@@ -45,6 +51,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from itertools import count
 
@@ -158,14 +165,25 @@ class Action(Agent):
         if (
             current is not None
             and under_way is not None
-            and not gives_up(under_way, self.doubted == current.name, robot)
+            and not gives_up(under_way, self.doubted == current.name or bool(current.get("head_start")), robot)
         ):
             self.doubted = current.name
             self.log.info("move doubted", under_way=under_way.reason, risk=round(under_way.risk, 2))
             return  # kept for one more look
         idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
         self.tried = []
-        chosen, unsaved = await self._find(ctx, spec, idle_risk), ""
+        led = False
+
+        def lead(verdict: Verdict) -> None:
+            nonlocal led
+            if move_under_way(self.g) is not None:  # a move came under way since: the lead was judged from rest
+                self.log.info("head start dropped", because="a move came under way during the search")
+                return
+            led = self._write(ctx, verdict, dangers, None, None, "", started, head_start=True)
+
+        chosen, unsaved = await self._find(ctx, spec, idle_risk, lead if current is None else None), ""
+        if led:
+            current = move_under_way(self.g)
         if chosen is None and len(spec.dangers) > 1:
             for d in sorted(spec.dangers, key=lambda d: d.time_to_collision):
                 alone = replace(spec, dangers=(d,))
@@ -182,6 +200,7 @@ class Action(Agent):
                 search_ms=self._ms(started),
                 tried=len(self.tried),
                 why=sorted({v.reason for v in self.tried})[:4],
+                head_start_kept=led,
             )
             if under_way is not None and under_way.move is not None and under_way.trips(robot):
                 braking = await self._braking(ctx, spec, under_way, robot)
@@ -202,12 +221,18 @@ class Action(Agent):
 
     # -- asking the simulator ------------------------------------------------------------------
     async def _search(
-        self, ctx: Context, spec: SearchSpec, idle_risk: float, moves: list[RobotMove | None] | None = None
+        self,
+        ctx: Context,
+        spec: SearchSpec,
+        idle_risk: float,
+        moves: list[RobotMove | None] | None = None,
+        head_start: Callable[[Verdict], None] | None = None,
     ) -> SearchResult | None:
         """One search, run by the simulator; each candidate imagines the robot starting when its command would arrive.
 
-        ``moves`` judges those moves instead of the generated candidates (``None``: braking). None when the
-        simulator refused.
+        ``moves`` judges those moves instead of the generated candidates (``None``: braking). With
+        ``head_start``, a head start the simulator finds on the way is handed to it as soon as it arrives.
+        None when the simulator refused.
         """
         item = SearchItem(
             replace(spec, delay=self._delay(ctx)),
@@ -217,9 +242,18 @@ class Action(Agent):
             idle_risk,
             self.judging * self.clock.rate(self.g),
             tuple(moves) if moves else None,
+            head_start is not None,
         )
+
+        def progress(reply: imagine_reply.ImagineReply) -> None:
+            found = reply.results[0].search if len(reply.results) == 1 else None
+            if head_start is not None and found is not None and found.lead is not None:
+                head_start(found.lead)
+
         sent = time.perf_counter()
-        reply = await self.ask(keys.imagine(self.args.graph), {"items": [item.to_wire()]}, decode=imagine_reply.decode)
+        reply = await self.ask(
+            keys.imagine(self.args.graph), {"items": [item.to_wire()]}, decode=imagine_reply.decode, progress=progress
+        )
         self.rpc_ms += (time.perf_counter() - sent) * 1e3
         self.sim_ms += reply.compute_ms
         found = reply.results[0].search if len(reply.results) == 1 else None
@@ -231,9 +265,11 @@ class Action(Agent):
             self.judging += JUDGING_WEIGHT * (per_move - self.judging)
         return found
 
-    async def _find(self, ctx: Context, spec: SearchSpec, idle_risk: float) -> Verdict | None:
+    async def _find(
+        self, ctx: Context, spec: SearchSpec, idle_risk: float, head_start: Callable[[Verdict], None] | None = None
+    ) -> Verdict | None:
         """The move the search chose for ``spec``, if any; every verdict on the way joins :attr:`tried`."""
-        found = await self._search(ctx, spec, idle_risk)
+        found = await self._search(ctx, spec, idle_risk, head_start=head_start)
         if found is None:
             return None
         self.tried += found.verdicts
@@ -264,14 +300,16 @@ class Action(Agent):
         under_way: Verdict | None,
         unsaved: str,
         started: float,
-    ) -> None:
-        written = write_intention(self.g, ctx, chosen, dangers, current, str(next(self.names)), unsaved)
+        head_start: bool = False,
+    ) -> bool:
+        """Write ``chosen`` as the robot's intention (a ``head_start`` while the search judges on); False if not."""
+        written = write_intention(self.g, ctx, chosen, dangers, current, str(next(self.names)), unsaved, head_start)
         if written is None:
-            return
+            return False
         edge, danger = written
         move = chosen.move
         self.log.info(
-            "move chosen" if move else "braking",
+            "head start" if head_start else "move chosen" if move else "braking",
             **({"target": move.target, "x": round(move.x, 2), "y": round(move.y, 2)} if move else {}),
             in_time=chosen.in_time(danger.time_to_collision),
             risk=round(chosen.risk, 2),
@@ -286,6 +324,7 @@ class Action(Agent):
             sim_ms=round(self.sim_ms, 1),
             since_risk_ms=round((time.time() - edge.get("updated_at", time.time())) * 1e3, 1),
         )
+        return True
 
     @staticmethod
     def _ms(started: float) -> float:

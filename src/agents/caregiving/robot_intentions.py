@@ -122,12 +122,20 @@ def clear_intentions(g: Graph) -> None:
 
 
 def write_intention(
-    g: Graph, ctx: Context, chosen: Verdict, dangers: Dangers, under_way: Node | None, name: str, unsaved: str = ""
+    g: Graph,
+    ctx: Context,
+    chosen: Verdict,
+    dangers: Dangers,
+    under_way: Node | None,
+    name: str,
+    unsaved: str = "",
+    head_start: bool = False,
 ) -> tuple[Edge, Danger] | None:
     """Write ``chosen`` as the robot's new intention (``move_to`` a pose, or ``stop``), superseding the one under way.
 
     Returns the most urgent danger it protects from, with its edge; ``None`` (nothing written) when that
-    person has left W meanwhile. ``unsaved`` names the people no single move kept safe.
+    person has left W meanwhile. ``unsaved`` names the people no single move kept safe; ``head_start``
+    marks a move sent while the search judges on (it does not remove the danger itself).
     """
     robot = ctx.scene.robot
     assert robot is not None
@@ -136,6 +144,8 @@ def write_intention(
         return None
     move = chosen.move
     reason = f"{chosen.reason}; protects {', '.join(sorted(dangers))}"
+    if head_start:
+        reason = f"head start while the search judges on ({chosen.reason}); for {', '.join(sorted(dangers))}"
     if unsaved:
         reason += f"; not saved: {unsaved} (no single move keeps everyone safe)"
     what = (
@@ -159,6 +169,7 @@ def write_intention(
                 "at_time": ctx.scene.time,
                 "time_to_collision": danger.time_to_collision,
                 "in_time": chosen.in_time(danger.time_to_collision),
+                "head_start": head_start,
                 "reason": reason,
             },
         )

@@ -10,6 +10,8 @@ context; without it the context is W as this replica holds it when the request
 arrives, frozen for the whole batch. The reply is an
 :class:`~agents.caregiving.model.imagine_reply.ImagineReply`.
 
+A search that asks for a head start gets it as soon as it is found, in a progress
+reply before the final one (:meth:`agents.messaging.Messaging.serve_progress`).
 A malformed item gets its own error entry; a malformed request an error reply.
 Items are served one at a time, by one request handler at a time: it serves the
 queued batches' items, batches that judge robot moves (searches and joint
@@ -39,9 +41,11 @@ from agents.caregiving.model.imagine_reply import Answer, ImagineReply
 from agents.caregiving.model.judge_ahead import JudgeAhead
 from agents.caregiving.model.rollout import BulletRollout, NumpyRollout, Rollout
 from agents.caregiving.model.scene import Scene
-from agents.caregiving.model.service import batch_scene, judges_robot_moves, serve_one
+from agents.caregiving.model.service import HeadStart, batch_scene, judges_robot_moves, serve_one
+from agents.caregiving.model.verdict import SearchResult, Verdict
 from wm import Event
 
+from ..messaging import Progress
 from ..runtime import Agent, main, on
 from .context import Context, read_context
 from .names import OBJECT, PERSON, ROBOT, RT, WORLD
@@ -55,6 +59,7 @@ class _Job:
     seq: int
     scene: Scene
     items: list[Any]
+    head_start: HeadStart | None = None  # sends a search's head start to the asker as a progress reply
     results: list[Answer] = field(default_factory=list)
     wall_s: float = 0.0  # spent serving its items
     cpu_s: float = 0.0  # of which this process's CPU time (the helper's is not counted)
@@ -95,7 +100,7 @@ class Simulation(Agent):
         self.jobs: list[_Job] = []
         self._seq = count()
         self._serving = asyncio.Lock()
-        self.serve(keys.imagine(self.args.graph), self.imagine)
+        self.serve_progress(keys.imagine(self.args.graph), self.imagine)
         self.log.info(
             "serving", key=keys.imagine(self.args.graph), rollout=self.args.rollout, judge_ahead=self.ahead is not None
         )
@@ -118,12 +123,32 @@ class Simulation(Agent):
                 self.bullet.place([*s.obstacles, *(p.body() for p in s.people), *([s.robot.body()] if s.robot else [])])
         return self.context
 
-    async def imagine(self, request: Any) -> dict[str, Any]:
-        """Freeze the context now, queue the batch, and answer when its last item is done."""
+    async def imagine(self, request: Any, progress: Progress) -> dict[str, Any]:
+        """Freeze the context now, queue the batch, and answer when its last item is done.
+
+        A search's head start is sent on the way, as a progress reply whose one result is a search
+        with no verdicts and that head start as its lead.
+        """
         start = time.perf_counter()
         ctx = self._context()
         scene, items = batch_scene(request, ctx.scene if ctx else None)
-        job = _Job(0 if judges_robot_moves(items) else 1, next(self._seq), scene, items)
+        context = ctx if ctx is not None and scene is ctx.scene else None  # None: the request pinned its scene
+
+        def reply(results: tuple[Answer, ...]) -> dict[str, Any]:
+            return imagine_reply.encode(
+                ImagineReply(
+                    context.episode if context else None,
+                    scene.time,
+                    context.written_at if context else None,
+                    (time.perf_counter() - start) * 1e3,
+                    results,
+                )
+            )
+
+        def head_start(lead: Verdict) -> None:
+            progress(reply((Answer(search=SearchResult(None, (), lead)),)))
+
+        job = _Job(0 if judges_robot_moves(items) else 1, next(self._seq), scene, items, head_start)
         read = time.perf_counter()
         self.jobs.append(job)
         async with self._serving:
@@ -141,16 +166,7 @@ class Simulation(Agent):
                 cpu_ms=round(job.cpu_s * 1e3, 1),
                 waiting_ms=round((total - (read - start) - job.wall_s) * 1e3, 1),
             )
-        context = ctx if ctx is not None and scene is ctx.scene else None  # None: the request pinned its scene
-        return imagine_reply.encode(
-            ImagineReply(
-                context.episode if context else None,
-                scene.time,
-                context.written_at if context else None,
-                (time.perf_counter() - start) * 1e3,
-                tuple(job.results),
-            )
-        )
+        return reply(tuple(job.results))
 
     async def _serve_until(self, mine: _Job) -> None:
         """Serve queued items one at a time, robot-move batches (Algorithm 2) first, until ``mine`` is done.
@@ -161,7 +177,9 @@ class Simulation(Agent):
         while not mine.done:
             job = min(self.jobs, key=lambda j: (j.priority, j.seq))
             wall, cpu = time.perf_counter(), time.process_time()
-            job.results.append(serve_one(job.scene, job.items[len(job.results)], self.rollout, self.ahead))
+            job.results.append(
+                serve_one(job.scene, job.items[len(job.results)], self.rollout, self.ahead, job.head_start)
+            )
             job.wall_s += time.perf_counter() - wall
             job.cpu_s += time.process_time() - cpu
             if job.done:

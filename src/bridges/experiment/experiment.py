@@ -30,7 +30,9 @@ the command, and the wait for the world's next step), and
 the same broad set saves when commanded that much later;
 ``prevention_rate_of_saveable_after_delay`` is the prevention rate over those.
 ``robot_caused_collisions`` counts trials that were safe with the robot idle and
-collided with it acting. Reaction times are wall-clock differences
+collided with it acting. ``head_starts`` counts trials in which the robot set off on a head start
+while the search judged on (an intention with ``head_start`` set: the robot's first command, but not
+a move that removes the danger, so neither an action nor a reaction). Reaction times are wall-clock differences
 of stamps written into W by the writers (same host): the paper's definition
 (risky ``has_intention`` -> robot ``intention``) and end to end (the
 perception write behind the risky guess -> robot ``intention``).
@@ -190,6 +192,7 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "prevented_saveable_after_delay": saved_late,
         "prevention_rate_of_saveable_after_delay": _ratio(saved_late, len(late)),
         "robot_caused_collisions": sum(s.record.collided and not s.truly_risky for s in scored),
+        "head_starts": sum(s.record.head_start is not None for s in scored),
         "truly_risky": len(risky),
         "closed_loop_collisions": sum(s.record.collided for s in scored),
     }
@@ -353,6 +356,7 @@ def trial_json(s: Scored) -> dict[str, Any]:
         "saveable_after_delay": s.saveable_after_delay,
         "robot_caused": r.collided and not s.truly_risky,
         "reason": (r.action or {}).get("reason"),
+        "head_start_ms": r.head_start_ms,
         "idle_min_clearance": s.idle_clearance,
         "risk_probability": (r.risky or {}).get("probability"),
         "risk_at_time": (r.risky or {}).get("at_time"),

@@ -55,7 +55,8 @@ class TrialRecord:
     index: int | None
     intentions: int = 0
     risky: dict[str, Any] | None = None
-    action: dict[str, Any] | None = None
+    action: dict[str, Any] | None = None  # the first robot intention that is not a head start
+    head_start: dict[str, Any] | None = None  # the first head start, sent while the search judged on
     outcome: dict[str, Any] = field(default_factory=dict)
     snapshot: Snapshot | None = None
     seen_risky_at: float | None = None
@@ -67,6 +68,13 @@ class TrialRecord:
         if self.action is None:
             return None
         return (self.action["created_at"] - self.action["risk_at"]) * 1e3
+
+    @property
+    def head_start_ms(self) -> float | None:
+        """Risky intention written -> head start written (the robot moving while the search judged on)."""
+        if self.head_start is None:
+            return None
+        return (self.head_start["created_at"] - self.head_start["risk_at"]) * 1e3
 
     @property
     def e2e_ms(self) -> float | None:
@@ -134,9 +142,13 @@ class Harness:
                 rec.snapshot = snapshot(self.g, None)
         elif event.type == INTENTION and event.kind.value == "node_added" and rec.action is None:
             node = self.g.find_node(event.id)  # type: ignore[arg-type]
-            if node is not None:
-                rec.action, rec.seen_action_at = dict(node.attrs), time.time()
-                rec.snapshot = snapshot(self.g, rec.action)
+            if node is None:
+                return
+            if node.get("head_start"):
+                rec.head_start = rec.head_start or dict(node.attrs)
+                return
+            rec.action, rec.seen_action_at = dict(node.attrs), time.time()
+            rec.snapshot = snapshot(self.g, rec.action)
 
     async def _ask(self, request: dict[str, Any]) -> dict[str, Any]:
         return await self.messaging.ask(keys.world_control(self.graph), request, timeout=10.0)

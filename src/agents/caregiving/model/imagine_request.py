@@ -73,6 +73,8 @@ class PersonItem:
 class JointItem:
     """Imagine ``move`` in time with ``walks``, after ``delay`` seconds more of the ``current`` move (if any).
 
+    A ``lead`` (a search's head start) is driven for ``lead_for`` seconds between the two.
+
     With ``until_first_fall`` the imagination ends when the first person falls (a search needs no more
     to refuse the move): the others' walks are then reported as still ``walking``. ``falling`` names the
     people whose fall into a given object happens anyway (``{person: object}``): that fall neither ends
@@ -86,9 +88,12 @@ class JointItem:
     uncertainty: Uncertainty | None = None
     until_first_fall: bool = False
     falling: Mapping[str, str] = field(default_factory=dict)
+    lead: RobotMove | None = None
+    lead_for: float = 0.0
 
     def to_wire(self) -> dict[str, Any]:
-        """``{"kind": "joint", "walks", "move", "current", "delay", "until_first_fall", "uncertainty"?}``."""
+        """``{"kind": "joint", "walks", "move", "current", "delay", "until_first_fall", "falling", "lead",
+        "lead_for", "uncertainty"?}``."""
         out: dict[str, Any] = {
             "kind": "joint",
             "walks": [walk_to_wire(w) for w in self.walks],
@@ -97,6 +102,8 @@ class JointItem:
             "delay": self.delay,
             "until_first_fall": self.until_first_fall,
             "falling": dict(self.falling),
+            "lead": self.lead.to_wire() if self.lead else None,
+            "lead_for": self.lead_for,
         }
         if self.uncertainty is not None:
             out["uncertainty"] = uncertainty_to_wire(self.uncertainty)
@@ -117,6 +124,8 @@ class JointItem:
             uncertainty,
             f.boolean("until_first_fall", False),
             falling_from_fields(f.child("falling", {}), {w.person for w in walks}),
+            RobotMove.optional_from(f, "lead"),
+            f.number("lead_for", 0.0, non_negative=True, at_most=MAX_DELAY),
         )
 
 

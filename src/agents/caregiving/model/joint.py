@@ -5,9 +5,10 @@ uses for the truth, from a believed scene and guessed intents:
 
 * the robot goes on with its ``current`` move (if any), along the route it
   reports, for ``delay`` seconds, the time the pipeline needs to send a command;
-  then it drives to the new move's pose along a fresh plan (or, when the new
-  move is the current one, on along the same route), under its speed and
-  acceleration limits and from the speed it has now;
+  then, given a ``lead`` (the head start a search sends while it judges on), it
+  drives that for ``lead_for`` seconds; then it drives to the new move's pose
+  along a fresh plan (or, when the new move is the one it drives, on along the
+  same route), under its speed and acceleration limits and from the speed it has;
 * each person walks to their guessed target at their gaze class, sees the robot
   when it enters their field of view, and re-plans around it as it is then.
 
@@ -182,6 +183,8 @@ def imagine_joint(
     *,
     delay: float = 0.0,
     current: RobotMove | None = None,
+    lead: RobotMove | None = None,
+    lead_for: float = 0.0,
     horizon: float = HORIZON,
     planner: GridPlanner | None = None,
     until_first_fall: bool = False,
@@ -202,7 +205,11 @@ def imagine_joint(
     if current is not None:
         world.resume_robot(current)
     world.advance(start + delay, until_first_fall, falling)
-    reachable = True if current is not None and move == current else world.command_robot(move)
+    driving = current
+    if lead is not None and lead != current and world.command_robot(lead):
+        driving = lead
+        world.advance(start + delay + lead_for, until_first_fall, falling)
+    reachable = True if driving is not None and move == driving else world.command_robot(move)
     if reachable or move is None:
         world.advance(start + horizon, until_first_fall, falling)
     arrival = world.robot_arrival - start if move is not None and world.robot_arrival is not None else None

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from functools import partial
 from itertools import islice
 from typing import TYPE_CHECKING, Any
 
@@ -54,6 +55,7 @@ class SearchSpec:
     searched now, say because no move saved them a moment ago), and what they walk into: a move is not
     refused for that same fall, only for one it would cause.
     ``current`` is the move the robot is driving now (if any), which it keeps for ``delay`` seconds.
+    ``lead`` is a head start the search sent (see :func:`search`), driven for ``lead_for`` seconds after that.
     """
 
     dangers: tuple[Danger, ...]
@@ -63,6 +65,8 @@ class SearchSpec:
     current: RobotMove | None = None
     delay: float = 0.0
     falling: dict[str, str] = field(default_factory=dict)
+    lead: RobotMove | None = None
+    lead_for: float = 0.0
 
     def walk_sets(self) -> list[tuple[Walk, ...]]:
         """The sets of walks to imagine each move with: every gaze class of each endangered person in turn."""
@@ -81,7 +85,7 @@ class SearchSpec:
     def items(self, move: RobotMove | None, uncertainty: Uncertainty) -> list[JointItem]:
         """The simulator items that judge one move, one per walk set, each ending at the first fall that refuses it."""
         return [
-            JointItem(walks, move, self.current, self.delay, uncertainty, True, self.falling)
+            JointItem(walks, move, self.current, self.delay, uncertainty, True, self.falling, self.lead, self.lead_for)
             for walks in self.walk_sets()
         ]
 
@@ -95,6 +99,8 @@ class SearchSpec:
             "current": self.current.to_wire() if self.current else None,
             "delay": self.delay,
             "falling": dict(self.falling),
+            "lead": self.lead.to_wire() if self.lead else None,
+            "lead_for": self.lead_for,
         }
 
     @classmethod
@@ -119,6 +125,8 @@ class SearchSpec:
             RobotMove.optional_from(f, "current"),
             f.number("delay", 0.0, non_negative=True, at_most=MAX_DELAY),
             falling_from_fields(f.child("falling", {}), {w.person for w in bystanders}),
+            RobotMove.optional_from(f, "lead"),
+            f.number("lead_for", 0.0, non_negative=True, at_most=MAX_DELAY),
         )
 
 
@@ -288,7 +296,17 @@ class NoWorse:
     def __call__(self, verdict: Verdict) -> bool:
         if verdict.clear or not holds(verdict, self.threshold, self.robot):
             return False
+        return self.as_idle(verdict)
+
+    def as_idle(self, verdict: Verdict) -> bool:
+        """Whether everyone who falls with the move, in any walk set, falls there with the robot as it is too."""
         return all(any(g.person == f.person for g in self._idle_in(f.walk_set).falls) for f in verdict.falls)
+
+    def harmless(self, verdict: Verdict) -> bool:
+        """Whether a move judged at every walk set can be driven without harm: the robot reaches it, it trips
+        nobody, and whoever falls with it falls with the robot as it is too (:meth:`as_idle`)."""
+        imagined = verdict.clear or bool(verdict.falls)
+        return imagined and not verdict.trips(self.robot) and self.as_idle(verdict)
 
     def _idle_in(self, walk_set: int) -> Verdict:
         if walk_set not in self._idle:
@@ -342,6 +360,21 @@ def judge_move(
     return judge(move, first + [imagine(item) for item in items[1:]], spec.falling, margin)
 
 
+def judge_lead(
+    spec: SearchSpec, move: RobotMove, imagine: Imagine, uncertainty: Uncertainty, robot: str | None
+) -> Verdict:
+    """Judge ``move`` as a head start: at every walk set, the dangers' own falls let happen.
+
+    The falls the dangers foresee happen with the robot idle too; what matters of a head start is
+    whether anyone else falls, or anyone walks into the robot, before a better move replaces it.
+    No risk is sampled: a head start is driven only while the search looks for a safe move.
+    """
+    own = {d.person: d.obstacle for d in spec.dangers}
+    items = replace(spec, falling={**spec.falling, **own}).items(move, uncertainty)
+    answers = [imagine(replace(item, uncertainty=None)) for item in items]
+    return judge(move, answers, {**spec.falling, **own}, RobotMargin.of(robot, uncertainty))
+
+
 def search(
     scene: Scene,
     spec: SearchSpec,
@@ -354,6 +387,7 @@ def search(
     moves: Sequence[RobotMove | None] | None = None,
     ahead: JudgeAhead | None = None,
     settle_after_clear: int = SETTLE_AFTER_CLEAR,
+    head_start: Callable[[Verdict], None] | None = None,
 ) -> SearchResult:
     """Algorithm 2's search: judge the candidates one at a time, likeliest first, and stop at the first safe one.
 
@@ -367,12 +401,22 @@ def search(
     ``moves`` replaces the generated candidates (to judge the move under way again, for instance; ``None``
     among them judges braking to a stop from the robot's current state). With
     ``ahead``, a helper process judges candidates meanwhile (same verdicts, less wall time).
+
+    With ``head_start``, a robot at rest need not stand idle while the search judges on: when the first
+    candidate is not safe but :meth:`NoWorse.harmless` (judged again by :func:`judge_lead`), it is handed
+    to ``head_start`` to be sent at once, and every later candidate is judged as a switch from it, the
+    robot driving it from its command (one judgement later) until the candidate's. The result's ``lead``
+    is that verdict: the move to keep driving when no candidate is chosen.
     """
     verdicts: list[Verdict] = []
     generated = candidates(scene, spec.dangers, verdicts, spec.delay, judging)
     pool: Iterator[RobotMove | None] = islice(generated if moves is None else iter(moves), max_moves)
-    settles = Settles(NoWorse(spec, imagine, uncertainty, threshold, scene.robot_name), idle_risk, settle_after_clear)
-    _Judging(scene, spec, imagine, uncertainty, judging, ahead).in_order(pool, threshold, verdicts, settles)
+    no_worse = NoWorse(spec, imagine, uncertainty, threshold, scene.robot_name)
+    settles = Settles(no_worse, idle_risk, settle_after_clear)
+    judging_ = _Judging(scene, spec, imagine, uncertainty, judging, ahead)
+    if head_start is not None and moves is None and spec.current is None:
+        judging_.head_start = partial(_HeadStart, no_worse, head_start)
+    judging_.in_order(pool, threshold, verdicts, settles)
     chosen = choose(verdicts, threshold, idle_risk)
     if chosen is not None and settles.by_count and not chosen.safe(threshold):
         k = next(k for k, v in enumerate(verdicts) if v is chosen)
@@ -384,7 +428,18 @@ def search(
         chosen = verdicts[-1] = replace(
             last, reason=f"clear at the gaze found risky; at another, {last.reason}, as with the robot as it is"
         )
-    return SearchResult(chosen, tuple(verdicts))
+    lead = judging_.lead.verdict if judging_.lead is not None else None
+    return SearchResult(chosen, tuple(verdicts), lead)
+
+
+@dataclass(frozen=True)
+class _HeadStart:
+    """The first candidate, found harmless and sent as a head start, after ``slots`` judgements of the search."""
+
+    no_worse: NoWorse
+    send: Callable[[Verdict], None]
+    verdict: Verdict
+    slots: int = 2
 
 
 @dataclass(eq=False)  # compared by identity: it tags the moves it lends the helper
@@ -403,9 +458,30 @@ class _Judging:
     uncertainty: Uncertainty
     judging: float
     ahead: JudgeAhead | None
+    head_start: Callable[[Verdict], _HeadStart] | None = None
+    lead: _HeadStart | None = None
 
     def spec_at(self, k: int) -> SearchSpec:
-        return replace(self.spec, delay=self.spec.delay + self.judging * k)
+        """The spec the k-th candidate is judged with: the robot switching to it once k judgements are done.
+
+        After a head start, the lead's own judgement takes a slot, and the robot drives the lead from its
+        command until the switch.
+        """
+        lead = self.lead
+        if lead is None or k == 1:
+            return replace(self.spec, delay=self.spec.delay + self.judging * k)
+        started = self.spec.delay + self.judging * lead.slots
+        return replace(self.spec, delay=started, lead=lead.verdict.move, lead_for=self.judging * (k - 1))
+
+    def consider_head_start(self, first: Verdict) -> None:
+        """Judge the first candidate (not safe) again as a head start, and send it if it is harmless."""
+        make, self.head_start = self.head_start, None
+        if make is None or first.move is None:
+            return
+        lead = make(judge_lead(self.spec_at(1), first.move, self.imagine, self.uncertainty, self.scene.robot_name))
+        if lead.no_worse.harmless(lead.verdict):
+            self.lead = lead
+            lead.send(lead.verdict)
 
     def in_order(
         self,
@@ -458,6 +534,8 @@ class _Judging:
             exchange()
             if gather():
                 return
+            if verdicts:
+                self.consider_head_start(verdicts[0])
             mine = next(positions, None)
             exchange()
         while lent:
@@ -474,7 +552,8 @@ class _Judging:
 class SearchItem:
     """Run the whole search for ``spec`` in the simulator (judging ``moves`` instead of the candidates, if given).
 
-    A ``None`` among ``moves`` (null on the wire) is the robot braking to a stop.
+    A ``None`` among ``moves`` (null on the wire) is the robot braking to a stop. With ``head_start``, the
+    asker takes a head start while the search judges on (see :func:`search`), sent by the simulator as it is found.
     """
 
     spec: SearchSpec
@@ -484,9 +563,11 @@ class SearchItem:
     idle_risk: float = 1.0
     judging: float = 0.0
     moves: tuple[RobotMove | None, ...] | None = None
+    head_start: bool = False
 
     def to_wire(self) -> dict[str, Any]:
-        """``{"kind": "search", "spec", "uncertainty", "threshold", "max_moves", "idle_risk", "judging", "moves"?}``."""
+        """``{"kind": "search", "spec", "uncertainty", "threshold", "max_moves", "idle_risk", "judging",
+        "head_start", "moves"?}``."""
         out: dict[str, Any] = {
             "kind": "search",
             "spec": self.spec.to_wire(),
@@ -495,6 +576,7 @@ class SearchItem:
             "max_moves": self.max_moves,
             "idle_risk": self.idle_risk,
             "judging": self.judging,
+            "head_start": self.head_start,
         }
         if self.moves is not None:
             out["moves"] = [m.to_wire() if m is not None else None for m in self.moves]
@@ -514,10 +596,17 @@ class SearchItem:
             tuple(RobotMove.from_fields(m) if m is not None else None for m in f.children_or_null("moves"))
             if f.has("moves")
             else None,
+            f.boolean("head_start", False),
         )
 
-    def run(self, scene: Scene, imagine: Imagine, ahead: JudgeAhead | None = None) -> SearchResult:
-        """:func:`search` with this item's parameters."""
+    def run(
+        self,
+        scene: Scene,
+        imagine: Imagine,
+        ahead: JudgeAhead | None = None,
+        head_start: Callable[[Verdict], None] | None = None,
+    ) -> SearchResult:
+        """:func:`search` with this item's parameters; a head start goes to ``head_start`` if the item asks for one."""
         return search(
             scene,
             self.spec,
@@ -529,4 +618,5 @@ class SearchItem:
             self.judging,
             self.moves,
             ahead,
+            head_start=head_start if self.head_start else None,
         )

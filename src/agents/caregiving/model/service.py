@@ -5,13 +5,14 @@ A request is a msgpack map ``{"items": [ITEM, ...], "scene": SCENE?}``. An ITEM 
 * ``{"kind": "person", "person", "target", "gaze", "known"?, "uncertainty"?}``: the
   person's walk alone (Algorithm 1, :func:`agents.caregiving.model.imagine.imagine_person`);
 * ``{"kind": "joint", "walks": [{"person", "target", "gaze", "known"?}, ...],
-  "move": MOVE | null, "current"?: MOVE, "delay"?: s, "until_first_fall"?: bool,
-  "falling"?: {person: object}, "uncertainty"?}``: the robot's
+  "move": MOVE | null, "current"?: MOVE, "delay"?: s, "lead"?: MOVE, "lead_for"?: s,
+  "until_first_fall"?: bool, "falling"?: {person: object}, "uncertainty"?}``: the robot's
   move imagined in time with those walks (Algorithm 2, :func:`agents.caregiving.model.joint.imagine_joint`);
 * ``{"kind": "search", "spec": SPEC, "uncertainty", "threshold", "max_moves", "idle_risk"?, "judging"?,
-  "moves"?: [MOVE, ...]}``: Algorithm 2's whole move search
+  "head_start"?: bool, "moves"?: [MOVE, ...]}``: Algorithm 2's whole move search
   (:func:`agents.caregiving.model.move_search.search`), each candidate (or each of ``moves``, when
-  given) judged here with the joint items above, in order, up to the first safe one;
+  given) judged here with the joint items above, in order, up to the first safe one; a head start
+  it finds on the way goes to the caller's ``head_start`` function at once;
   ``SPEC`` is a :class:`~agents.caregiving.model.move_search.SearchSpec` in its wire form;
 
 with ``uncertainty = {"size_error", "sigma": {name: metres}, "samples", "seed"}``. The
@@ -26,7 +27,7 @@ a joint answer's risk is the worst of its walks', sampled only when every walk i
 
 from __future__ import annotations
 
-from collections.abc import Collection
+from collections.abc import Callable, Collection
 from functools import partial
 from typing import Any
 
@@ -41,6 +42,7 @@ from .move_search import SearchItem
 from .rollout import Rollout
 from .scene import Scene
 from .uncertainty import NO_RISK, Risk, Uncertainty, collision_risk
+from .verdict import Verdict
 
 MAX_ITEMS = 512
 #: An item of any kind, as the simulator serves it.
@@ -58,10 +60,21 @@ def item_from_wire(data: object) -> Item:
     return item
 
 
-def serve(scene: Scene, item: Item, rollout: Rollout | None = None, ahead: JudgeAhead | None = None) -> Answer:
-    """Answer one item, with the sampled collision risk when it asks for one; a search may use the ``ahead`` helper."""
+#: Takes a search's head start as soon as it is found (see :func:`agents.caregiving.model.move_search.search`).
+HeadStart = Callable[[Verdict], None]
+
+
+def serve(
+    scene: Scene,
+    item: Item,
+    rollout: Rollout | None = None,
+    ahead: JudgeAhead | None = None,
+    head_start: HeadStart | None = None,
+) -> Answer:
+    """Answer one item, with the sampled collision risk when it asks for one; a search may use the ``ahead`` helper,
+    and hands a head start to ``head_start``."""
     if isinstance(item, SearchItem):
-        return Answer(search=item.run(scene, partial(serve_one, scene, rollout=rollout), ahead))
+        return Answer(search=item.run(scene, partial(serve_one, scene, rollout=rollout), ahead, head_start))
     if isinstance(item, PersonItem):
         w, u = item.walk, item.uncertainty
         im = imagine_person(scene, w.person, w.target, w.gaze, rollout, known=w.known)
@@ -72,6 +85,8 @@ def serve(scene: Scene, item: Item, rollout: Rollout | None = None, ahead: Judge
         item.move,
         delay=item.delay,
         current=item.current,
+        lead=item.lead,
+        lead_for=item.lead_for,
         until_first_fall=item.until_first_fall,
         falling=item.falling,
     )
@@ -82,10 +97,16 @@ def serve(scene: Scene, item: Item, rollout: Rollout | None = None, ahead: Judge
     return Answer(joint=joint, risk=joint_risk(scene, joint, u, item.falling))
 
 
-def serve_item(scene: Scene, item: object, rollout: Rollout | None = None, ahead: JudgeAhead | None = None) -> Answer:
+def serve_item(
+    scene: Scene,
+    item: object,
+    rollout: Rollout | None = None,
+    ahead: JudgeAhead | None = None,
+    head_start: HeadStart | None = None,
+) -> Answer:
     """Answer one item, typed or in its wire form; raises when it is malformed or unanswerable."""
     typed = item if isinstance(item, Item) else item_from_wire(item)
-    return serve(scene, typed, rollout, ahead)
+    return serve(scene, typed, rollout, ahead, head_start)
 
 
 def joint_risk(scene: Scene, joint: JointImagination, u: Uncertainty, falling: Collection[str] = ()) -> Risk:
@@ -104,10 +125,16 @@ def judges_robot_moves(items: list[Any]) -> bool:
     return any(isinstance(i, dict) and i.get("kind") in ROBOT_MOVE_KINDS for i in items)
 
 
-def serve_one(scene: Scene, item: object, rollout: Rollout | None = None, ahead: JudgeAhead | None = None) -> Answer:
+def serve_one(
+    scene: Scene,
+    item: object,
+    rollout: Rollout | None = None,
+    ahead: JudgeAhead | None = None,
+    head_start: HeadStart | None = None,
+) -> Answer:
     """One item's answer (typed or in its wire form); a malformed or unanswerable item gets an error answer."""
     try:
-        return serve_item(scene, item, rollout, ahead)
+        return serve_item(scene, item, rollout, ahead, head_start)
     except (CaregivingError, ValueError, TypeError, KeyError) as exc:
         return Answer(error=f"{type(exc).__name__}: {exc}")
 

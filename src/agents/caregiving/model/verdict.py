@@ -106,25 +106,33 @@ class Verdict:
 
 @dataclass(frozen=True)
 class SearchResult:
-    """Every move a search judged, in order, and the one it chose (``None``: no move removes the danger)."""
+    """Every move a search judged, in order, and the one it chose (``None``: no move removes the danger).
+
+    ``lead`` is the head start the search sent while it judged on, if it sent one (see
+    :func:`agents.caregiving.model.move_search.search`): the move the robot drives when none is chosen.
+    """
 
     chosen: Verdict | None
     verdicts: tuple[Verdict, ...]
+    lead: Verdict | None = None
 
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict; the chosen move is an index into the verdicts."""
         index = next((k for k, v in enumerate(self.verdicts) if v is self.chosen), None)
         if self.chosen is not None and index is None:
             raise ValueError("the chosen verdict is not one of the verdicts")
-        return {"chosen": index, "verdicts": [v.to_wire() for v in self.verdicts]}
+        lead = self.lead.to_wire() if self.lead is not None else None
+        return {"chosen": index, "verdicts": [v.to_wire() for v in self.verdicts], "lead": lead}
 
     @classmethod
     def from_fields(cls, f: Fields) -> SearchResult:
         """Parse :meth:`to_wire` output nested in a larger message."""
         verdicts = tuple(Verdict.from_fields(v) for v in f.children("verdicts"))
+        lead_f = f.optional_child("lead")
+        lead = Verdict.from_fields(lead_f) if lead_f is not None else None
         index = f.optional_number("chosen")
         if index is None:
-            return cls(None, verdicts)
+            return cls(None, verdicts, lead)
         if not index.is_integer() or not 0 <= index < len(verdicts):
             raise f.fail("chosen", f"expected the index of one of {len(verdicts)} verdicts, got {index!r}")
-        return cls(verdicts[int(index)], verdicts)
+        return cls(verdicts[int(index)], verdicts, lead)

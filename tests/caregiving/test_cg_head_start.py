@@ -1,0 +1,145 @@
+"""The head start: a robot at rest sets off on the first candidate while the search judges on.
+
+The recorded cases are truly risky trials of held-out rooms with perfect belief, at the moment a live
+run first saw the danger, the robot starting one world step later and 20 ms later per candidate judged,
+as ``bench/bench_move_search.py`` sets them up.
+"""
+
+import math
+from functools import partial
+from pathlib import Path
+
+import pytest
+
+from agents.caregiving.model import imagine_reply
+from agents.caregiving.model.imagine_reply import Answer, ImagineReply
+from agents.caregiving.model.imagine_request import JointItem
+from agents.caregiving.model.joint import imagine_joint
+from agents.caregiving.model.move_search import SearchItem, SearchSpec, search
+from agents.caregiving.model.planner import GridPlanner
+from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.scenario import Scenario, load_scenario
+from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.service import item_from_wire, serve_one
+from agents.caregiving.model.uncertainty import Uncertainty
+from agents.caregiving.model.verdict import SearchResult, Verdict
+from agents.caregiving.model.world_model import Walk
+from bridges.experiment.oracle import saves, world_at
+from bridges.experiment.perfect_belief import perfect_belief_spec
+from bridges.world.bridge import trial_for
+
+EXACT = Uncertainty(0.0, {}, 1)
+DELAY, JUDGING, THRESHOLD = 0.05, 0.02, 0.2
+HELD_OUT = Path(__file__).resolve().parents[2] / "docs" / "results" / "heldout"
+HURRIED_WALKER = HELD_OUT / "hurried_walker.yaml"
+FACE_TO_FACE = HELD_OUT / "face_to_face.yaml"
+
+
+def recorded_case(scenario: Path, seed: int, index: int, at: float) -> tuple[Scenario, GridPlanner, Scene, SearchSpec]:
+    s = load_scenario(scenario)
+    trial, planner = trial_for(s, seed, index), GridPlanner(s.scene().bounds)
+    found = perfect_belief_spec(trial, at, planner, DELAY)
+    assert found is not None
+    return trial, planner, *found
+
+
+def in_truth(trial: Scenario, planner: GridPlanner, at: float, result: SearchResult) -> bool:
+    """The search's moves commanded in the ground truth when it sends them: the head start one judgement after
+    the first candidate, the chosen move once the candidates before it and the head start are judged."""
+    chosen = result.chosen.move if result.chosen is not None else None
+    if result.lead is None:
+        return chosen is not None and saves(
+            world_at(trial, at + DELAY + JUDGING * len(result.verdicts), planner), chosen
+        )
+    assert result.lead.move is not None
+    world = world_at(trial, at + DELAY + JUDGING * 2, planner)
+    assert world.command_robot(result.lead.move)
+    if chosen is None:
+        return not world.run(world.time + 30.0).collided
+    world.advance(at + DELAY + JUDGING * (len(result.verdicts) + 1))
+    return saves(world, chosen)
+
+
+def test_a_head_start_saves_the_hurried_walker_a_search_from_rest_loses() -> None:
+    """Trial 0 of the hurried walker: the fourth candidate saves them only if the robot has set off already."""
+    trial, planner, scene, spec = recorded_case(HURRIED_WALKER, 6, 0, 0.55)
+    imagine = partial(serve_one, scene)
+
+    from_rest = search(scene, spec, imagine, EXACT, THRESHOLD, 24, judging=JUDGING)
+    assert from_rest.lead is None
+    assert not in_truth(trial, planner, 0.55, from_rest)
+
+    sent: list[Verdict] = []
+    led = search(scene, spec, imagine, EXACT, THRESHOLD, 24, judging=JUDGING, head_start=sent.append)
+    first = led.verdicts[0]
+    assert not first.safe(THRESHOLD) and first.move is not None
+    assert sent == [led.lead] and led.lead is not None and led.lead.move == first.move
+    assert not led.lead.trips(scene.robot_name)
+    assert led.chosen is not None and led.chosen.safe(THRESHOLD) and led.chosen is not first
+    assert in_truth(trial, planner, 0.55, led)
+
+
+def test_every_candidate_after_the_head_start_is_judged_as_a_switch_from_it() -> None:
+    _, _, scene, spec = recorded_case(HURRIED_WALKER, 6, 0, 0.55)
+    items: list[JointItem] = []
+
+    def imagine(item: JointItem) -> Answer:
+        items.append(item)
+        return serve_one(scene, item)
+
+    result = search(scene, spec, imagine, EXACT, THRESHOLD, 24, judging=JUDGING, head_start=lambda _: None)
+    assert result.lead is not None
+    judged = [i for i in items if i.uncertainty is not None]  # the head start's own judgement samples no risk
+    assert judged[0].lead is None and judged[0].delay == pytest.approx(DELAY + JUDGING)
+    for k, item in enumerate(judged[1:], start=2):
+        assert item.lead == result.lead.move and item.delay == pytest.approx(DELAY + 2 * JUDGING)
+        assert item.lead_for == pytest.approx(JUDGING * (k - 1))
+    assert [i.move for i in judged] == [v.move for v in result.verdicts]
+
+
+def test_a_first_candidate_that_walks_someone_into_the_robot_is_no_head_start() -> None:
+    """Trial 2 of face-to-face: the first stand-off puts the robot in the person's way."""
+    _, _, scene, spec = recorded_case(FACE_TO_FACE, 3, 2, 0.6)
+    sent: list[Verdict] = []
+    result = search(
+        scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 24, judging=JUDGING, head_start=sent.append
+    )
+    assert result.verdicts[0].trips(scene.robot_name)
+    assert sent == [] and result.lead is None
+
+
+def test_no_head_start_while_the_robot_drives_a_move() -> None:
+    _, _, scene, spec = recorded_case(HURRIED_WALKER, 6, 0, 0.55)
+    driving = SearchSpec(spec.dangers, spec.gazes, spec.known, spec.bystanders, RobotMove("slipper", 1.0, -0.5, 0.0))
+    sent: list[Verdict] = []
+    result = search(
+        scene, driving, partial(serve_one, scene), EXACT, THRESHOLD, 3, judging=JUDGING, head_start=sent.append
+    )
+    assert sent == [] and result.lead is None
+
+
+def test_a_lead_driven_no_time_is_no_lead_and_a_lead_that_is_the_move_is_driven_on() -> None:
+    scene = load_scenario("paper_experiment1").scene()
+    walks = [Walk("person", "couch", math.radians(8))]
+    ball = scene.obstacle("ball").shape
+    move = RobotMove("ball", ball.x + 0.6, ball.y, math.pi)
+    other = RobotMove("ball", ball.x - 0.6, ball.y, 0.0)
+    direct = imagine_joint(scene, walks, move, delay=0.1)
+    assert imagine_joint(scene, walks, move, delay=0.1, lead=other, lead_for=0.0) == direct
+    assert imagine_joint(scene, walks, move, delay=0.1, lead=move, lead_for=0.4) == direct
+    assert imagine_joint(scene, walks, move, delay=0.1, lead=other, lead_for=0.5) != direct
+
+
+def test_the_head_start_fields_travel_on_the_wire() -> None:
+    _, _, scene, spec = recorded_case(HURRIED_WALKER, 6, 0, 0.55)
+    lead = RobotMove("slipper", 1.2, -0.5, 0.0)
+    item = JointItem(spec.walk_sets()[0], None, None, 0.1, EXACT, True, {}, lead, 0.3)
+    assert item_from_wire(item.to_wire()) == item
+    asked = SearchItem(spec, EXACT, THRESHOLD, 24, judging=JUDGING, head_start=True)
+    back = item_from_wire(asked.to_wire())
+    assert isinstance(back, SearchItem) and back.head_start and back.spec.lead is None
+    result = search(
+        scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 24, judging=JUDGING, head_start=lambda _: None
+    )
+    reply = ImagineReply(1, scene.time, None, 1.0, (Answer(search=result),))
+    assert imagine_reply.decode(imagine_reply.encode(reply)).results[0].search == result
