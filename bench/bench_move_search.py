@@ -45,9 +45,7 @@ from agents.caregiving.model.scenario import Scenario, load_scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
-from agents.caregiving.model.verdict import SearchResult
-from bridges.experiment.oracle import saves, world_at
-from bridges.experiment.perfect_belief import perfect_belief_spec
+from bridges.experiment.perfect_belief import perfect_belief_spec, saved_in_truth
 from bridges.world.bridge import trial_for
 
 RECORDED = Path(__file__).resolve().parent.parent / "docs" / "results"
@@ -96,27 +94,8 @@ def search_spec(case: Case, delay: float) -> tuple[Scene, SearchSpec] | None:
     return perfect_belief_spec(case.trial, case.at, case.planner, delay)
 
 
-def in_truth(case: Case, delay: float, judging: float, result: SearchResult) -> bool:
-    """Whether the search's moves, commanded in the ground truth when the search would send them, save the trial.
-
-    A head start is commanded one judgement after the first candidate, and the chosen move (if any)
-    replaces it once the candidates before it, and the head start's own judgement, are judged.
-    """
-    chosen = result.chosen.move if result.chosen is not None else None
-    if result.lead is None or result.lead.move is None:
-        if chosen is None:
-            return False
-        return saves(world_at(case.trial, case.at + delay + judging * len(result.verdicts), case.planner), chosen)
-    world = world_at(case.trial, case.at + delay + judging * 2, case.planner)
-    world.command_robot(result.lead.move)
-    if chosen is not None:
-        world.advance(case.at + delay + judging * (len(result.verdicts) + 1))
-        return saves(world, chosen)
-    return not world.run(world.time + 30.0).collided
-
-
 def first_safe(runs: list[str], delay: float, judging: float, head_start: bool = False) -> dict[str, object]:
-    """Search each case up to its first safe move and check its moves in the ground truth (:func:`in_truth`)."""
+    """Search each case up to its first safe move and check its moves in the ground truth (``saved_in_truth``)."""
     risky = saveable = chosen = saved = saved_of_saveable = judged = judged_when_chosen = leads = 0
     lost: list[str] = []
     spent = 0.0
@@ -141,7 +120,7 @@ def first_safe(runs: list[str], delay: float, judging: float, head_start: bool =
         if result.chosen is not None and result.chosen.move is not None:
             chosen += 1
             judged_when_chosen += len(result.verdicts)
-        ok = in_truth(case, delay, judging, result)
+        ok = saved_in_truth(case.trial, case.at, case.planner, delay, judging, result)
         risky += 1
         saveable += case.saveable
         judged += len(result.verdicts)

@@ -22,10 +22,10 @@ from agents.caregiving.model.scenario import Scenario, load_scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import item_from_wire, serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
-from agents.caregiving.model.verdict import SearchResult, Verdict
-from agents.caregiving.model.world_model import Walk
-from bridges.experiment.oracle import saves, world_at
-from bridges.experiment.perfect_belief import perfect_belief_spec
+from agents.caregiving.model.verdict import Verdict
+from agents.caregiving.model.world_model import Walk, run_idle
+from bridges.experiment.oracle import world_at
+from bridges.experiment.perfect_belief import perfect_belief_spec, saved_in_truth
 from bridges.world.bridge import trial_for
 
 EXACT = Uncertainty(0.0, {}, 1)
@@ -43,23 +43,6 @@ def recorded_case(scenario: Path, seed: int, index: int, at: float) -> tuple[Sce
     return trial, planner, *found
 
 
-def in_truth(trial: Scenario, planner: GridPlanner, at: float, result: SearchResult) -> bool:
-    """The search's moves commanded in the ground truth when it sends them: the head start one judgement after
-    the first candidate, the chosen move once the candidates before it and the head start are judged."""
-    chosen = result.chosen.move if result.chosen is not None else None
-    if result.lead is None:
-        return chosen is not None and saves(
-            world_at(trial, at + DELAY + JUDGING * len(result.verdicts), planner), chosen
-        )
-    assert result.lead.move is not None
-    world = world_at(trial, at + DELAY + JUDGING * 2, planner)
-    assert world.command_robot(result.lead.move)
-    if chosen is None:
-        return not world.run(world.time + 30.0).collided
-    world.advance(at + DELAY + JUDGING * (len(result.verdicts) + 1))
-    return saves(world, chosen)
-
-
 def test_a_head_start_saves_the_hurried_walker_a_search_from_rest_loses() -> None:
     """Trial 0 of the hurried walker: the fourth candidate saves them only if the robot has set off already."""
     trial, planner, scene, spec = recorded_case(HURRIED_WALKER, 6, 0, 0.55)
@@ -67,7 +50,7 @@ def test_a_head_start_saves_the_hurried_walker_a_search_from_rest_loses() -> Non
 
     from_rest = search(scene, spec, imagine, EXACT, THRESHOLD, 24, judging=JUDGING)
     assert from_rest.lead is None
-    assert not in_truth(trial, planner, 0.55, from_rest)
+    assert not saved_in_truth(trial, 0.55, planner, DELAY, JUDGING, from_rest)
 
     sent: list[Verdict] = []
     led = search(scene, spec, imagine, EXACT, THRESHOLD, 24, judging=JUDGING, head_start=sent.append)
@@ -76,7 +59,7 @@ def test_a_head_start_saves_the_hurried_walker_a_search_from_rest_loses() -> Non
     assert sent == [led.lead] and led.lead is not None and led.lead.move == first.move
     assert not led.lead.trips(scene.robot_name)
     assert led.chosen is not None and led.chosen.safe(THRESHOLD) and led.chosen is not first
-    assert in_truth(trial, planner, 0.55, led)
+    assert saved_in_truth(trial, 0.55, planner, DELAY, JUDGING, led)
 
 
 def test_every_candidate_after_the_head_start_is_judged_as_a_switch_from_it() -> None:
@@ -143,3 +126,21 @@ def test_the_head_start_fields_travel_on_the_wire() -> None:
     )
     reply = ImagineReply(1, scene.time, None, 1.0, (Answer(search=result),))
     assert imagine_reply.decode(imagine_reply.encode(reply)).results[0].search == result
+
+
+def test_a_head_start_ends_with_its_search_when_no_move_is_found() -> None:
+    """Trial 0 of face-to-face: no candidate saves the person; the robot brakes where the search ends."""
+    trial, planner, scene, spec = recorded_case(FACE_TO_FACE, 3, 0, 0.6)
+    sent: list[Verdict] = []
+    result = search(
+        scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 24, judging=JUDGING, head_start=sent.append
+    )
+    assert result.chosen is None and sent == [result.lead] and result.lead is not None
+    assert result.halt is not None and result.halt.move is None and not result.halt.trips(scene.robot_name)
+    idle = run_idle(trial, planner=planner)
+    world = world_at(trial, 0.6 + DELAY + 2 * JUDGING, planner)
+    assert world.command_robot(result.lead.move)
+    world.advance(0.6 + DELAY + JUDGING * (len(result.verdicts) + 2))
+    world.command_robot(None)
+    assert [c.obstacle for c in world.run(30.0).collisions] == [c.obstacle for c in idle.collisions]
+    assert not saved_in_truth(trial, 0.6, planner, DELAY, JUDGING, result)

@@ -13,12 +13,15 @@ simulator to imagine the candidates, and writes the result:
   (:mod:`agents.caregiving.model.joint`) with every gaze class of each endangered
   person, the other people walking their likeliest intentions beside them, and
   perception's uncertainty sampled, one at a time up to the first safe one;
-* a robot at rest does not stand idle while the search judges on: when the first
-  candidate is not safe but harms nobody (it trips nobody, and whoever falls with
-  it falls with the robot idle too), the simulator sends it back at once as a head
+* a robot at rest does not stand idle while the search judges on: when every
+  danger is at least even odds (``HEAD_START_RISK``) and the first candidate is
+  not safe but harms nobody (it trips nobody, and whoever falls with it falls
+  with the robot idle too), the simulator sends it back at once as a head
   start, written as an intention with ``head_start`` set, and every later
-  candidate is judged as a switch from it; the move chosen supersedes it, and when
-  none is chosen the robot drives on with it until a later search replaces it;
+  candidate is judged as a switch from it; the move chosen supersedes it. A head
+  start lasts as long as the search: when none is chosen, the robot brakes (a
+  ``stop`` with ``head_start`` set), or, when braking there would trip someone,
+  drives on with it until a later search replaces it;
 * when no single move keeps everyone safe, each danger is searched alone, most
   urgent first, and the move found is written with the people it leaves unsaved;
 * while a move is under way, a new risky intention first re-imagines that move
@@ -57,7 +60,14 @@ from itertools import count
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
-from agents.caregiving.model.move_search import SearchItem, SearchSpec, gives_up, holds, replaces
+from agents.caregiving.model.move_search import (
+    HEAD_START_RISK,
+    SearchItem,
+    SearchSpec,
+    gives_up,
+    holds,
+    replaces,
+)
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.uncertainty import Uncertainty
@@ -181,13 +191,16 @@ class Action(Agent):
                 return
             led = self._write(ctx, verdict, dangers, None, None, "", started, head_start=True)
 
-        chosen, unsaved = await self._find(ctx, spec, idle_risk, lead if current is None else None), ""
+        likely = min(e.get("probability", 1.0) for e, _ in dangers.values()) >= HEAD_START_RISK
+        found = await self._find(ctx, spec, idle_risk, lead if current is None and likely else None)
+        chosen, unsaved = found.chosen if found is not None else None, ""
         if led:
             current = move_under_way(self.g)
         if chosen is None and len(spec.dangers) > 1:
             for d in sorted(spec.dangers, key=lambda d: d.time_to_collision):
                 alone = replace(spec, dangers=(d,))
-                chosen = await self._find(ctx, alone, dangers[d.person][0].get("probability", 1.0))
+                alone_found = await self._find(ctx, alone, dangers[d.person][0].get("probability", 1.0))
+                chosen = alone_found.chosen if alone_found is not None else None
                 if chosen is not None:
                     unsaved = ", ".join(sorted(p for p in dangers if p != d.person))
                     break
@@ -200,9 +213,12 @@ class Action(Agent):
                 search_ms=self._ms(started),
                 tried=len(self.tried),
                 why=sorted({v.reason for v in self.tried})[:4],
-                head_start_kept=led,
+                head_start=led,
             )
-            if under_way is not None and under_way.move is not None and under_way.trips(robot):
+            halt = found.halt if found is not None and led else None
+            if halt is not None:  # the head start ends with the search that sent it
+                self._write(ctx, halt, dangers, current, None, "", started, head_start=True)
+            elif under_way is not None and under_way.move is not None and under_way.trips(robot):
                 braking = await self._braking(ctx, spec, under_way, robot)
                 if braking is not None:
                     self._write(ctx, braking, dangers, current, under_way, "", started)
@@ -260,20 +276,20 @@ class Action(Agent):
         if found is None:
             self.log.error("the simulator refused the search", error=reply.results[0].error if reply.results else None)
             return None
-        if found.verdicts:
-            per_move = reply.compute_ms / 1e3 / len(found.verdicts)
+        judged = len(found.verdicts) + (found.lead is not None) + (found.halt is not None)
+        if judged:
+            per_move = reply.compute_ms / 1e3 / judged
             self.judging += JUDGING_WEIGHT * (per_move - self.judging)
         return found
 
     async def _find(
         self, ctx: Context, spec: SearchSpec, idle_risk: float, head_start: Callable[[Verdict], None] | None = None
-    ) -> Verdict | None:
-        """The move the search chose for ``spec``, if any; every verdict on the way joins :attr:`tried`."""
+    ) -> SearchResult | None:
+        """The search for ``spec`` (None when the simulator refused); every verdict on the way joins :attr:`tried`."""
         found = await self._search(ctx, spec, idle_risk, head_start=head_start)
-        if found is None:
-            return None
-        self.tried += found.verdicts
-        return found.chosen
+        if found is not None:
+            self.tried += found.verdicts
+        return found
 
     async def _braking(self, ctx: Context, spec: SearchSpec, under_way: Verdict, robot: str | None) -> Verdict | None:
         """Braking to a stop, judged now, if it ranks clearly above the move under way."""
@@ -309,7 +325,11 @@ class Action(Agent):
         edge, danger = written
         move = chosen.move
         self.log.info(
-            "head start" if head_start else "move chosen" if move else "braking",
+            ("head start" if move else "head start ends, braking")
+            if head_start
+            else "move chosen"
+            if move
+            else "braking",
             **({"target": move.target, "x": round(move.x, 2), "y": round(move.y, 2)} if move else {}),
             in_time=chosen.in_time(danger.time_to_collision),
             risk=round(chosen.risk, 2),

@@ -145,7 +145,8 @@ def write_intention(
     move = chosen.move
     reason = f"{chosen.reason}; protects {', '.join(sorted(dangers))}"
     if head_start:
-        reason = f"head start while the search judges on ({chosen.reason}); for {', '.join(sorted(dangers))}"
+        what_for = "head start while the search judges on" if move is not None else "head start ends: no move found"
+        reason = f"{what_for} ({chosen.reason}); for {', '.join(sorted(dangers))}"
     if unsaved:
         reason += f"; not saved: {unsaved} (no single move keeps everyone safe)"
     what = (

@@ -40,6 +40,9 @@ AHEAD_DEPTH = 2
 #: Candidates judged past the first clear move that halves the idle risk before the search settles for the
 #: least risky clear move: each one judged sends whichever move is chosen later (see docs/caregiving.md).
 SETTLE_AFTER_CLEAR = 3
+#: A head start is asked for only when every danger is at least this likely with the robot idle: it is judged
+#: harmless given that the person falls anyway, a bet on the likelier world only from one half up.
+HEAD_START_RISK = 0.5
 #: Sigmas of perception's error in a person's position that the robot keeps clear of them when they cannot
 #: keep clear of it themselves (see :class:`RobotMargin`).
 MARGIN_SIGMAS = 2.0
@@ -361,9 +364,10 @@ def judge_move(
 
 
 def judge_lead(
-    spec: SearchSpec, move: RobotMove, imagine: Imagine, uncertainty: Uncertainty, robot: str | None
+    spec: SearchSpec, move: RobotMove | None, imagine: Imagine, uncertainty: Uncertainty, robot: str | None
 ) -> Verdict:
-    """Judge ``move`` as a head start: at every walk set, the dangers' own falls let happen.
+    """Judge ``move`` as a head start (or, ``None``, braking at its end): at every walk set, the dangers' own
+    falls let happen.
 
     The falls the dangers foresee happen with the robot idle too; what matters of a head start is
     whether anyone else falls, or anyone walks into the robot, before a better move replaces it.
@@ -406,7 +410,9 @@ def search(
     candidate is not safe but :meth:`NoWorse.harmless` (judged again by :func:`judge_lead`), it is handed
     to ``head_start`` to be sent at once, and every later candidate is judged as a switch from it, the
     robot driving it from its command (one judgement later) until the candidate's. The result's ``lead``
-    is that verdict: the move to keep driving when no candidate is chosen.
+    is that verdict. A head start lasts as long as the search: when no candidate is chosen, braking at
+    the search's end is judged the same way, and the result's ``halt`` is that verdict if it is harmless
+    too (the robot then brakes; otherwise it drives the head start on, which harms nobody).
     """
     verdicts: list[Verdict] = []
     generated = candidates(scene, spec.dangers, verdicts, spec.delay, judging)
@@ -428,8 +434,15 @@ def search(
         chosen = verdicts[-1] = replace(
             last, reason=f"clear at the gaze found risky; at another, {last.reason}, as with the robot as it is"
         )
-    lead = judging_.lead.verdict if judging_.lead is not None else None
-    return SearchResult(chosen, tuple(verdicts), lead)
+    lead = judging_.lead
+    if lead is None:
+        return SearchResult(chosen, tuple(verdicts))
+    halt = None
+    if chosen is None:
+        at_end = judging_.spec_at(len(verdicts) + 1)
+        braking = judge_lead(at_end, None, imagine, uncertainty, scene.robot_name)
+        halt = braking if lead.no_worse.harmless(braking) else None
+    return SearchResult(chosen, tuple(verdicts), lead.verdict, halt)
 
 
 @dataclass(frozen=True)

@@ -109,30 +109,37 @@ class SearchResult:
     """Every move a search judged, in order, and the one it chose (``None``: no move removes the danger).
 
     ``lead`` is the head start the search sent while it judged on, if it sent one (see
-    :func:`agents.caregiving.model.move_search.search`): the move the robot drives when none is chosen.
+    :func:`agents.caregiving.model.move_search.search`); ``halt``, when none is chosen after it, braking
+    at the search's end, judged harmless (``None``: the robot drives the head start on).
     """
 
     chosen: Verdict | None
     verdicts: tuple[Verdict, ...]
     lead: Verdict | None = None
+    halt: Verdict | None = None
 
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict; the chosen move is an index into the verdicts."""
         index = next((k for k, v in enumerate(self.verdicts) if v is self.chosen), None)
         if self.chosen is not None and index is None:
             raise ValueError("the chosen verdict is not one of the verdicts")
-        lead = self.lead.to_wire() if self.lead is not None else None
-        return {"chosen": index, "verdicts": [v.to_wire() for v in self.verdicts], "lead": lead}
+        return {
+            "chosen": index,
+            "verdicts": [v.to_wire() for v in self.verdicts],
+            "lead": self.lead.to_wire() if self.lead is not None else None,
+            "halt": self.halt.to_wire() if self.halt is not None else None,
+        }
 
     @classmethod
     def from_fields(cls, f: Fields) -> SearchResult:
         """Parse :meth:`to_wire` output nested in a larger message."""
         verdicts = tuple(Verdict.from_fields(v) for v in f.children("verdicts"))
-        lead_f = f.optional_child("lead")
+        lead_f, halt_f = f.optional_child("lead"), f.optional_child("halt")
         lead = Verdict.from_fields(lead_f) if lead_f is not None else None
+        halt = Verdict.from_fields(halt_f) if halt_f is not None else None
         index = f.optional_number("chosen")
         if index is None:
-            return cls(None, verdicts, lead)
+            return cls(None, verdicts, lead, halt)
         if not index.is_integer() or not 0 <= index < len(verdicts):
             raise f.fail("chosen", f"expected the index of one of {len(verdicts)} verdicts, got {index!r}")
-        return cls(verdicts[int(index)], verdicts, lead)
+        return cls(verdicts[int(index)], verdicts, lead, halt)
