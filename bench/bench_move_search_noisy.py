@@ -18,9 +18,10 @@ would hold them then:
 Algorithm 1's danger is imagined on that belief (the first gaze class, nearest
 the true gaze, whose walk collides), the search runs with the same uncertainty
 as the action agent samples, and the chosen move is commanded in the ground truth
-``--delay`` s plus ``--judging`` s per candidate judged later. A draw counts as
-saved when nobody touches anything; ``into_robot`` counts the chosen moves that
-someone walks into in the truth. The draws are seeded per trial, so two
+``--delay`` s plus ``--judging`` s per candidate judged later (with ``--head-start``,
+the head start first, as the search sends it). A draw counts as saved when nobody
+touches anything; ``into_robot`` counts the searches whose moves someone walks into
+in the truth. The draws are seeded per trial, so two
 versions of the search are compared on the same beliefs.
 
 With ``--object-scale``, ``--size-scale`` and ``--people-scale`` the noise drawn on the objects'
@@ -29,7 +30,7 @@ positions, on their sizes and on the people's positions and headings is scaled (
 part of perception's noise shows apart.
 
     python bench/bench_move_search_noisy.py [--draws N] [--settle-after-clear N] [--object-scale K]
-        [--size-scale K] [--people-scale K] [--no-sampled-risk] [--json PATH] [RUN ...]
+        [--size-scale K] [--people-scale K] [--no-sampled-risk] [--head-start] [--json PATH] [RUN ...]
 """
 
 from __future__ import annotations
@@ -51,8 +52,8 @@ from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.visibility import WALL_KIND
 from agents.caregiving.model.world_model import World
 from bench_move_search import RUNS, THRESHOLD, cases
-from bridges.experiment.oracle import commanded, world_at
-from bridges.experiment.perfect_belief import spec_on
+from bridges.experiment.oracle import world_at
+from bridges.experiment.perfect_belief import outcome_in_truth, spec_on
 
 SAMPLES = 64  # sampled worlds per imagined walk, as the action agent's default
 
@@ -114,10 +115,17 @@ def belief(
 
 
 def noisy_search(
-    runs: list[str], draws: int, delay: float, judging: float, settle_after_clear: int, noise: Noise
+    runs: list[str],
+    draws: int,
+    delay: float,
+    judging: float,
+    settle_after_clear: int,
+    noise: Noise,
+    head_start: bool = False,
 ) -> dict[str, object]:
-    """Search ``draws`` beliefs of every saveable case; how many chosen moves save in the truth."""
-    beliefs = flagged = chosen = saved = judged = into_robot = 0
+    """Search ``draws`` beliefs of every saveable case; how many searches' moves save in the truth
+    (``outcome_in_truth``: the chosen move, or with ``head_start`` the head start and then the chosen move)."""
+    beliefs = flagged = chosen = saved = judged = into_robot = leads = 0
     lost: dict[str, int] = {}
     spent = 0.0
     for case in cases(runs):
@@ -152,16 +160,15 @@ def noisy_search(
                 24,
                 judging=judging,
                 settle_after_clear=settle_after_clear,
+                head_start=(lambda _lead: None) if head_start else None,
             )
             spent += time.perf_counter() - started
             judged += len(result.verdicts)
-            ok = False
-            if result.chosen is not None and result.chosen.move is not None:
-                chosen += 1
-                when = case.at + delay + judging * len(result.verdicts)
-                outcome = commanded(world_at(case.trial, when, case.planner), result.chosen.move)
-                ok = outcome is not None and not outcome.collided
-                into_robot += outcome is not None and any(c.obstacle == scene.robot_name for c in outcome.collisions)
+            chosen += result.chosen is not None and result.chosen.move is not None
+            leads += result.lead is not None
+            outcome = outcome_in_truth(case.trial, case.at, case.planner, delay, judging, result)
+            ok = outcome is not None and not outcome.collided
+            into_robot += outcome is not None and any(c.obstacle == scene.robot_name for c in outcome.collisions)
             saved += ok
             if not ok:
                 name = f"{case.run}#{case.index}"
@@ -172,6 +179,7 @@ def noisy_search(
         "chosen": chosen,
         "saved": saved,
         "into_robot": into_robot,
+        "head_starts": leads,
         "judged": judged,
         "search_s": round(spent, 3),
         "lost_draws": lost,
@@ -196,9 +204,14 @@ def main() -> None:
     p.add_argument(
         "--no-sampled-risk", action="store_true", help="search without sampling uncertainty (risk 0 when clear)"
     )
+    p.add_argument(
+        "--head-start", action="store_true", help="send the first candidate as a head start when it is harmless"
+    )
     args = p.parse_args()
     noise = Noise(args.object_scale, args.size_scale, args.people_scale, not args.no_sampled_risk)
-    found = noisy_search(args.runs, args.draws, args.delay, args.judging, args.settle_after_clear, noise)
+    found = noisy_search(
+        args.runs, args.draws, args.delay, args.judging, args.settle_after_clear, noise, args.head_start
+    )
     benchlib.print_table("Move search on a noisy belief", [(k, v) for k, v in found.items() if k != "lost_draws"])
     print("lost draws:", found["lost_draws"])
     benchlib.write_json(
@@ -209,6 +222,7 @@ def main() -> None:
             "delay": args.delay,
             "judging": args.judging,
             "settle_after_clear": args.settle_after_clear,
+            "head_start": args.head_start,
             "noise": {
                 "object_scale": noise.objects,
                 "size_scale": noise.size,

@@ -5,7 +5,7 @@ sees fall is a danger, imagined as the intention agent imagines it (their planne
 gaze, around the objects they have truly seen so far), with every gaze class of theirs to judge moves
 at, the class of their true gaze first; everyone else still walking walks to their true target beside
 them. This separates what the move search can do from what perception's noise costs.
-:func:`saved_in_truth` then commands the search's moves in the ground truth when the search sends them.
+:func:`outcome_in_truth` then commands the search's moves in the ground truth when the search sends them.
 """
 
 from __future__ import annotations
@@ -18,9 +18,9 @@ from agents.caregiving.model.scenario import Scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.verdict import SearchResult
 from agents.caregiving.model.visibility import WALL_KIND, gaze_classes
-from agents.caregiving.model.world_model import Walk, World
+from agents.caregiving.model.world_model import Outcome, Walk, World
 
-from .oracle import saves, world_at
+from .oracle import commanded, world_at
 
 
 def perfect_belief_spec(
@@ -76,10 +76,11 @@ def spec_on(scene: Scene, idle: World, now: World, delay: float, any_class: bool
     return SearchSpec(tuple(dangers), gazes, known, bystanders, None, delay)
 
 
-def saved_in_truth(
+def outcome_in_truth(
     trial: Scenario, at: float, planner: GridPlanner, delay: float, judging: float, result: SearchResult
-) -> bool:
-    """Whether the search's moves, commanded in the ground truth of ``trial`` when the search sends them, save it.
+) -> Outcome | None:
+    """How ``trial`` ends with the search's moves commanded in its ground truth when the search sends them; None
+    when it sends none, or the robot cannot reach the move.
 
     The search started at ``at`` with the robot starting ``delay`` later, and ``judging`` seconds more per
     judgement. A head start is commanded one judgement after the first candidate, and the chosen move
@@ -90,15 +91,24 @@ def saved_in_truth(
     chosen = result.chosen.move if result.chosen is not None else None
     lead = result.lead.move if result.lead is not None else None
     if lead is None:
-        return chosen is not None and saves(
-            world_at(trial, at + delay + judging * len(result.verdicts), planner), chosen
-        )
+        if chosen is None:
+            return None
+        return commanded(world_at(trial, at + delay + judging * len(result.verdicts), planner), chosen)
     world = world_at(trial, at + delay + judging * 2, planner)
-    world.command_robot(lead)
+    if not world.command_robot(lead):
+        return None
     if chosen is not None:
         world.advance(at + delay + judging * (len(result.verdicts) + 1))
-        return saves(world, chosen)
+        return commanded(world, chosen)
     if result.halt is not None:
         world.advance(at + delay + judging * (len(result.verdicts) + 2))
         world.command_robot(None)
-    return not world.run(world.time + 30.0).collided
+    return world.run(world.time + 30.0)
+
+
+def saved_in_truth(
+    trial: Scenario, at: float, planner: GridPlanner, delay: float, judging: float, result: SearchResult
+) -> bool:
+    """Whether the search's moves, commanded as :func:`outcome_in_truth` commands them, leave everybody untouched."""
+    outcome = outcome_in_truth(trial, at, planner, delay, judging, result)
+    return outcome is not None and not outcome.collided

@@ -15,7 +15,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from functools import partial
 from itertools import islice
 from typing import TYPE_CHECKING, Any
 
@@ -421,7 +420,7 @@ def search(
     settles = Settles(no_worse, idle_risk, settle_after_clear)
     judging_ = _Judging(scene, spec, imagine, uncertainty, judging, ahead)
     if head_start is not None and moves is None and spec.current is None:
-        judging_.head_start = partial(_HeadStart, no_worse, head_start)
+        judging_.send_lead, judging_.no_worse = head_start, no_worse
     judging_.in_order(pool, threshold, verdicts, settles)
     chosen = choose(verdicts, threshold, idle_risk)
     if chosen is not None and settles.by_count and not chosen.safe(threshold):
@@ -434,25 +433,14 @@ def search(
         chosen = verdicts[-1] = replace(
             last, reason=f"clear at the gaze found risky; at another, {last.reason}, as with the robot as it is"
         )
-    lead = judging_.lead
-    if lead is None:
+    if judging_.lead is None:
         return SearchResult(chosen, tuple(verdicts))
     halt = None
     if chosen is None:
         at_end = judging_.spec_at(len(verdicts) + 1)
         braking = judge_lead(at_end, None, imagine, uncertainty, scene.robot_name)
-        halt = braking if lead.no_worse.harmless(braking) else None
-    return SearchResult(chosen, tuple(verdicts), lead.verdict, halt)
-
-
-@dataclass(frozen=True)
-class _HeadStart:
-    """The first candidate, found harmless and sent as a head start, after ``slots`` judgements of the search."""
-
-    no_worse: NoWorse
-    send: Callable[[Verdict], None]
-    verdict: Verdict
-    slots: int = 2
+        halt = braking if no_worse.harmless(braking) else None
+    return SearchResult(chosen, tuple(verdicts), judging_.lead, halt)
 
 
 @dataclass(eq=False)  # compared by identity: it tags the moves it lends the helper
@@ -471,8 +459,9 @@ class _Judging:
     uncertainty: Uncertainty
     judging: float
     ahead: JudgeAhead | None
-    head_start: Callable[[Verdict], _HeadStart] | None = None
-    lead: _HeadStart | None = None
+    send_lead: Callable[[Verdict], None] | None = None  # sends a head start, until one is decided on
+    no_worse: NoWorse | None = None  # tells a harmless head start
+    lead: Verdict | None = None  # the head start sent
 
     def spec_at(self, k: int) -> SearchSpec:
         """The spec the k-th candidate is judged with: the robot switching to it once k judgements are done.
@@ -480,21 +469,24 @@ class _Judging:
         After a head start, the lead's own judgement takes a slot, and the robot drives the lead from its
         command until the switch.
         """
-        lead = self.lead
-        if lead is None or k == 1:
+        if self.lead is None or k == 1:
             return replace(self.spec, delay=self.spec.delay + self.judging * k)
-        started = self.spec.delay + self.judging * lead.slots
-        return replace(self.spec, delay=started, lead=lead.verdict.move, lead_for=self.judging * (k - 1))
+        return replace(self.lead_sent(), lead=self.lead.move, lead_for=self.judging * (k - 1))
+
+    def lead_sent(self) -> SearchSpec:
+        """The spec with the robot starting when a head start is sent: after the first candidate's judgement and
+        its own."""
+        return replace(self.spec, delay=self.spec.delay + self.judging * 2)
 
     def consider_head_start(self, first: Verdict) -> None:
         """Judge the first candidate (not safe) again as a head start, and send it if it is harmless."""
-        make, self.head_start = self.head_start, None
-        if make is None or first.move is None:
+        send, self.send_lead = self.send_lead, None
+        if send is None or self.no_worse is None or first.move is None:
             return
-        lead = make(judge_lead(self.spec_at(1), first.move, self.imagine, self.uncertainty, self.scene.robot_name))
-        if lead.no_worse.harmless(lead.verdict):
+        lead = judge_lead(self.lead_sent(), first.move, self.imagine, self.uncertainty, self.scene.robot_name)
+        if self.no_worse.harmless(lead):
             self.lead = lead
-            lead.send(lead.verdict)
+            send(lead)
 
     def in_order(
         self,
