@@ -65,3 +65,15 @@ def test_no_command_means_no_delay_and_no_late_oracle() -> None:
     m = metrics([_commanded(0, 0.5, None, True, False, True)])
     assert m["pipeline_delay_ms_p50"] is None and m["oracle_saveable_after_delay"] is None
     assert "later" not in prevention_line(m)
+
+
+def test_a_head_start_is_neither_an_action_nor_a_reaction_but_the_robots_first_response() -> None:
+    head = {"risk_at": 1.0, "created_at": 1.03, "head_start": True}
+    move = {"risk_at": 1.0, "created_at": 1.09, "observed_at": 0.99, "in_time": True}
+    led = Scored(TrialRecord(0, intentions=1, risky={"probability": 1.0}, action=move, head_start=head), True, True)
+    only_head = Scored(TrialRecord(1, intentions=1, risky={"probability": 1.0}, head_start=head), True, True)
+    m = metrics([led, only_head, _trial(2, True, True, move)])
+    assert m["action_rate"] == 2 / 3 and m["head_starts"] == 2
+    assert m["reaction_ms_mean"] == pytest.approx(90.0)
+    assert m["head_start_ms_p50"] == pytest.approx(30.0)
+    assert m["first_response_ms_mean"] == pytest.approx((30.0 + 30.0 + 90.0) / 3)

@@ -32,7 +32,9 @@ the same broad set saves when commanded that much later;
 ``robot_caused_collisions`` counts trials that were safe with the robot idle and
 collided with it acting. ``head_starts`` counts trials in which the robot set off on a head start
 while the search judged on (an intention with ``head_start`` set: the robot's first command, but not
-a move that removes the danger, so neither an action nor a reaction). Reaction times are wall-clock differences
+a move that removes the danger, so neither an action nor a reaction; ``head_start_ms_p50`` is its median time
+from the risky intention, and ``first_response_ms_mean`` and ``_p50`` time the robot's first intention of
+either kind). Reaction times are wall-clock differences
 of stamps written into W by the writers (same host): the paper's definition
 (risky ``has_intention`` -> robot ``intention``) and end to end (the
 perception write behind the risky guess -> robot ``intention``).
@@ -146,6 +148,7 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         f1 = 2 * precision * recall / (precision + recall)
         f2 = 5 * precision * recall / (4 * precision + recall)
     reactions = finite([s.record.reaction_ms for s in scored])
+    responses = finite([s.record.first_response_ms for s in scored])
     e2e = finite([s.record.e2e_ms for s in scored])
     detected = [s for s in scored if s.predicted]
     saveable_detected = [s for s in detected if s.saveable]
@@ -172,6 +175,8 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "reaction_ms_sd": statistics.stdev(reactions) if len(reactions) > 1 else None,
         "reaction_ms_p50": percentile(reactions, 50),
         "reaction_ms_p99": percentile(reactions, 99),
+        "first_response_ms_mean": statistics.fmean(responses) if responses else None,
+        "first_response_ms_p50": percentile(responses, 50),
         "e2e_ms_p50": percentile(e2e, 50),
         "e2e_ms_p99": percentile(e2e, 99),
         "e2e_ms_mean": statistics.fmean(e2e) if e2e else None,
@@ -193,6 +198,7 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "prevention_rate_of_saveable_after_delay": _ratio(saved_late, len(late)),
         "robot_caused_collisions": sum(s.record.collided and not s.truly_risky for s in scored),
         "head_starts": sum(s.record.head_start is not None for s in scored),
+        "head_start_ms_p50": percentile(finite([s.record.head_start_ms for s in scored]), 50),
         "truly_risky": len(risky),
         "closed_loop_collisions": sum(s.record.collided for s in scored),
     }
@@ -234,6 +240,8 @@ ROWS = [
     ("F-2 score", "f2"),
     ("Reaction time (mean)", "reaction_ms_mean"),
     ("Reaction time (deviation)", "reaction_ms_sd"),
+    ("Robot's first response, head start or move (mean)", "first_response_ms_mean"),
+    ("Trials with a head start", "head_starts"),
     ("Detected collision and action generated", "action_rate"),
     ("... with a move imagined in place in time", "action_in_time_rate"),
     ("Action generated where the oracle allows a move", "action_rate_saveable"),

@@ -77,6 +77,12 @@ class TrialRecord:
         return (self.head_start["created_at"] - self.head_start["risk_at"]) * 1e3
 
     @property
+    def first_response_ms(self) -> float | None:
+        """Risky intention written -> the robot's first intention written, head start or move."""
+        times = [t for t in (self.head_start_ms, self.reaction_ms) if t is not None]
+        return min(times) if times else None
+
+    @property
     def e2e_ms(self) -> float | None:
         """From the perception write behind the danger to the robot intention written."""
         if self.action is None or not self.action.get("observed_at"):
