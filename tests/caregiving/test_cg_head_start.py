@@ -7,40 +7,25 @@ as ``bench/bench_move_search.py`` sets them up.
 
 import math
 from functools import partial
-from pathlib import Path
 
 import pytest
+from recorded_cases import DELAY, EXACT, HELD_OUT, JUDGING, THRESHOLD, recorded_case
 
 from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.imagine_reply import Answer, ImagineReply
 from agents.caregiving.model.imagine_request import JointItem
 from agents.caregiving.model.joint import imagine_joint
 from agents.caregiving.model.move_search import SearchItem, SearchSpec, search
-from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.robot_moves import RobotMove
-from agents.caregiving.model.scenario import Scenario, load_scenario
-from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.service import item_from_wire, serve_one
-from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import Verdict
 from agents.caregiving.model.world_model import Walk, run_idle
 from bridges.experiment.oracle import world_at
-from bridges.experiment.perfect_belief import perfect_belief_spec, saved_in_truth
-from bridges.world.bridge import trial_for
+from bridges.experiment.perfect_belief import saved_in_truth
 
-EXACT = Uncertainty(0.0, {}, 1)
-DELAY, JUDGING, THRESHOLD = 0.05, 0.02, 0.2
-HELD_OUT = Path(__file__).resolve().parents[2] / "docs" / "results" / "heldout"
 HURRIED_WALKER = HELD_OUT / "hurried_walker.yaml"
 FACE_TO_FACE = HELD_OUT / "face_to_face.yaml"
-
-
-def recorded_case(scenario: Path, seed: int, index: int, at: float) -> tuple[Scenario, GridPlanner, Scene, SearchSpec]:
-    s = load_scenario(scenario)
-    trial, planner = trial_for(s, seed, index), GridPlanner(s.scene().bounds)
-    found = perfect_belief_spec(trial, at, planner, DELAY)
-    assert found is not None
-    return trial, planner, *found
 
 
 def test_a_head_start_saves_the_hurried_walker_a_search_from_rest_loses() -> None:

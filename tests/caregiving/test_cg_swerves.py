@@ -7,9 +7,9 @@ danger, the robot starting one world step later and 20 ms later per candidate ju
 
 import math
 from functools import partial
-from pathlib import Path
 
 import pytest
+from recorded_cases import DELAY, EXACT, HELD_OUT, JUDGING, THRESHOLD, recorded_case
 
 from agents.caregiving.model.candidates import (
     Danger,
@@ -25,33 +25,16 @@ from agents.caregiving.model.errors import ReplyError
 from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.move_search import NoWorse, SearchSpec, search
-from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.robot_moves import RobotMove
-from agents.caregiving.model.scenario import Scenario, load_scenario
+from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import serve_one
-from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import Fall, Verdict
 from bridges.experiment.oracle import saves, world_at
-from bridges.experiment.perfect_belief import perfect_belief_spec
-from bridges.world.bridge import trial_for
 
-EXACT = Uncertainty(0.0, {}, 1)
-DELAY, JUDGING, THRESHOLD = 0.05, 0.02, 0.2
-HELD_OUT = Path(__file__).resolve().parents[2] / "docs" / "results" / "heldout"
 NOISY_SLOW_ROBOT = HELD_OUT / "noisy_slow_robot.yaml"
 HURRIED_WALKER = HELD_OUT / "hurried_walker.yaml"
 GAZE = math.radians(8)
-
-
-def recorded_case(
-    scenario: str | Path, seed: int, index: int, at: float
-) -> tuple[Scenario, GridPlanner, Scene, SearchSpec]:
-    s = load_scenario(scenario)
-    trial, planner = trial_for(s, seed, index), GridPlanner(s.scene().bounds)
-    found = perfect_belief_spec(trial, at, planner, DELAY)
-    assert found is not None
-    return trial, planner, *found
 
 
 def test_a_swerve_saves_a_person_who_grazes_the_obstacle_walking_round_the_stand_off() -> None:

@@ -41,7 +41,7 @@ from agents.caregiving.model.imagine_reply import Answer, ImagineReply
 from agents.caregiving.model.judge_ahead import JudgeAhead
 from agents.caregiving.model.rollout import BulletRollout, NumpyRollout, Rollout
 from agents.caregiving.model.scene import Scene
-from agents.caregiving.model.service import HeadStart, batch_scene, judges_robot_moves, serve_one
+from agents.caregiving.model.service import HeadStart, Serving, batch_scene, judges_robot_moves, serve_one
 from agents.caregiving.model.verdict import SearchResult, Verdict
 from wm import Event
 
@@ -178,7 +178,7 @@ class Simulation(Agent):
             job = min(self.jobs, key=lambda j: (j.priority, j.seq))
             wall, cpu = time.perf_counter(), time.process_time()
             job.results.append(
-                serve_one(job.scene, job.items[len(job.results)], self.rollout, self.ahead, job.head_start)
+                serve_one(job.scene, job.items[len(job.results)], Serving(self.rollout, self.ahead, job.head_start))
             )
             job.wall_s += time.perf_counter() - wall
             job.cpu_s += time.process_time() - cpu

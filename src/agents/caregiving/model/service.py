@@ -28,6 +28,7 @@ a joint answer's risk is the worst of its walks', sampled only when every walk i
 from __future__ import annotations
 
 from collections.abc import Callable, Collection
+from dataclasses import dataclass
 from functools import partial
 from typing import Any
 
@@ -64,20 +65,28 @@ def item_from_wire(data: object) -> Item:
 HeadStart = Callable[[Verdict], None]
 
 
-def serve(
-    scene: Scene,
-    item: Item,
-    rollout: Rollout | None = None,
-    ahead: JudgeAhead | None = None,
-    head_start: HeadStart | None = None,
-) -> Answer:
-    """Answer one item, with the sampled collision risk when it asks for one; a search may use the ``ahead`` helper,
-    and hands a head start to ``head_start``."""
+@dataclass(frozen=True)
+class Serving:
+    """What items are served with, beyond the scene: the rollout that walks people (Algorithm 1), the helper
+    process a search may lend candidates to, and where a search sends its head start."""
+
+    rollout: Rollout | None = None
+    ahead: JudgeAhead | None = None
+    head_start: HeadStart | None = None
+
+
+#: Items served with nothing beyond the scene: the numpy rollout, no helper, no head start taken.
+PLAIN = Serving()
+
+
+def serve(scene: Scene, item: Item, serving: Serving = PLAIN) -> Answer:
+    """Answer one item, with the sampled collision risk when it asks for one."""
     if isinstance(item, SearchItem):
-        return Answer(search=item.run(scene, partial(serve_one, scene, rollout=rollout), ahead, head_start))
+        imagine = partial(serve_one, scene, serving=Serving(serving.rollout))
+        return Answer(search=item.run(scene, imagine, serving.ahead, serving.head_start))
     if isinstance(item, PersonItem):
         w, u = item.walk, item.uncertainty
-        im = imagine_person(scene, w.person, w.target, w.gaze, rollout, known=w.known)
+        im = imagine_person(scene, w.person, w.target, w.gaze, serving.rollout, known=w.known)
         return Answer(imagination=im, risk=collision_risk(scene, im, u) if u is not None else None)
     joint = imagine_joint(
         scene,
@@ -97,16 +106,10 @@ def serve(
     return Answer(joint=joint, risk=joint_risk(scene, joint, u, item.falling))
 
 
-def serve_item(
-    scene: Scene,
-    item: object,
-    rollout: Rollout | None = None,
-    ahead: JudgeAhead | None = None,
-    head_start: HeadStart | None = None,
-) -> Answer:
+def serve_item(scene: Scene, item: object, serving: Serving = PLAIN) -> Answer:
     """Answer one item, typed or in its wire form; raises when it is malformed or unanswerable."""
     typed = item if isinstance(item, Item) else item_from_wire(item)
-    return serve(scene, typed, rollout, ahead, head_start)
+    return serve(scene, typed, serving)
 
 
 def joint_risk(scene: Scene, joint: JointImagination, u: Uncertainty, falling: Collection[str] = ()) -> Risk:
@@ -125,16 +128,10 @@ def judges_robot_moves(items: list[Any]) -> bool:
     return any(isinstance(i, dict) and i.get("kind") in ROBOT_MOVE_KINDS for i in items)
 
 
-def serve_one(
-    scene: Scene,
-    item: object,
-    rollout: Rollout | None = None,
-    ahead: JudgeAhead | None = None,
-    head_start: HeadStart | None = None,
-) -> Answer:
+def serve_one(scene: Scene, item: object, serving: Serving = PLAIN) -> Answer:
     """One item's answer (typed or in its wire form); a malformed or unanswerable item gets an error answer."""
     try:
-        return serve_item(scene, item, rollout, ahead, head_start)
+        return serve_item(scene, item, serving)
     except (CaregivingError, ValueError, TypeError, KeyError) as exc:
         return Answer(error=f"{type(exc).__name__}: {exc}")
 
