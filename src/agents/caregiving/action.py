@@ -262,7 +262,7 @@ class Action(Agent):
         )
 
         def progress(reply: imagine_reply.ImagineReply) -> None:
-            found = reply.results[0].search if len(reply.results) == 1 else None
+            found = reply.search
             if head_start is not None and found is not None and found.lead is not None:
                 head_start(found.lead)
 
@@ -272,7 +272,7 @@ class Action(Agent):
         )
         self.rpc_ms += (time.perf_counter() - sent) * 1e3
         self.sim_ms += reply.compute_ms
-        found = reply.results[0].search if len(reply.results) == 1 else None
+        found = reply.search
         if found is None:
             self.log.error("the simulator refused the search", error=reply.results[0].error if reply.results else None)
             return None

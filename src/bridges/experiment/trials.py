@@ -65,16 +65,12 @@ class TrialRecord:
     @property
     def reaction_ms(self) -> float | None:
         """Paper's definition: risky intention written -> robot intention written."""
-        if self.action is None:
-            return None
-        return (self.action["created_at"] - self.action["risk_at"]) * 1e3
+        return _after_risk_ms(self.action)
 
     @property
     def head_start_ms(self) -> float | None:
         """Risky intention written -> head start written (the robot moving while the search judged on)."""
-        if self.head_start is None:
-            return None
-        return (self.head_start["created_at"] - self.head_start["risk_at"]) * 1e3
+        return _after_risk_ms(self.head_start)
 
     @property
     def first_response_ms(self) -> float | None:
@@ -92,6 +88,13 @@ class TrialRecord:
     @property
     def collided(self) -> bool:
         return bool(self.outcome.get("collisions"))
+
+
+def _after_risk_ms(intention: dict[str, Any] | None) -> float | None:
+    """Milliseconds from the risky intention an intention answers to the intention's own writing."""
+    if intention is None:
+        return None
+    return (intention["created_at"] - intention["risk_at"]) * 1e3
 
 
 def snapshot(g: Graph, action: dict[str, Any] | None) -> Snapshot | None:

@@ -58,6 +58,11 @@ class ImagineReply:
     compute_ms: float
     results: tuple[Answer, ...]
 
+    @property
+    def search(self) -> SearchResult | None:
+        """The search of a reply to one search item; None for any other reply (or a search refused)."""
+        return self.results[0].search if len(self.results) == 1 else None
+
 
 def encode_risk(r: Risk) -> dict[str, Any]:
     """A msgpack-friendly risk."""

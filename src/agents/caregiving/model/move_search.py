@@ -372,10 +372,10 @@ def judge_lead(
     whether anyone else falls, or anyone walks into the robot, before a better move replaces it.
     No risk is sampled: a head start is driven only while the search looks for a safe move.
     """
-    own = {d.person: d.obstacle for d in spec.dangers}
-    items = replace(spec, falling={**spec.falling, **own}).items(move, uncertainty)
+    excused = {**spec.falling, **{d.person: d.obstacle for d in spec.dangers}}
+    items = replace(spec, falling=excused).items(move, uncertainty)
     answers = [imagine(replace(item, uncertainty=None)) for item in items]
-    return judge(move, answers, {**spec.falling, **own}, RobotMargin.of(robot, uncertainty))
+    return judge(move, answers, excused, RobotMargin.of(robot, uncertainty))
 
 
 def search(
