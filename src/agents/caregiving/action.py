@@ -182,20 +182,21 @@ class Action(Agent):
             return  # kept for one more look
         idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
         self.tried = []
-        led = False
+        led: Node | None = None  # the head start written, if any
 
         def lead(verdict: Verdict) -> None:
             nonlocal led
             if move_under_way(self.g) is not None:  # a move came under way since: the lead was judged from rest
                 self.log.info("head start dropped", because="a move came under way during the search")
                 return
-            led = self._write(ctx, verdict, dangers, None, None, "", started, head_start=True)
+            if self._write(ctx, verdict, dangers, None, None, "", started, head_start=True):
+                led = move_under_way(self.g)
 
         likely = min(e.get("probability", 1.0) for e, _ in dangers.values()) >= HEAD_START_RISK
         found = await self._find(ctx, spec, idle_risk, lead if current is None and likely else None)
         chosen, unsaved = found.chosen if found is not None else None, ""
-        if led:
-            current = move_under_way(self.g)
+        if led is not None:
+            current = led
         if chosen is None and len(spec.dangers) > 1:
             for d in sorted(spec.dangers, key=lambda d: d.time_to_collision):
                 alone = replace(spec, dangers=(d,))
@@ -213,10 +214,12 @@ class Action(Agent):
                 search_ms=self._ms(started),
                 tried=len(self.tried),
                 why=sorted({v.reason for v in self.tried})[:4],
-                head_start=led,
+                head_start=led is not None,
             )
-            halt = found.halt if found is not None and led else None
-            if halt is not None:  # the head start ends with the search that sent it
+            halt = found.halt if found is not None else None
+            newest = move_under_way(self.g)
+            # The head start ends with the search that sent it, unless another move has come under way since.
+            if halt is not None and led is not None and newest is not None and newest.id == led.id:
                 self._write(ctx, halt, dangers, current, None, "", started, head_start=True)
             elif under_way is not None and under_way.move is not None and under_way.trips(robot):
                 braking = await self._braking(ctx, spec, under_way, robot)
