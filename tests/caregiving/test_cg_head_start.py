@@ -86,6 +86,17 @@ def test_no_head_start_while_the_robot_drives_a_move() -> None:
     assert sent == [] and result.lead is None
 
 
+def test_no_head_start_when_nothing_is_left_to_judge() -> None:
+    """A search whose first candidate is its last is over at once: a head start would only be braked again."""
+    _, _, scene, spec = recorded_case(HURRIED_WALKER, 6, 0, 0.55)
+    sent: list[Verdict] = []
+    imagine = partial(serve_one, scene)
+    result = search(scene, spec, imagine, EXACT, THRESHOLD, 1, judging=JUDGING, head_start=sent.append)
+    assert len(result.verdicts) == 1 and not result.verdicts[0].safe(THRESHOLD)
+    assert sent == [] and result.lead is None and result.halt is None
+    assert search(scene, spec, imagine, EXACT, THRESHOLD, 2, judging=JUDGING, head_start=sent.append).lead is not None
+
+
 def test_a_lead_driven_no_time_is_no_lead_and_a_lead_that_is_the_move_is_driven_on() -> None:
     scene = load_scenario("paper_experiment1").scene()
     walks = [Walk("person", "couch", math.radians(8))]

@@ -406,9 +406,10 @@ def search(
     ``ahead``, a helper process judges candidates meanwhile (same verdicts, less wall time).
 
     With ``head_start``, a robot at rest need not stand idle while the search judges on: when the first
-    candidate is not safe but :meth:`NoWorse.harmless` (judged again by :func:`judge_lead`), it is handed
-    to ``head_start`` to be sent at once, and every later candidate is judged as a switch from it, the
-    robot driving it from its command (one judgement later) until the candidate's. The result's ``lead``
+    candidate is not safe but :meth:`NoWorse.harmless` (judged again by :func:`judge_lead`), and another
+    candidate is left to judge, it is handed to ``head_start`` to be sent at once, and every later
+    candidate is judged as a switch from it, the robot driving it from its command (one judgement
+    later) until the candidate's. The result's ``lead``
     is that verdict. A head start lasts as long as the search: when no candidate is chosen, braking at
     the search's end is judged the same way, and the result's ``halt`` is that verdict if it is harmless
     too (the robot then brakes; otherwise it drives the head start on, which harms nobody).
@@ -539,9 +540,9 @@ class _Judging:
             exchange()
             if gather():
                 return
-            if verdicts:
-                self.consider_head_start(verdicts[0])
             mine = next(positions, None)
+            if verdicts and (mine is not None or lent):  # a head start is for a search that judges on
+                self.consider_head_start(verdicts[0])
             exchange()
         while lent:
             exchange(wait=True)
