@@ -47,7 +47,7 @@ def test_a_head_start_saves_the_hurried_walker_a_search_from_rest_loses() -> Non
     assert saved_in_truth(trial, 0.55, planner, DELAY, JUDGING, led)
 
 
-def test_every_candidate_after_the_head_start_is_judged_as_a_switch_from_it() -> None:
+def test_the_head_start_is_judged_first_and_every_candidate_as_a_switch_from_it() -> None:
     _, _, scene, spec = recorded_case(HURRIED_WALKER, 6, 0, 0.55)
     items: list[JointItem] = []
 
@@ -56,13 +56,17 @@ def test_every_candidate_after_the_head_start_is_judged_as_a_switch_from_it() ->
         return serve_one(scene, item)
 
     result = search(scene, spec, imagine, EXACT, THRESHOLD, 24, judging=JUDGING, head_start=lambda _: None)
-    assert result.lead is not None
-    judged = [i for i in items if i.uncertainty is not None]  # the head start's own judgement samples no risk
-    assert judged[0].lead is None and judged[0].delay == pytest.approx(DELAY + JUDGING)
-    for k, item in enumerate(judged[1:], start=2):
-        assert item.lead == result.lead.move and item.delay == pytest.approx(DELAY + 2 * JUDGING)
-        assert item.lead_for == pytest.approx(JUDGING * (k - 1))
+    assert result.lead is not None and result.lead.move == result.verdicts[0].move
+    lead_items = len(spec.walk_sets())  # the head start's own judgement, at every walk set, samples no risk
+    assert all(i.uncertainty is None and i.lead is None for i in items[:lead_items])
+    assert all(i.delay == pytest.approx(DELAY + JUDGING) for i in items[:lead_items])
+    judged = items[lead_items:]
+    assert all(i.uncertainty is not None for i in judged)
+    for k, item in enumerate(judged, start=1):
+        assert item.lead == result.lead.move and item.delay == pytest.approx(DELAY + JUDGING)
+        assert item.lead_for == pytest.approx(JUDGING * k)
     assert [i.move for i in judged] == [v.move for v in result.verdicts]
+    assert result.judged == len(result.verdicts) + 1
 
 
 def test_a_first_candidate_that_walks_someone_into_the_robot_is_no_head_start() -> None:
@@ -134,7 +138,8 @@ def test_a_head_start_ends_with_its_search_when_no_move_is_found() -> None:
     assert result.chosen is None and sent == [result.lead] and result.lead is not None
     assert result.halt is not None and result.halt.move is None and not result.halt.trips(scene.robot_name)
     idle = run_idle(trial, planner=planner)
-    world = world_at(trial, 0.6 + DELAY + 2 * JUDGING, planner)
+    assert result.judged == len(result.verdicts) + 2
+    world = world_at(trial, 0.6 + DELAY + JUDGING, planner)
     assert world.command_robot(result.lead.move)
     world.advance(0.6 + DELAY + JUDGING * (len(result.verdicts) + 2))
     world.command_robot(None)

@@ -77,3 +77,16 @@ def test_a_head_start_is_neither_an_action_nor_a_reaction_but_the_robots_first_r
     assert m["reaction_ms_mean"] == pytest.approx(90.0)
     assert m["head_start_ms_p50"] == pytest.approx(30.0)
     assert m["first_response_ms_mean"] == pytest.approx((30.0 + 30.0 + 90.0) / 3)
+
+
+def test_the_reaction_is_the_head_start_the_action_drives_on_with() -> None:
+    pose = {"action": "move_to", "target": 7, "final_pose": [1.0, 2.0, 0.5]}
+    head = {"risk_at": 1.0, "created_at": 1.02, "observed_at": 0.99, "head_start": True, **pose}
+    same = {"risk_at": 1.0, "created_at": 1.08, "observed_at": 0.99, "in_time": True, **pose}
+    other = {**same, "final_pose": [1.0, 2.2, 0.5]}
+    driven_on = TrialRecord(0, 1, {"probability": 1.0}, same, head, head)
+    switched = TrialRecord(1, 1, {"probability": 1.0}, other, head, head)
+    assert driven_on.reaction_ms == pytest.approx(20.0) and driven_on.e2e_ms == pytest.approx(30.0)
+    assert switched.reaction_ms == pytest.approx(80.0) and switched.e2e_ms == pytest.approx(90.0)
+    m = metrics([Scored(driven_on, True, True), Scored(switched, True, True)])
+    assert m["reaction_ms_mean"] == pytest.approx(50.0) and m["decision_ms_mean"] == pytest.approx(80.0)

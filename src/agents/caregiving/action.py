@@ -13,12 +13,13 @@ simulator to imagine the candidates, and writes the result:
   (:mod:`agents.caregiving.model.joint`) with every gaze class of each endangered
   person, the other people walking their likeliest intentions beside them, and
   perception's uncertainty sampled, one at a time up to the first safe one;
-* a robot at rest does not stand idle while the search judges on: when every
-  danger is at least even odds (``HEAD_START_RISK``) and the first candidate is
-  not safe but harms nobody (it trips nobody, and whoever falls with it falls
-  with the robot idle too), the simulator sends it back at once as a head
-  start, written as an intention with ``head_start`` set, and every later
-  candidate is judged as a switch from it; the move chosen supersedes it. A head
+* a robot at rest does not stand idle while the search judges: when every
+  danger is at least even odds (``HEAD_START_RISK``), the first candidate is
+  judged first as a head start, and if it harms nobody (it trips nobody, and
+  whoever falls with it falls with the robot idle too), the simulator sends it
+  back at once, written as an intention with ``head_start`` set, and every
+  candidate is judged as a switch from it; the move chosen supersedes it (the
+  same move, when the first candidate is the one chosen). A head
   start lasts as long as the search: when none is chosen, the robot brakes (a
   ``stop`` with ``head_start`` set), or, when braking there would trip someone,
   drives on with it until a later search replaces it;
@@ -279,9 +280,8 @@ class Action(Agent):
         if found is None:
             self.log.error("the simulator refused the search", error=reply.results[0].error if reply.results else None)
             return None
-        judged = len(found.verdicts) + (found.lead is not None) + (found.halt is not None)
-        if judged:
-            per_move = reply.compute_ms / 1e3 / judged
+        if found.judged:
+            per_move = reply.compute_ms / 1e3 / found.judged
             self.judging += JUDGING_WEIGHT * (per_move - self.judging)
         return found
 

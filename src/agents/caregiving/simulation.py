@@ -146,7 +146,7 @@ class Simulation(Agent):
             )
 
         def head_start(lead: Verdict) -> None:
-            progress(reply((Answer(search=SearchResult(None, (), lead)),)))
+            progress(reply((Answer(search=SearchResult(None, (), lead, judged=1)),)))
 
         job = _Job(0 if judges_robot_moves(items) else 1, next(self._seq), scene, items, head_start)
         read = time.perf_counter()

@@ -36,8 +36,10 @@ a move that removes the danger, so neither an action nor a reaction; ``head_star
 from the risky intention, and ``first_response_ms_mean`` and ``_p50`` time the robot's first intention of
 either kind). Reaction times are wall-clock differences
 of stamps written into W by the writers (same host): the paper's definition
-(risky ``has_intention`` -> robot ``intention``) and end to end (the
-perception write behind the risky guess -> robot ``intention``).
+(risky ``has_intention`` -> the robot ``intention`` it set off on its action with) and end to end (the
+perception write behind the risky guess -> that ``intention``). The robot sets off on its action with
+the action itself, or with the head start it drives on with when the search ends by choosing that
+same move; ``decision_ms_mean`` times the action itself, written when its search ended.
 """
 
 from __future__ import annotations
@@ -148,6 +150,7 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         f1 = 2 * precision * recall / (precision + recall)
         f2 = 5 * precision * recall / (4 * precision + recall)
     reactions = finite([s.record.reaction_ms for s in scored])
+    decisions = finite([s.record.decision_ms for s in scored])
     responses = finite([s.record.first_response_ms for s in scored])
     e2e = finite([s.record.e2e_ms for s in scored])
     detected = [s for s in scored if s.predicted]
@@ -175,6 +178,7 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "reaction_ms_sd": statistics.stdev(reactions) if len(reactions) > 1 else None,
         "reaction_ms_p50": percentile(reactions, 50),
         "reaction_ms_p99": percentile(reactions, 99),
+        "decision_ms_mean": statistics.fmean(decisions) if decisions else None,
         "first_response_ms_mean": statistics.fmean(responses) if responses else None,
         "first_response_ms_p50": percentile(responses, 50),
         "e2e_ms_p50": percentile(e2e, 50),
@@ -240,6 +244,7 @@ ROWS = [
     ("F-2 score", "f2"),
     ("Reaction time (mean)", "reaction_ms_mean"),
     ("Reaction time (deviation)", "reaction_ms_sd"),
+    ("... to the move chosen, once its search ended (mean)", "decision_ms_mean"),
     ("Robot's first response, head start or move (mean)", "first_response_ms_mean"),
     ("Trials with a head start", "head_starts"),
     ("Detected collision and action generated", "action_rate"),
@@ -370,6 +375,7 @@ def trial_json(s: Scored) -> dict[str, Any]:
         "risk_at_time": (r.risky or {}).get("at_time"),
         "time_to_collision": (r.risky or {}).get("time_to_collision"),
         "reaction_ms": r.reaction_ms,
+        "decision_ms": r.decision_ms,
         "e2e_ms": r.e2e_ms,
         "collisions": r.outcome.get("collisions", []),
     }

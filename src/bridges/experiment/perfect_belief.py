@@ -83,25 +83,25 @@ def outcome_in_truth(
     when it sends none, or the robot cannot reach the move.
 
     The search started at ``at`` with the robot starting ``delay`` later, and ``judging`` seconds more per
-    judgement. A head start is commanded one judgement after the first candidate, and the chosen move
-    (if any) replaces it once the candidates before it, and the head start's own judgement, are judged;
-    with no move chosen, the robot brakes one judgement after the last candidate (when the search found
-    braking harmless) or drives the head start on.
+    judgement. A head start is commanded once its own judgement (the search's first) is done, and the
+    chosen move (if any) replaces it when the search ends; with no move chosen, the robot brakes when
+    the search ends (when the search found braking harmless) or drives the head start on.
     """
     chosen = result.chosen.move if result.chosen is not None else None
     lead = result.lead.move if result.lead is not None else None
+    ended = at + delay + judging * result.judged
     if lead is None:
         if chosen is None:
             return None
-        return commanded(world_at(trial, at + delay + judging * len(result.verdicts), planner), chosen)
-    world = world_at(trial, at + delay + judging * 2, planner)
+        return commanded(world_at(trial, ended, planner), chosen)
+    world = world_at(trial, at + delay + judging, planner)
     if not world.command_robot(lead):
         return None
     if chosen is not None:
-        world.advance(at + delay + judging * (len(result.verdicts) + 1))
+        world.advance(ended)
         return commanded(world, chosen)
     if result.halt is not None:
-        world.advance(at + delay + judging * (len(result.verdicts) + 2))
+        world.advance(ended)
         world.command_robot(None)
     return world.run(world.time + 30.0)
 

@@ -57,14 +57,30 @@ class TrialRecord:
     risky: dict[str, Any] | None = None
     action: dict[str, Any] | None = None  # the first robot intention that is not a head start
     head_start: dict[str, Any] | None = None  # the first head start, sent while the search judged on
+    last_head_start: dict[str, Any] | None = None  # the latest head start before the action
     outcome: dict[str, Any] = field(default_factory=dict)
     snapshot: Snapshot | None = None
     seen_risky_at: float | None = None
     seen_action_at: float | None = None
 
     @property
+    def set_off(self) -> dict[str, Any] | None:
+        """The intention the robot set off on its action with: the head start the action drives on with (the
+        same move, chosen once the search ended), or else the action itself."""
+        led, action = self.last_head_start, self.action
+        if led is not None and action is not None and action.get("action") == "move_to":
+            if (led.get("target"), led.get("final_pose")) == (action.get("target"), action.get("final_pose")):
+                return led
+        return action
+
+    @property
     def reaction_ms(self) -> float | None:
-        """Paper's definition: risky intention written -> robot intention written."""
+        """Paper's definition: risky intention written -> the robot intention it set off on its action with."""
+        return _after_risk_ms(self.set_off)
+
+    @property
+    def decision_ms(self) -> float | None:
+        """Risky intention written -> the action written, once its search ended."""
         return _after_risk_ms(self.action)
 
     @property
@@ -80,10 +96,11 @@ class TrialRecord:
 
     @property
     def e2e_ms(self) -> float | None:
-        """From the perception write behind the danger to the robot intention written."""
-        if self.action is None or not self.action.get("observed_at"):
+        """From the perception write behind the danger to the robot intention it set off on its action with."""
+        set_off = self.set_off
+        if set_off is None or not set_off.get("observed_at"):
             return None
-        return (self.action["created_at"] - self.action["observed_at"]) * 1e3
+        return (set_off["created_at"] - set_off["observed_at"]) * 1e3
 
     @property
     def collided(self) -> bool:
@@ -155,6 +172,7 @@ class Harness:
                 return
             if node.get("head_start"):
                 rec.head_start = rec.head_start or dict(node.attrs)
+                rec.last_head_start = dict(node.attrs)
                 return
             rec.action, rec.seen_action_at = dict(node.attrs), time.time()
             rec.snapshot = snapshot(self.g, rec.action)

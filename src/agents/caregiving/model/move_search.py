@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from itertools import islice
+from itertools import chain, islice
 from typing import TYPE_CHECKING, Any
 
 from .candidates import Danger, candidates
@@ -405,14 +405,16 @@ def search(
     among them judges braking to a stop from the robot's current state). With
     ``ahead``, a helper process judges candidates meanwhile (same verdicts, less wall time).
 
-    With ``head_start``, a robot at rest need not stand idle while the search judges on: when the first
-    candidate is not safe but :meth:`NoWorse.harmless` (judged again by :func:`judge_lead`), and another
-    candidate is left to judge, it is handed to ``head_start`` to be sent at once, and every later
-    candidate is judged as a switch from it, the robot driving it from its command (one judgement
-    later) until the candidate's. The result's ``lead``
-    is that verdict. A head start lasts as long as the search: when no candidate is chosen, braking at
-    the search's end is judged the same way, and the result's ``halt`` is that verdict if it is harmless
-    too (the robot then brakes; otherwise it drives the head start on, which harms nobody).
+    With ``head_start``, a robot at rest need not stand idle while the search judges: before anything
+    else, the first candidate is judged as a head start (:func:`judge_lead`), and when it is
+    :meth:`NoWorse.harmless` and another candidate is left to judge, it is handed to ``head_start`` to be
+    sent at once. Every candidate is then judged as a switch from it (the first one, the same move, as
+    driven on), the robot driving it from its command until the candidate's; the head start's
+    judgement takes the first slot, sent or not. The result's ``lead`` is that verdict. A head start
+    lasts as long as the search: when no candidate is chosen, braking at the search's end is judged the
+    same way, and the result's ``halt`` is that verdict if it is harmless too (the robot then brakes;
+    otherwise it drives the head start on, which harms nobody). The result's ``judged`` counts the
+    slots the search took.
     """
     verdicts: list[Verdict] = []
     generated = candidates(scene, spec.dangers, verdicts, spec.delay, judging)
@@ -434,19 +436,22 @@ def search(
         chosen = verdicts[-1] = replace(
             last, reason=f"clear at the gaze found risky; at another, {last.reason}, as with the robot as it is"
         )
+    slots = len(verdicts) + judging_.lead_judged
     if judging_.lead is None:
-        return SearchResult(chosen, tuple(verdicts))
+        return SearchResult(chosen, tuple(verdicts), judged=slots)
     halt = None
     if chosen is None:
         at_end = judging_.spec_at(len(verdicts) + 1)
         braking = judge_lead(at_end, None, imagine, uncertainty, scene.robot_name)
         halt = braking if no_worse.harmless(braking) else None
-    return SearchResult(chosen, tuple(verdicts), judging_.lead, halt)
+        slots += 1
+    return SearchResult(chosen, tuple(verdicts), judging_.lead, halt, slots)
 
 
 @dataclass(eq=False)  # compared by identity: it tags the moves it lends the helper
 class _Judging:
-    """Judges a search's candidates, the k-th (from 1) with the robot starting ``judging * k`` seconds later.
+    """Judges a search's candidates, the k-th (from 1) with the robot starting ``judging * k`` seconds later
+    (one judgement more after a head start's).
 
     Alone, each candidate is judged in turn. With ``ahead``, once the first candidate has failed, the
     helper is lent the next candidates not yet handed out, :data:`AHEAD_DEPTH` at a time, while this
@@ -463,28 +468,29 @@ class _Judging:
     send_lead: Callable[[Verdict], None] | None = None  # sends a head start, until one is decided on
     no_worse: NoWorse | None = None  # tells a harmless head start
     lead: Verdict | None = None  # the head start sent
+    lead_judged: bool = False  # whether a head start was judged (sent or not): it took the first slot
 
     def spec_at(self, k: int) -> SearchSpec:
-        """The spec the k-th candidate is judged with: the robot switching to it once k judgements are done.
+        """The spec the k-th candidate is judged with: the robot switching to it once the judgements before it,
+        and its own, are done.
 
-        After a head start, the lead's own judgement takes a slot, and the robot drives the lead from its
-        command until the switch.
+        After a head start is sent, the robot drives it from its command until the switch.
         """
-        if self.lead is None or k == 1:
-            return replace(self.spec, delay=self.spec.delay + self.judging * k)
-        return replace(self.lead_sent(), lead=self.lead.move, lead_for=self.judging * (k - 1))
+        if self.lead is None:
+            return replace(self.spec, delay=self.spec.delay + self.judging * (k + self.lead_judged))
+        return replace(self.lead_sent(), lead=self.lead.move, lead_for=self.judging * k)
 
     def lead_sent(self) -> SearchSpec:
-        """The spec with the robot starting when a head start is sent: after the first candidate's judgement and
-        its own."""
-        return replace(self.spec, delay=self.spec.delay + self.judging * 2)
+        """The spec with the robot starting when a head start is sent: after its own judgement."""
+        return replace(self.spec, delay=self.spec.delay + self.judging)
 
-    def consider_head_start(self, first: Verdict) -> None:
-        """Judge the first candidate (not safe) again as a head start, and send it if it is harmless."""
+    def consider_head_start(self, first: RobotMove | None) -> None:
+        """Judge the first candidate as a head start, and send it if it is harmless."""
         send, self.send_lead = self.send_lead, None
-        if send is None or self.no_worse is None or first.move is None:
+        if send is None or self.no_worse is None or first is None:
             return
-        lead = judge_lead(self.lead_sent(), first.move, self.imagine, self.uncertainty, self.scene.robot_name)
+        self.lead_judged = True
+        lead = judge_lead(self.lead_sent(), first, self.imagine, self.uncertainty, self.scene.robot_name)
         if self.no_worse.harmless(lead):
             self.lead = lead
             send(lead)
@@ -500,7 +506,10 @@ class _Judging:
 
         ``moves`` may read ``verdicts`` as they come in.
         """
-        positions = enumerate(moves, start=1)
+        opening = list(islice(enumerate(moves, start=1), 2)) if self.send_lead is not None else []
+        if len(opening) == 2:  # a head start is for a search that judges on past its first candidate
+            self.consider_head_start(opening[0][1])
+        positions = chain(opening, enumerate(moves, start=len(opening) + 1))
         judged: dict[int, Verdict] = {}
         lent: dict[int, RobotMove | None] = {}  # the candidates the helper is judging, by position
 
@@ -541,8 +550,6 @@ class _Judging:
             if gather():
                 return
             mine = next(positions, None)
-            if verdicts and (mine is not None or lent):  # a head start is for a search that judges on
-                self.consider_head_start(verdicts[0])
             exchange()
         while lent:
             exchange(wait=True)

@@ -110,13 +110,20 @@ class SearchResult:
 
     ``lead`` is the head start the search sent while it judged on, if it sent one (see
     :func:`agents.caregiving.model.move_search.search`); ``halt``, when none is chosen after it, braking
-    at the search's end, judged harmless (``None``: the robot drives the head start on).
+    at the search's end, judged harmless (``None``: the robot drives the head start on). ``judged`` is how
+    many judgements the search took in turn, the head start's and braking's included: its time, in
+    candidate slots.
     """
 
     chosen: Verdict | None
     verdicts: tuple[Verdict, ...]
     lead: Verdict | None = None
     halt: Verdict | None = None
+    judged: int = 0
+
+    def __post_init__(self) -> None:
+        if self.judged < len(self.verdicts):
+            raise ValueError(f"a search of {len(self.verdicts)} verdicts took at least as many judgements")
 
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict; the chosen move is an index into the verdicts."""
@@ -128,6 +135,7 @@ class SearchResult:
             "verdicts": [v.to_wire() for v in self.verdicts],
             "lead": self.lead.to_wire() if self.lead is not None else None,
             "halt": self.halt.to_wire() if self.halt is not None else None,
+            "judged": self.judged,
         }
 
     @classmethod
@@ -137,9 +145,12 @@ class SearchResult:
         lead_f, halt_f = f.optional_child("lead"), f.optional_child("halt")
         lead = Verdict.from_fields(lead_f) if lead_f is not None else None
         halt = Verdict.from_fields(halt_f) if halt_f is not None else None
+        judged = f.number("judged")
+        if not judged.is_integer() or judged < len(verdicts):
+            raise f.fail("judged", f"expected a whole number of judgements, {len(verdicts)} or more, got {judged!r}")
         index = f.optional_number("chosen")
         if index is None:
-            return cls(None, verdicts, lead, halt)
+            return cls(None, verdicts, lead, halt, int(judged))
         if not index.is_integer() or not 0 <= index < len(verdicts):
             raise f.fail("chosen", f"expected the index of one of {len(verdicts)} verdicts, got {index!r}")
-        return cls(verdicts[int(index)], verdicts, lead, halt)
+        return cls(verdicts[int(index)], verdicts, lead, halt, int(judged))
