@@ -21,12 +21,12 @@ from stack_helpers import GRAPH, run_trial
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.world_model import run_idle
-from agents.caregiving.names import HAS, HAS_INTENTION, INTENTION, OBJECT, ROBOT, WORLD
+from agents.caregiving.names import HAS, INTENTION, OBJECT, ROBOT, WORLD
 from bridges.experiment.launch import Stack
 from bridges.experiment.oracle import oracle
 from bridges.experiment.trials import TrialRecord, open_harness
 from bridges.world.bridge import trial_for
-from wm import Graph
+from wm import Graph, Node
 
 SCENARIOS = Path(__file__).parent / "scenarios"
 SCENARIO = str(SCENARIOS / "box_obstacle_exact.yaml")
@@ -68,17 +68,16 @@ def test_moves_after_which_a_person_walks_into_the_robot_are_refused(stack: Stac
 
 
 def test_a_move_under_way_that_walks_the_person_into_the_robot_is_braked(stack: Stack) -> None:
-    """Once the danger shows, a move into the person's way is written to W, as if decided on a belief since
-    proved wrong. Carried on, it has the person walk into the robot; no move saves them from the ball, so the
-    action agent brakes the robot and the person's fall stays the one that happens with the robot idle.
-    A head start the action agent sent before the test wrote its move may be commanded first; the move written
-    then comes under way, and it is that move the robot brakes."""
+    """As soon as the ball is in W, before the danger shows, a move into the person's way is written to W, as if
+    decided on a belief since proved wrong. Carried on, it has the person walk into the robot; no move saves them
+    from the ball, so the action agent brakes the robot and the person's fall stays the one that happens with the
+    robot idle. (Written once the danger shows, the move would race the head start the action agent sends for it
+    within milliseconds, from a replica that has not yet seen the move.)"""
     scenario = str(SCENARIOS / "robot_sent_into_the_way.yaml")
     trial = trial_for(load_scenario(scenario), 0, None)
     idle = run_idle(trial, planner=GridPlanner(trial.scene().bounds))
     r = asyncio.run(run_with_a_move_into_the_way(stack, scenario, (-1.2, 0.0, math.pi / 2)))
     moves = [c["move"] for c in r.outcome["commands"] if c["accepted"]]
-    # A head start the action agent sent before the test wrote its move may come first.
     sent = next((k for k, m in enumerate(moves) if m is not None and (m["x"], m["y"]) == (-1.2, 0.0)), None)
     assert sent is not None, f"the move into the way was never sent: {moves}"
     assert None in moves[sent + 1 :], f"the robot was never braked: {moves}"
@@ -91,9 +90,9 @@ async def run_with_a_move_into_the_way(stack: Stack, scenario: str, pose: tuple[
         g = harness.g
         before = episode(g)
         run = asyncio.create_task(harness.run(0, None, timeout=60.0, scenario=scenario))
-        while not (running_after(g, before) and any(e.get("risky") for e in g.edges(type=HAS_INTENTION))):
+        while not (running_after(g, before) and g.nodes(ROBOT) and balls(g)):
             await asyncio.sleep(0.01)
-        robot, ball = g.nodes(ROBOT)[0], next(n for n in g.nodes(OBJECT) if n.get("kind") == "ball")
+        robot, ball = g.nodes(ROBOT)[0], balls(g)[0]
         with g.batch():
             move = g.insert_node(
                 INTENTION,
@@ -109,6 +108,10 @@ async def run_with_a_move_into_the_way(stack: Stack, scenario: str, pose: tuple[
             )
             g.insert_or_assign_edge(robot.id, move, HAS, {"status": "proposed", "updated_at": time.time()})
         return await run
+
+
+def balls(g: Graph) -> list[Node]:
+    return [n for n in g.nodes(OBJECT) if n.get("kind") == "ball"]
 
 
 def episode(g: Graph) -> int:
