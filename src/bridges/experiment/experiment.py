@@ -32,7 +32,7 @@ the same broad set saves when commanded that much later;
 ``robot_caused_collisions`` counts trials that were safe with the robot idle and
 collided with it acting. ``head_starts`` counts trials in which the robot set off on a head start
 while the search judged on (an intention with ``head_start`` set: the robot's first command, but not
-a move that removes the danger, so neither an action nor a reaction; ``head_start_ms_p50`` is its median time
+a move found to remove the danger, so not an action; ``head_start_ms_p50`` is its median time
 from the risky intention, and ``first_response_ms_mean`` and ``_p50`` time the robot's first intention of
 either kind). Reaction times are wall-clock differences
 of stamps written into W by the writers (same host): the paper's definition
