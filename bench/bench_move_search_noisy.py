@@ -30,7 +30,7 @@ positions, on their sizes and on the people's positions and headings is scaled (
 part of perception's noise shows apart.
 
     python bench/bench_move_search_noisy.py [--draws N] [--settle-after-clear N] [--object-scale K]
-        [--size-scale K] [--people-scale K] [--no-sampled-risk] [--head-start] [--json PATH] [RUN ...]
+        [--size-scale K] [--people-scale K] [--no-sampled-risk] [--head-start [--drive-on]] [--json PATH] [RUN ...]
 """
 
 from __future__ import annotations
@@ -122,9 +122,11 @@ def noisy_search(
     settle_after_clear: int,
     noise: Noise,
     head_start: bool = False,
+    drive_on: bool = False,
 ) -> dict[str, object]:
     """Search ``draws`` beliefs of every saveable case; how many searches' moves save in the truth
-    (``outcome_in_truth``: the chosen move, or with ``head_start`` the head start and then the chosen move)."""
+    (``outcome_in_truth``: the chosen move, or with ``head_start`` the head start and then the chosen move; with
+    ``drive_on``, a head start is driven on when no move is chosen, instead of braked)."""
     beliefs = flagged = chosen = saved = judged = into_robot = leads = 0
     lost: dict[str, int] = {}
     spent = 0.0
@@ -166,6 +168,8 @@ def noisy_search(
             judged += len(result.verdicts)
             chosen += result.chosen is not None and result.chosen.move is not None
             leads += result.lead is not None
+            if drive_on:
+                result = replace(result, halt=None)
             outcome = outcome_in_truth(case.trial, case.at, case.planner, delay, judging, result)
             ok = outcome is not None and not outcome.collided
             into_robot += outcome is not None and any(c.obstacle == scene.robot_name for c in outcome.collisions)
@@ -207,10 +211,15 @@ def main() -> None:
     p.add_argument(
         "--head-start", action="store_true", help="send the first candidate as a head start when it is harmless"
     )
+    p.add_argument(
+        "--drive-on",
+        action="store_true",
+        help="drive a head start on when no move is chosen, instead of braking (see bench_head_start_false_alarms.py)",
+    )
     args = p.parse_args()
     noise = Noise(args.object_scale, args.size_scale, args.people_scale, not args.no_sampled_risk)
     found = noisy_search(
-        args.runs, args.draws, args.delay, args.judging, args.settle_after_clear, noise, args.head_start
+        args.runs, args.draws, args.delay, args.judging, args.settle_after_clear, noise, args.head_start, args.drive_on
     )
     benchlib.print_table("Move search on a noisy belief", [(k, v) for k, v in found.items() if k != "lost_draws"])
     print("lost draws:", found["lost_draws"])
@@ -223,6 +232,7 @@ def main() -> None:
             "judging": args.judging,
             "settle_after_clear": args.settle_after_clear,
             "head_start": args.head_start,
+            "drive_on": args.drive_on,
             "noise": {
                 "object_scale": noise.objects,
                 "size_scale": noise.size,

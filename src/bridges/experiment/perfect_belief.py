@@ -10,6 +10,8 @@ them. This separates what the move search can do from what perception's noise co
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from agents.caregiving.model.candidates import Danger
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.move_search import SearchSpec
@@ -39,8 +41,16 @@ def perfect_belief_spec(
     return (scene, spec) if spec is not None else None
 
 
-def spec_on(scene: Scene, idle: World, now: World, delay: float, any_class: bool = False) -> SearchSpec | None:
-    """The spec of the dangers Algorithm 1 finds on ``scene`` (exact or believed) for the people who fall in ``idle``.
+def spec_on(
+    scene: Scene,
+    idle: World,
+    now: World,
+    delay: float,
+    any_class: bool = False,
+    people: Sequence[str] | None = None,
+) -> SearchSpec | None:
+    """The spec of the dangers Algorithm 1 finds on ``scene`` (exact or believed) for the people who fall in ``idle``
+    (or for ``people``: on a belief, someone who falls in no truth may seem to, a false alarm).
 
     ``idle`` is the trial run to its end with the robot idle, ``now`` the truth at the scene's moment (what each
     person has seen so far). Each person's walk is imagined at their true gaze, or, with ``any_class``, at the
@@ -52,22 +62,22 @@ def spec_on(scene: Scene, idle: World, now: World, delay: float, any_class: bool
     dangers: list[Danger] = []
     gazes: dict[str, tuple[float, ...]] = {}
     known: dict[str, tuple[str, ...]] = {}
-    for c in idle.outcome().collisions:
-        if c.person in gazes:
+    for name in [c.person for c in idle.outcome().collisions] if people is None else people:
+        if name in gazes:
             continue
-        walker = idle.walker(c.person)
-        seen = tuple(sorted(objects & now.walker(c.person).known.keys()))
-        classes = gaze_classes(scene.person(c.person), scene.bodies_around(c.person))
+        walker = idle.walker(name)
+        seen = tuple(sorted(objects & now.walker(name).known.keys()))
+        classes = gaze_classes(scene.person(name), scene.bodies_around(name))
         order = tuple(sorted((g.gaze for g in classes), key=lambda g: abs(g - walker.gaze)))
         for gaze in order if any_class else (walker.gaze,):
-            danger = Danger.of(imagine_person(scene, c.person, walker.target, gaze, known=seen))
+            danger = Danger.of(imagine_person(scene, name, walker.target, gaze, known=seen))
             if danger is not None:
                 break
         else:
             continue
         dangers.append(danger)
-        gazes[c.person] = (gaze, *(g for g in order if g != gaze)) if any_class else order
-        known[c.person] = seen
+        gazes[name] = (gaze, *(g for g in order if g != gaze)) if any_class else order
+        known[name] = seen
     if not dangers:
         return None
     # The others walk to their true targets beside them, as the action agent imagines them on their likeliest walk.
