@@ -74,6 +74,7 @@ def false_alarms(runs: list[str], draws: int, delay: float, judging: float, all_
             now = world_at(trial, at, planner)
             walking = list(now.walking())
             rng, origins = np.random.default_rng([t["index"], draws]), np.random.default_rng([t["index"], draws, 1])
+            object_sigma, person_sigma = sigmas(trial.sensors, at)
             for k in range(draws):
                 beliefs += 1
                 scene = belief(now.scene(), trial.sensors, at, Noise(), rng, origins)
@@ -81,7 +82,6 @@ def false_alarms(runs: list[str], draws: int, delay: float, judging: float, all_
                 if spec is None:
                     continue
                 flagged += 1
-                object_sigma, person_sigma = sigmas(trial.sensors, at)
                 sigma = {o.name: object_sigma for o in scene.obstacles} | {p.name: person_sigma for p in scene.people}
                 result = move_search.search(
                     scene,
