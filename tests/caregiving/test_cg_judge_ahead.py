@@ -6,13 +6,15 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Hashable, Iterator
 from functools import partial
 
 import pytest
 
 from agents.caregiving.model.candidates import Danger
 from agents.caregiving.model.imagine import imagine_person
+from agents.caregiving.model.imagine_reply import Answer
+from agents.caregiving.model.imagine_request import JointItem
 from agents.caregiving.model.judge_ahead import JudgeAhead
 from agents.caregiving.model.move_search import SearchSpec, search
 from agents.caregiving.model.robot_moves import RobotMove
@@ -20,7 +22,7 @@ from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
-from agents.caregiving.model.verdict import SearchResult
+from agents.caregiving.model.verdict import SearchResult, Verdict
 from agents.caregiving.model.visibility import gaze_classes
 from agents.caregiving.model.world_model import World
 from bridges.world.bridge import trial_for
@@ -85,6 +87,42 @@ def test_the_search_stops_at_the_first_safe_move_and_leftovers_stay_out_of_the_n
 
     assert lone(scene, spec, moves, ahead, judging=0.0) == alone
     assert lone(*hard_case, ahead=ahead) == lone(*hard_case)  # the verdicts left over from the last search are dropped
+
+
+class _Noting(JudgeAhead):
+    """A helper that notes each move lent to it in a log the search's own imagination writes to as well."""
+
+    def __init__(self, log: list[str]) -> None:
+        super().__init__()
+        self.log = log
+
+    def lend(
+        self, tag: Hashable, scene: Scene, spec: SearchSpec, move: RobotMove | None, uncertainty: Uncertainty
+    ) -> bool:
+        self.log.append("lent")
+        return super().lend(tag, scene, spec, move, uncertainty)
+
+
+def test_after_a_head_start_the_helper_judges_the_second_candidate_beside_the_first(
+    hard_case: tuple[Scene, SearchSpec],
+) -> None:
+    scene, spec = hard_case
+    log: list[str] = []
+
+    def imagine(item: JointItem) -> Answer:
+        if item.move is not None and item.uncertainty is not None:  # a candidate's judgement, not the head start's
+            log.append("judged")
+        return serve_one(scene, item)
+
+    helper, sent = _Noting(log), list[Verdict]()
+    try:
+        led = search(scene, spec, imagine, UNCERTAINTY, 0.2, 24, judging=0.03, ahead=helper, head_start=sent.append)
+    finally:
+        helper.close()
+    assert sent and led.lead is not None and len(led.verdicts) >= 2
+    assert log.index("lent") < log.index("judged")  # the robot drives meanwhile: lending need not wait
+    alone = search(scene, spec, partial(serve_one, scene), UNCERTAINTY, 0.2, 24, judging=0.03, head_start=sent.append)
+    assert led == alone
 
 
 def test_a_search_outlives_its_helper(hard_case: tuple[Scene, SearchSpec]) -> None:

@@ -21,7 +21,8 @@ Each batch of robot moves logs where its time went (``served robot moves``):
 reading W and parsing the request, serving its items (and the CPU time of that), and waiting for the
 items of other batches.
 With ``--judge-ahead`` (on with two or more cores), once a search's first
-candidate has failed, a helper process judges later candidates beside it
+candidate has failed (or, after a head start, from its second candidate), a
+helper process judges later candidates beside it
 (:mod:`agents.caregiving.model.judge_ahead`).
 """
 
@@ -86,8 +87,8 @@ class Simulation(Agent):
             "--judge-ahead",
             action=argparse.BooleanOptionalAction,
             default=(os.cpu_count() or 1) > 1,
-            help="once a search's first candidate has failed, judge later ones in a helper process beside it "
-            "(default: on with two or more cores)",
+            help="once a search's first candidate has failed (after a head start, from the second), judge later "
+            "ones in a helper process beside it (default: on with two or more cores)",
         )
 
     async def setup(self) -> None:

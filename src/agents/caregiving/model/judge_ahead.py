@@ -4,7 +4,8 @@ Algorithm 2's search (:func:`agents.caregiving.model.move_search.search`) judges
 candidates in order and stops at the first safe one. On a machine with a second
 core, once the first candidate has failed, it judges the next one in order itself
 and lends the helper the ones after it, then reads the verdicts in candidate
-order. Every candidate is judged with exactly the inputs it would have in a lone
+order; after a head start is sent, the helper judges the second candidate while
+the search judges the first. Every candidate is judged with exactly the inputs it would have in a lone
 search (scene, walks, the robot's start delay), so the verdicts and the chosen
 move are those of the lone search; only the wall time differs.
 

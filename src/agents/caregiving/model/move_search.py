@@ -456,7 +456,7 @@ class _Judging:
     Alone, each candidate is judged in turn. With ``ahead``, once the first candidate has failed, the
     helper is lent the next candidates not yet handed out, :data:`AHEAD_DEPTH` at a time, while this
     process judges the others; the verdicts are gathered in candidate order, so the search sees what it
-    would see alone.
+    would see alone. After a head start is sent, the helper judges the second candidate alongside the first.
     """
 
     scene: Scene
@@ -516,8 +516,8 @@ class _Judging:
         def exchange(wait: bool = False) -> None:
             """Take the helper's verdicts, then lend it the next candidates up to :data:`AHEAD_DEPTH`.
 
-            Nothing is lent before the first candidate has failed: most searches end with it, and a helper
-            judging the next ones meanwhile would only take the second core from the rest of the stack.
+            Nothing more is lent before the first candidate has failed: most searches end with it, and a
+            helper judging the next ones meanwhile would only take the second core from the rest of the stack.
             """
             ahead = self.ahead
             if ahead is None:
@@ -544,6 +544,15 @@ class _Judging:
             return False
 
         mine = next(positions, None)  # the next candidate this process judges: always the first not lent
+        if self.lead is not None and self.ahead is not None and len(opening) == 2:
+            # The robot is already driving the head start: a search that switches from it switches one
+            # judgement sooner with the second candidate, drawn already, judged alongside the first. The
+            # ones after it wait for the first verdict, which the candidates that follow depend on.
+            k, move = next(positions)
+            if self.ahead.lend((self, k), self.scene, self.spec_at(k), move, self.uncertainty):
+                lent[k] = move
+            else:
+                judged[k] = self.judge(k, move)
         while mine is not None:
             judged[mine[0]] = self.judge(*mine)
             exchange()
