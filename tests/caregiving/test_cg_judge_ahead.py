@@ -59,9 +59,13 @@ def lone(
     moves: list[RobotMove] | None = None,
     ahead: JudgeAhead | None = None,
     judging: float = 0.03,
+    head_start: bool = False,
 ) -> SearchResult:
     imagine = partial(serve_one, scene)
-    return search(scene, spec, imagine, UNCERTAINTY, 0.2, 24, judging=judging, moves=moves, ahead=ahead)
+    sent = (lambda _lead: None) if head_start else None
+    return search(
+        scene, spec, imagine, UNCERTAINTY, 0.2, 24, judging=judging, moves=moves, ahead=ahead, head_start=sent
+    )
 
 
 def test_a_search_with_the_helper_finds_what_a_lone_search_finds(
@@ -134,6 +138,7 @@ def test_a_search_outlives_its_helper(hard_case: tuple[Scene, SearchSpec]) -> No
     try:
         assert lone(scene, spec, ahead=helper) == alone  # every lent move judged here instead
         assert lone(scene, spec, ahead=helper) == alone
+        assert lone(scene, spec, ahead=helper, head_start=True) == lone(scene, spec, head_start=True)
     finally:
         helper.close()
 

@@ -5,9 +5,10 @@ candidates in order and stops at the first safe one. On a machine with a second
 core, once the first candidate has failed, it judges the next one in order itself
 and lends the helper the ones after it, then reads the verdicts in candidate
 order; after a head start is sent, the helper judges the second candidate while
-the search judges the first. Every candidate is judged with exactly the inputs it would have in a lone
-search (scene, walks, the robot's start delay), so the verdicts and the chosen
-move are those of the lone search; only the wall time differs.
+the search judges the first. Every candidate is judged with exactly the inputs it
+would have in a lone search (scene, walks, the robot's start delay), so the
+verdicts and the chosen move are those of the lone search; only the wall time
+differs.
 
 The search keeps the helper two candidates deep, so that it is rarely idle while
 this process judges. Verdicts the search no longer needs (it found a safe move

@@ -548,11 +548,11 @@ class _Judging:
             # The robot is already driving the head start: a search that switches from it switches one
             # judgement sooner with the second candidate, drawn already, judged alongside the first. The
             # ones after it wait for the first verdict, which the candidates that follow depend on.
-            k, move = next(positions)
+            second = k, move = next(positions)
             if self.ahead.lend((self, k), self.scene, self.spec_at(k), move, self.uncertainty):
                 lent[k] = move
-            else:
-                judged[k] = self.judge(k, move)
+            else:  # the helper is gone: the second candidate is judged here, in its turn
+                positions = chain([second], positions)
         while mine is not None:
             judged[mine[0]] = self.judge(*mine)
             exchange()
