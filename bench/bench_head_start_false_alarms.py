@@ -27,11 +27,10 @@ from agents.caregiving.model import move_search
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import Scenario, load_scenario
 from agents.caregiving.model.service import serve_one
-from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import SearchResult
 from agents.caregiving.model.world_model import World
 from bench_move_search import RECORDED, THRESHOLD
-from bench_move_search_noisy import SAMPLES, Noise, belief, sigmas, size_error
+from bench_move_search_noisy import Noise, add_belief_arguments, belief, perception_uncertainty
 from bridges.experiment.oracle import world_at
 from bridges.experiment.perfect_belief import outcome_in_truth, spec_on
 from bridges.world.bridge import trial_for
@@ -74,7 +73,6 @@ def false_alarms(runs: list[str], draws: int, delay: float, judging: float, all_
             now = world_at(trial, at, planner)
             walking = list(now.walking())
             rng, origins = np.random.default_rng([t["index"], draws]), np.random.default_rng([t["index"], draws, 1])
-            object_sigma, person_sigma = sigmas(trial.sensors, at)
             for k in range(draws):
                 beliefs += 1
                 scene = belief(now.scene(), trial.sensors, at, Noise(), rng, origins)
@@ -82,12 +80,11 @@ def false_alarms(runs: list[str], draws: int, delay: float, judging: float, all_
                 if spec is None:
                     continue
                 flagged += 1
-                sigma = {o.name: object_sigma for o in scene.obstacles} | {p.name: person_sigma for p in scene.people}
                 result = move_search.search(
                     scene,
                     spec,
                     partial(serve_one, scene),
-                    Uncertainty(size_error(trial.sensors), sigma, SAMPLES, seed=k),
+                    perception_uncertainty(scene, trial.sensors, at, k),
                     THRESHOLD,
                     24,
                     judging=judging,
@@ -123,10 +120,7 @@ def _collides(
 
 def main() -> None:
     p = benchlib.parser("bench_head_start_false_alarms", __doc__.splitlines()[0])
-    p.add_argument("runs", nargs="*", default=list(RUNS), help="recorded runs (docs/results/RUN.json)")
-    p.add_argument("--draws", type=int, default=3, help="beliefs drawn per false alarm")
-    p.add_argument("--delay", type=float, default=0.05, help="seconds from the danger to the robot's start")
-    p.add_argument("--judging", type=float, default=0.02, help="seconds more per candidate judged")
+    add_belief_arguments(p, RUNS, "false alarm", 0.05)
     p.add_argument("--all-odds", action="store_true", help="false alarms below even odds too (no head start live)")
     args = p.parse_args()
     found = false_alarms(args.runs, args.draws, args.delay, args.judging, args.all_odds)

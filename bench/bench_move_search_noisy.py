@@ -35,8 +35,10 @@ part of perception's noise shows apart.
 
 from __future__ import annotations
 
+import argparse
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from functools import partial
 
@@ -79,6 +81,21 @@ def sigmas(sensors: SensorSpec, at: float) -> tuple[float, float]:
 def size_error(sensors: SensorSpec) -> float:
     """The bound of the size bias the sensors draw per object."""
     return sensors.size_error if sensors.enabled else 0.0
+
+
+def perception_uncertainty(scene: Scene, sensors: SensorSpec, at: float, seed: int) -> Uncertainty:
+    """What the action agent samples round a belief of ``scene`` at ``at`` s: the tracker's sigmas, the size error."""
+    object_sigma, person_sigma = sigmas(sensors, at)
+    sigma = {o.name: object_sigma for o in scene.obstacles} | {p.name: person_sigma for p in scene.people}
+    return Uncertainty(size_error(sensors), sigma, SAMPLES, seed=seed)
+
+
+def add_belief_arguments(p: argparse.ArgumentParser, runs: Sequence[str], drawn_per: str, delay: float) -> None:
+    """The arguments of the benches on drawn beliefs: the recorded runs, the beliefs drawn, the robot's delays."""
+    p.add_argument("runs", nargs="*", default=list(runs), help="recorded runs (docs/results/RUN.json)")
+    p.add_argument("--draws", type=int, default=3, help=f"beliefs drawn per {drawn_per}")
+    p.add_argument("--delay", type=float, default=delay, help="seconds from the danger to the robot's start")
+    p.add_argument("--judging", type=float, default=0.02, help="seconds more per candidate judged")
 
 
 def belief(
@@ -145,12 +162,8 @@ def noisy_search(
             if spec is None:
                 continue
             flagged += 1
-            object_sigma, person_sigma = sigmas(sensors, case.at)
-            sigma = {o.name: object_sigma for o in scene.obstacles} | {p.name: person_sigma for p in scene.people}
             uncertainty = (
-                Uncertainty(size_error(sensors), sigma, SAMPLES, seed=k)
-                if noise.sampled_risk
-                else Uncertainty(0.0, {}, 1)
+                perception_uncertainty(scene, sensors, case.at, k) if noise.sampled_risk else Uncertainty(0.0, {}, 1)
             )
             started = time.perf_counter()
             result = move_search.search(
@@ -192,10 +205,7 @@ def noisy_search(
 
 def main() -> None:
     p = benchlib.parser("bench_move_search_noisy", __doc__.splitlines()[0])
-    p.add_argument("runs", nargs="*", default=list(RUNS), help="recorded runs (docs/results/RUN.json)")
-    p.add_argument("--draws", type=int, default=3, help="beliefs drawn per saveable trial")
-    p.add_argument("--delay", type=float, default=0.1, help="seconds from the danger to the robot's start")
-    p.add_argument("--judging", type=float, default=0.02, help="seconds more per candidate judged")
+    add_belief_arguments(p, RUNS, "saveable trial", 0.1)
     p.add_argument(
         "--settle-after-clear",
         type=int,

@@ -125,8 +125,7 @@ def test_after_a_head_start_the_helper_judges_the_second_candidate_beside_the_fi
         helper.close()
     assert sent and led.lead is not None and len(led.verdicts) >= 2
     assert log.index("lent") < log.index("judged")  # the robot drives meanwhile: lending need not wait
-    alone = search(scene, spec, partial(serve_one, scene), UNCERTAINTY, 0.2, 24, judging=0.03, head_start=sent.append)
-    assert led == alone
+    assert led == lone(scene, spec, head_start=True)
 
 
 def test_a_search_outlives_its_helper(hard_case: tuple[Scene, SearchSpec]) -> None:
