@@ -6,19 +6,31 @@ as ``bench/bench_move_search.py`` sets them up.
 """
 
 import math
+from dataclasses import replace
 from functools import partial
+from pathlib import Path
 
 import pytest
 from recorded_cases import DELAY, EXACT, HELD_OUT, JUDGING, THRESHOLD, recorded_case
 
 from agents.caregiving.model import imagine_reply
+from agents.caregiving.model.candidates import candidates
 from agents.caregiving.model.imagine_reply import Answer, ImagineReply
 from agents.caregiving.model.imagine_request import JointItem
 from agents.caregiving.model.joint import imagine_joint
-from agents.caregiving.model.move_search import SearchItem, SearchSpec, search
+from agents.caregiving.model.move_search import (
+    NoWorse,
+    SearchItem,
+    SearchSpec,
+    driven_on,
+    judge_lead,
+    judge_move,
+    search,
+)
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.service import item_from_wire, serve_one
+from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import Verdict
 from agents.caregiving.model.world_model import Walk, run_idle
 from bridges.experiment.oracle import world_at
@@ -60,13 +72,13 @@ def test_the_head_start_is_judged_first_and_every_candidate_as_a_switch_from_it(
     lead_items = len(spec.walk_sets())  # the head start's own judgement, at every walk set, samples no risk
     assert all(i.uncertainty is None and i.lead is None for i in items[:lead_items])
     assert all(i.delay == pytest.approx(DELAY + JUDGING) for i in items[:lead_items])
-    judged = items[lead_items:]
+    judged = items[lead_items:]  # the first candidate's verdict is read off the head start's: no item of its own
     assert all(i.uncertainty is not None for i in judged)
     for k, item in enumerate(judged, start=1):
         assert item.lead == result.lead.move and item.delay == pytest.approx(DELAY + JUDGING)
         assert item.lead_for == pytest.approx(JUDGING * k)
-    assert [i.move for i in judged] == [v.move for v in result.verdicts]
-    assert result.judged == len(result.verdicts) + 1
+    assert [i.move for i in judged] == [v.move for v in result.verdicts[1:]]
+    assert result.judged == len(result.verdicts)
 
 
 def test_a_first_candidate_that_walks_someone_into_the_robot_is_no_head_start() -> None:
@@ -138,10 +150,54 @@ def test_a_head_start_ends_with_its_search_when_no_move_is_found() -> None:
     assert result.chosen is None and sent == [result.lead] and result.lead is not None
     assert result.halt is not None and result.halt.move is None and not result.halt.trips(scene.robot_name)
     idle = run_idle(trial, planner=planner)
-    assert result.judged == len(result.verdicts) + 2
+    assert result.judged == len(result.verdicts) + 1
     world = world_at(trial, 0.6 + DELAY + JUDGING, planner)
     assert world.command_robot(result.lead.move)
-    world.advance(0.6 + DELAY + JUDGING * (len(result.verdicts) + 2))
+    world.advance(0.6 + DELAY + JUDGING * (len(result.verdicts) + 1))
     world.command_robot(None)
     assert [c.obstacle for c in world.run(30.0).collisions] == [c.obstacle for c in idle.collisions]
     assert not saved_in_truth(trial, 0.6, planner, DELAY, JUDGING, result)
+
+
+@pytest.mark.parametrize(("scenario", "seed", "index", "at"), [(HURRIED_WALKER, 6, 0, 0.55), (FACE_TO_FACE, 3, 0, 0.6)])
+def test_an_imagination_that_let_a_fall_happen_tells_where_one_that_stopped_at_it_ends(
+    scenario: Path, seed: int, index: int, at: float
+) -> None:
+    _, _, scene, spec = recorded_case(scenario, seed, index, at)
+    danger = spec.dangers[0]
+    move = next(candidates(scene, spec.dangers))
+    for walks in spec.walk_sets():
+        stopped = imagine_joint(scene, walks, move, delay=DELAY, until_first_fall=True)
+        went_on = imagine_joint(
+            scene, walks, move, delay=DELAY, until_first_fall=True, falling={danger.person: danger.obstacle}
+        )
+        read = went_on.stopped_at_first_fall({})
+        assert read is not None
+        assert [(w.status, w.collision_object, w.collision_point, w.collision_time) for w in read.walks] == [
+            (w.status, w.collision_object, w.collision_point, w.collision_time) for w in stopped.walks
+        ]
+        assert read.robot_arrival == stopped.robot_arrival
+    assert any(not w.fine_given({}) for w in stopped.walks)  # the danger's person falls with this move
+
+
+def test_the_first_candidate_is_read_off_the_head_start_as_it_would_be_judged() -> None:
+    """Over recorded dangers where a head start is sent, with perception's risk sampled round the walks."""
+    compared = 0
+    for scenario, seed, index, at in [
+        (HURRIED_WALKER, 6, 0, 0.55),
+        (FACE_TO_FACE, 3, 0, 0.6),
+        (FACE_TO_FACE, 3, 16, 0.6),
+    ]:
+        _, _, scene, spec = recorded_case(scenario, seed, index, at)
+        sigma = {p.name: 0.04 for p in scene.people} | {o.name: 0.02 for o in scene.obstacles}
+        noisy = Uncertainty(0.2, sigma, 16)
+        imagine = partial(serve_one, scene)
+        first = next(candidates(scene, spec.dangers))
+        lead_spec = replace(spec, delay=DELAY + JUDGING)
+        lead, answers = judge_lead(lead_spec, first, imagine, noisy, scene.robot_name)
+        assert NoWorse(spec, imagine, noisy, THRESHOLD, scene.robot_name).harmless(lead)
+        read = driven_on(scene, spec, first, answers, noisy)
+        judged = judge_move(replace(lead_spec, lead=first, lead_for=JUDGING), first, imagine, noisy, scene.robot_name)
+        assert read == judged
+        compared += 1
+    assert compared == 3

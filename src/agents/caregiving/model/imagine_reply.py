@@ -21,14 +21,16 @@ and raises :class:`~agents.caregiving.model.errors.ReplyError` on anything else.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 from .errors import ReplyError
 from .fields import Fields
 from .imagine import Imagination
-from .joint import JointImagination
-from .uncertainty import Risk
+from .joint import JointImagination, joint_risk
+from .scene import Scene
+from .uncertainty import Risk, Uncertainty
 from .verdict import SearchResult
 
 KINDS = frozenset({"person", "joint", "search"})
@@ -46,6 +48,19 @@ class Answer:
     search: SearchResult | None = None  # a "search" item's verdicts and chosen move
     risk: Risk | None = None  # when the item asked for its uncertainty to be sampled
     error: str | None = None  # why the item was not imagined
+
+
+def joint_answer(
+    scene: Scene, joint: JointImagination, uncertainty: Uncertainty | None, falling: Mapping[str, str]
+) -> Answer:
+    """A joint item's answer: the imagination, and the risk sampled round it when the item asks for one.
+
+    A move whose nominal imagination already fails (for a fall ``falling`` does not name) is refused whatever
+    the sampled risk: none is sampled.
+    """
+    if uncertainty is None or not joint.safe_given(falling):
+        return Answer(joint=joint)
+    return Answer(joint=joint, risk=joint_risk(scene, joint, uncertainty, falling))
 
 
 @dataclass(frozen=True)

@@ -20,8 +20,8 @@ robot stands at the end. ``move=None`` imagines the robot braking to a stop.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Collection, Mapping, Sequence
+from dataclasses import dataclass, replace
 from typing import Any
 
 from .errors import RequestError
@@ -31,6 +31,7 @@ from .planner import GridPlanner
 from .robot_moves import RobotMove
 from .rollout import DT
 from .scene import Scene
+from .uncertainty import NO_RISK, Risk, Uncertainty, collision_risk
 from .world_model import Walk, World, fell
 
 #: Seconds imagined at most: long enough for a walk across any room these scenarios hold.
@@ -138,6 +139,31 @@ class JointImagination:
         """:attr:`safe`, but for the falls ``falling`` names (``{person: object}``), which happen anyway."""
         return self.robot_reachable and all(w.fine_given(falling) for w in self.walks)
 
+    def stopped_at_first_fall(self, falling: Mapping[str, str]) -> JointImagination | None:
+        """What this imagination says had it stopped at the first fall ``falling`` does not name, as one imagined
+        ``until_first_fall`` with ``falling`` does, when it went on past such falls (that it let happen).
+
+        The falls of that step stand; a later one is taken back (that person is still walking), and so is a
+        robot arrival after that step. Tracks and clearances are left as walked: what a verdict reads of a walk
+        that falls is who, into what and where. None when it cannot be told: someone got stuck, and a walk
+        does not keep when.
+        """
+        falls = [w for w in self.walks if not w.fine_given(falling)]
+        if not falls:
+            return self
+        times = [w.collision_time for w in falls]
+        if any(t is None for t in times):
+            return None
+        first = min(t for t in times if t is not None) + 1e-9
+        walks = tuple(
+            replace(w, status="walking", collision_time=None, collision_point=None, collision_object=None)
+            if w in falls and w.collision_time is not None and w.collision_time > first
+            else w
+            for w in self.walks
+        )
+        arrival = self.robot_arrival if self.robot_arrival is not None and self.robot_arrival <= first else None
+        return replace(self, robot_arrival=arrival, walks=walks)
+
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict."""
         return {
@@ -161,6 +187,17 @@ class JointImagination:
             f.optional_number("robot_arrival"),
             tuple(WalkOutcome.from_fields(w) for w in f.children("walks")),
         )
+
+
+def joint_risk(scene: Scene, joint: JointImagination, u: Uncertainty, falling: Collection[str] = ()) -> Risk:
+    """The likeliest collision over the sampled worlds, worst walk first, leaving out the people ``falling`` anyway.
+
+    The walks are sampled as walked; the robot is left out, since it knows where it is and the
+    nominal imagination already checks every step against it.
+    """
+    without_robot = scene.with_robot(None)
+    risks = [collision_risk(without_robot, w.as_imagination(), u) for w in joint.walks if w.walk.person not in falling]
+    return max(risks, key=lambda r: r.probability, default=NO_RISK)
 
 
 def walk_from_fields(f: Fields) -> Walk:

@@ -15,12 +15,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from functools import partial
 from itertools import chain, islice
 from typing import TYPE_CHECKING, Any
 
 from .candidates import Danger, candidates
 from .fields import Fields
-from .imagine_reply import Answer
+from .imagine_reply import Answer, joint_answer
 from .imagine_request import MAX_DELAY, JointItem, falling_from_fields, uncertainty_from_fields, uncertainty_to_wire
 from .joint import WalkOutcome, walk_from_fields, walk_to_wire
 from .robot_moves import RobotMove
@@ -354,19 +355,30 @@ def judge_move(
     Everyone imagined is held to the :class:`RobotMargin` of ``robot`` (the scene's robot) under ``uncertainty``.
     """
     items = spec.items(move, uncertainty)
+    return _judged_in_turn(spec, move, [partial(imagine, item) for item in items], uncertainty, robot)
+
+
+def _judged_in_turn(
+    spec: SearchSpec,
+    move: RobotMove | None,
+    answers: Sequence[Callable[[], Answer]],
+    uncertainty: Uncertainty,
+    robot: str | None,
+) -> Verdict:
+    """:func:`judge_move`, with each walk set's answer got by calling ``answers[k]``, only when it is needed."""
     margin = RobotMargin.of(robot, uncertainty)
-    first = [imagine(items[0])]
+    first = [answers[0]()]
     verdict = judge(move, first, spec.falling, margin)
-    if not verdict.clear or len(items) == 1:
+    if not verdict.clear or len(answers) == 1:
         return verdict
-    return judge(move, first + [imagine(item) for item in items[1:]], spec.falling, margin)
+    return judge(move, first + [answer() for answer in answers[1:]], spec.falling, margin)
 
 
 def judge_lead(
     spec: SearchSpec, move: RobotMove | None, imagine: Imagine, uncertainty: Uncertainty, robot: str | None
-) -> Verdict:
+) -> tuple[Verdict, list[Answer]]:
     """Judge ``move`` as a head start (or, ``None``, braking at its end): at every walk set, the dangers' own
-    falls let happen.
+    falls let happen. Returns the verdict and the answers, one per walk set.
 
     The falls the dangers foresee happen with the robot idle too; what matters of a head start is
     whether anyone else falls, or anyone walks into the robot, before a better move replaces it.
@@ -375,7 +387,24 @@ def judge_lead(
     excused = {**spec.falling, **{d.person: d.obstacle for d in spec.dangers}}
     items = replace(spec, falling=excused).items(move, uncertainty)
     answers = [imagine(replace(item, uncertainty=None)) for item in items]
-    return judge(move, answers, excused, RobotMargin.of(robot, uncertainty))
+    return judge(move, answers, excused, RobotMargin.of(robot, uncertainty)), answers
+
+
+def driven_on(
+    scene: Scene, spec: SearchSpec, move: RobotMove, lead: Sequence[Answer], uncertainty: Uncertainty
+) -> Verdict | None:
+    """The verdict :func:`judge_move` gives the head start's own move driven on, read off the head start's answers.
+
+    Driven on, the robot does just what it does in the head start's imagination, and so does everyone:
+    the two imaginations part only where the head start lets a danger's own fall happen and goes on, and
+    the move's judgement stops (:meth:`JointImagination.stopped_at_first_fall`). The risk is sampled round
+    the same walks. None when that cannot be read off (see there).
+    """
+    stopped = [a.joint.stopped_at_first_fall(spec.falling) if a.joint is not None else None for a in lead]
+    if any(s is None for s in stopped):
+        return None
+    answers = [partial(joint_answer, scene, s, uncertainty, spec.falling) for s in stopped if s is not None]
+    return _judged_in_turn(spec, move, answers, uncertainty, scene.robot_name)
 
 
 def search(
@@ -408,8 +437,9 @@ def search(
     With ``head_start``, a robot at rest need not stand idle while the search judges: before anything
     else, the first candidate is judged as a head start (:func:`judge_lead`), and when it is
     :meth:`NoWorse.harmless` and another candidate is left to judge, it is handed to ``head_start`` to be
-    sent at once. Every candidate is then judged as a switch from it (the first one, the same move, as
-    driven on), the robot driving it from its command until the candidate's; the head start's
+    sent at once. Every candidate is then judged as a switch from it, the robot driving it from its
+    command until the candidate's; the first one, the same move driven on, is read off the head start's
+    own imagination (:func:`driven_on`) when it can be, and takes no judgement. The head start's
     judgement takes the first slot, sent or not. The result's ``lead`` is that verdict. A head start
     lasts as long as the search: when no candidate is chosen, braking at the search's end is judged the
     same way, and the result's ``halt`` is that verdict if it is harmless too (the robot then brakes;
@@ -436,13 +466,13 @@ def search(
         chosen = verdicts[-1] = replace(
             last, reason=f"clear at the gaze found risky; at another, {last.reason}, as with the robot as it is"
         )
-    slots = len(verdicts) + judging_.lead_judged
+    slots = len(verdicts) + judging_.lead_judged - (judging_.read_off is not None)
     if judging_.lead is None:
         return SearchResult(chosen, tuple(verdicts), judged=slots)
     halt = None
     if chosen is None:
         at_end = judging_.spec_at(len(verdicts) + 1)
-        braking = judge_lead(at_end, None, imagine, uncertainty, scene.robot_name)
+        braking, _ = judge_lead(at_end, None, imagine, uncertainty, scene.robot_name)
         halt = braking if no_worse.harmless(braking) else None
         slots += 1
     return SearchResult(chosen, tuple(verdicts), judging_.lead, halt, slots)
@@ -456,7 +486,8 @@ class _Judging:
     Alone, each candidate is judged in turn. With ``ahead``, once the first candidate has failed, the
     helper is lent the next candidates not yet handed out, :data:`AHEAD_DEPTH` at a time, while this
     process judges the others; the verdicts are gathered in candidate order, so the search sees what it
-    would see alone. After a head start is sent, the helper judges the second candidate alongside the first.
+    would see alone. After a head start is sent, the first candidate's verdict is read off the head start's
+    (:func:`driven_on`); when it cannot be, the helper judges the second candidate alongside the first.
     """
 
     scene: Scene
@@ -469,6 +500,7 @@ class _Judging:
     no_worse: NoWorse | None = None  # tells a harmless head start
     lead: Verdict | None = None  # the head start sent
     lead_judged: bool = False  # whether a head start was judged (sent or not): it took the first slot
+    read_off: Verdict | None = None  # the first candidate's verdict, read off the head start's (see driven_on)
 
     def spec_at(self, k: int) -> SearchSpec:
         """The spec the k-th candidate is judged with: the robot switching to it once the judgements before it,
@@ -478,7 +510,8 @@ class _Judging:
         """
         if self.lead is None:
             return replace(self.spec, delay=self.spec.delay + self.judging * (k + self.lead_judged))
-        return replace(self.lead_sent(), lead=self.lead.move, lead_for=self.judging * k)
+        judged_before = k - (self.read_off is not None)  # a verdict read off takes no judgement
+        return replace(self.lead_sent(), lead=self.lead.move, lead_for=self.judging * judged_before)
 
     def lead_sent(self) -> SearchSpec:
         """The spec with the robot starting when a head start is sent: after its own judgement."""
@@ -490,10 +523,11 @@ class _Judging:
         if send is None or self.no_worse is None or first is None:
             return
         self.lead_judged = True
-        lead = judge_lead(self.lead_sent(), first, self.imagine, self.uncertainty, self.scene.robot_name)
+        lead, answers = judge_lead(self.lead_sent(), first, self.imagine, self.uncertainty, self.scene.robot_name)
         if self.no_worse.harmless(lead):
             self.lead = lead
             send(lead)
+            self.read_off = driven_on(self.scene, self.spec, first, answers, self.uncertainty)
 
     def in_order(
         self,
@@ -544,7 +578,7 @@ class _Judging:
             return False
 
         mine = next(positions, None)  # the next candidate this process judges: always the first not lent
-        if self.lead is not None and self.ahead is not None and len(opening) == 2:
+        if self.lead is not None and self.read_off is None and self.ahead is not None and len(opening) == 2:
             # The robot is already driving the head start: a search that switches from it switches one
             # judgement sooner with the second candidate, drawn already, judged alongside the first. The
             # ones after it wait for the first verdict, which the candidates that follow depend on.
@@ -567,6 +601,8 @@ class _Judging:
         gather()
 
     def judge(self, k: int, move: RobotMove | None) -> Verdict:
+        if k == 1 and self.read_off is not None:
+            return self.read_off
         return judge_move(self.spec_at(k), move, self.imagine, self.uncertainty, self.scene.robot_name)
 
 

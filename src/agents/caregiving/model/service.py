@@ -27,7 +27,7 @@ a joint answer's risk is the worst of its walks', sampled only when every walk i
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 from typing import Any
@@ -35,14 +35,14 @@ from typing import Any
 from .errors import CaregivingError, RequestError
 from .fields import Fields
 from .imagine import imagine_person
-from .imagine_reply import Answer
+from .imagine_reply import Answer, joint_answer
 from .imagine_request import JointItem, PersonItem
-from .joint import JointImagination, imagine_joint
+from .joint import imagine_joint
 from .judge_ahead import JudgeAhead
 from .move_search import SearchItem
 from .rollout import Rollout
 from .scene import Scene
-from .uncertainty import NO_RISK, Risk, Uncertainty, collision_risk
+from .uncertainty import collision_risk
 from .verdict import Verdict
 
 MAX_ITEMS = 512
@@ -99,28 +99,13 @@ def serve(scene: Scene, item: Item, serving: Serving = PLAIN) -> Answer:
         until_first_fall=item.until_first_fall,
         falling=item.falling,
     )
-    u = item.uncertainty
-    # A move whose nominal imagination already fails is refused whatever the sampled risk: none is sampled.
-    if u is None or not joint.safe_given(item.falling):
-        return Answer(joint=joint)
-    return Answer(joint=joint, risk=joint_risk(scene, joint, u, item.falling))
+    return joint_answer(scene, joint, item.uncertainty, item.falling)
 
 
 def serve_item(scene: Scene, item: object, serving: Serving = PLAIN) -> Answer:
     """Answer one item, typed or in its wire form; raises when it is malformed or unanswerable."""
     typed = item if isinstance(item, Item) else item_from_wire(item)
     return serve(scene, typed, serving)
-
-
-def joint_risk(scene: Scene, joint: JointImagination, u: Uncertainty, falling: Collection[str] = ()) -> Risk:
-    """The likeliest collision over the sampled worlds, worst walk first, leaving out the people ``falling`` anyway.
-
-    The walks are sampled as walked; the robot is left out, since it knows where it is and the
-    nominal imagination already checks every step against it.
-    """
-    without_robot = scene.with_robot(None)
-    risks = [collision_risk(without_robot, w.as_imagination(), u) for w in joint.walks if w.walk.person not in falling]
-    return max(risks, key=lambda r: r.probability, default=NO_RISK)
 
 
 def judges_robot_moves(items: list[Any]) -> bool:
