@@ -510,8 +510,8 @@ class _Judging:
         """
         if self.lead is None:
             return replace(self.spec, delay=self.spec.delay + self.judging * (k + self.lead_judged))
-        judged_before = k - (self.read_off is not None)  # a verdict read off takes no judgement
-        return replace(self.lead_sent(), lead=self.lead.move, lead_for=self.judging * judged_before)
+        judgements = k - (self.read_off is not None)  # the k-th's and those before it; one read off takes none
+        return replace(self.lead_sent(), lead=self.lead.move, lead_for=self.judging * judgements)
 
     def lead_sent(self) -> SearchSpec:
         """The spec with the robot starting when a head start is sent: after its own judgement."""
