@@ -38,6 +38,7 @@ from bridges.experiment.perfect_belief import saved_in_truth
 
 HURRIED_WALKER = HELD_OUT / "hurried_walker.yaml"
 FACE_TO_FACE = HELD_OUT / "face_to_face.yaml"
+THREE_RESIDENTS = HELD_OUT / "three_residents.yaml"
 
 
 def test_a_head_start_saves_the_hurried_walker_a_search_from_rest_loses() -> None:
@@ -159,34 +160,40 @@ def test_a_head_start_ends_with_its_search_when_no_move_is_found() -> None:
     assert not saved_in_truth(trial, 0.6, planner, DELAY, JUDGING, result)
 
 
-@pytest.mark.parametrize(("scenario", "seed", "index", "at"), [(HURRIED_WALKER, 6, 0, 0.55), (FACE_TO_FACE, 3, 0, 0.6)])
+@pytest.mark.parametrize(
+    ("scenario", "seed", "index", "at"),
+    [(HURRIED_WALKER, 6, 0, 0.55), (FACE_TO_FACE, 3, 0, 0.6), (THREE_RESIDENTS, 11, 0, 2.0)],
+)
 def test_an_imagination_that_let_a_fall_happen_tells_where_one_that_stopped_at_it_ends(
     scenario: Path, seed: int, index: int, at: float
 ) -> None:
+    """With three residents, the one that went on sees a later fall and the robot's arrival, both taken back."""
     _, _, scene, spec = recorded_case(scenario, seed, index, at)
-    danger = spec.dangers[0]
+    excused = {d.person: d.obstacle for d in spec.dangers}
     move = next(candidates(scene, spec.dangers))
+    parted = 0
     for walks in spec.walk_sets():
         stopped = imagine_joint(scene, walks, move, delay=DELAY, until_first_fall=True)
-        went_on = imagine_joint(
-            scene, walks, move, delay=DELAY, until_first_fall=True, falling={danger.person: danger.obstacle}
-        )
+        went_on = imagine_joint(scene, walks, move, delay=DELAY, until_first_fall=True, falling=excused)
+        assert not stopped.safe_given({})  # someone falls with this move, at every gaze
         read = went_on.stopped_at_first_fall({})
         assert read is not None
-        assert [(w.status, w.collision_object, w.collision_point, w.collision_time) for w in read.walks] == [
-            (w.status, w.collision_object, w.collision_point, w.collision_time) for w in stopped.walks
+        assert [(w.fine_given({}), w.collision_object, w.collision_point, w.collision_time) for w in read.walks] == [
+            (w.fine_given({}), w.collision_object, w.collision_point, w.collision_time) for w in stopped.walks
         ]
         assert read.robot_arrival == stopped.robot_arrival
-    assert any(not w.fine_given({}) for w in stopped.walks)  # the danger's person falls with this move
+        parted += read != went_on
+    assert parted > 0 or len(scene.people) == 1
 
 
 def test_the_first_candidate_is_read_off_the_head_start_as_it_would_be_judged() -> None:
     """Over recorded dangers where a head start is sent, with perception's risk sampled round the walks."""
-    compared = 0
+    clear = 0
     for scenario, seed, index, at in [
         (HURRIED_WALKER, 6, 0, 0.55),
-        (FACE_TO_FACE, 3, 0, 0.6),
         (FACE_TO_FACE, 3, 16, 0.6),
+        ("paper_experiment1", 2024, 13, 0.55),  # clear at every gaze: the risk is sampled round the walks read off
+        (THREE_RESIDENTS, 11, 0, 2.0),  # a later fall and the robot's arrival taken back
     ]:
         _, _, scene, spec = recorded_case(scenario, seed, index, at)
         sigma = {p.name: 0.04 for p in scene.people} | {o.name: 0.02 for o in scene.obstacles}
@@ -199,5 +206,5 @@ def test_the_first_candidate_is_read_off_the_head_start_as_it_would_be_judged() 
         read = driven_on(scene, spec, first, answers, noisy)
         judged = judge_move(replace(lead_spec, lead=first, lead_for=JUDGING), first, imagine, noisy, scene.robot_name)
         assert read == judged
-        compared += 1
-    assert compared == 3
+        clear += judged.clear and judged.risk > 0.0
+    assert clear > 0

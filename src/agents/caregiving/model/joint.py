@@ -144,9 +144,10 @@ class JointImagination:
         ``until_first_fall`` with ``falling`` does, when it went on past such falls (that it let happen).
 
         The falls of that step stand; a later one is taken back (that person is still walking), and so is a
-        robot arrival after that step. Tracks and clearances are left as walked: what a verdict reads of a walk
-        that falls is who, into what and where. None when it cannot be told: someone got stuck, and a walk
-        does not keep when.
+        robot arrival after that step. The walks that end well are left as they ended (arrived, say, where the
+        stopped imagination has them still walking), and tracks and clearances as walked: what a verdict reads
+        of a walk is whether it ends well and, if not, who fell, into what and where. None when it cannot be
+        told: someone got stuck, and a walk does not keep when.
         """
         falls = [w for w in self.walks if not w.fine_given(falling)]
         if not falls:
