@@ -25,7 +25,7 @@ from agents.caregiving.model.candidates import candidates
 from agents.caregiving.model.imagine import planner_for
 from agents.caregiving.model.move_search import NoWorse, driven_on, judge_lead, judge_move
 from agents.caregiving.model.service import serve_one
-from bench_move_search import cases, search_spec
+from bench_move_search import THRESHOLD, cases, search_spec
 from bench_move_search_noisy import perception_uncertainty
 
 RUNS = (
@@ -36,7 +36,6 @@ RUNS = (
     "heldout/corner_flat_seed3_knows",
     "heldout/ward_footstool_seed11_head_start_first",
 )
-THRESHOLD = 0.2
 T = TypeVar("T")
 
 
