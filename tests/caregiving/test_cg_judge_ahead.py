@@ -107,7 +107,7 @@ class _Noting(JudgeAhead):
         return super().lend(tag, scene, spec, move, uncertainty)
 
 
-def test_after_a_head_start_the_helper_judges_the_second_candidate_beside_the_first(
+def test_after_a_head_start_the_helper_is_lent_candidates_before_one_is_judged_here(
     hard_case: tuple[Scene, SearchSpec],
 ) -> None:
     scene, spec = hard_case

@@ -4,11 +4,11 @@ Algorithm 2's search (:func:`agents.caregiving.model.move_search.search`) judges
 candidates in order and stops at the first safe one. On a machine with a second
 core, once the first candidate has failed, it judges the next one in order itself
 and lends the helper the ones after it, then reads the verdicts in candidate
-order; after a head start is sent, the helper judges the second candidate while
-the search judges the first. Every candidate is judged with exactly the inputs it
-would have in a lone search (scene, walks, the robot's start delay), so the
-verdicts and the chosen move are those of the lone search; only the wall time
-differs.
+order; after a head start is sent, the first verdict is read off the head
+start's (:func:`~agents.caregiving.model.move_search.driven_on`), so that happens
+at once. Every candidate is judged with exactly the inputs it would have in a
+lone search (scene, walks, the robot's start delay), so the verdicts and the
+chosen move are those of the lone search; only the wall time differs.
 
 The search keeps the helper two candidates deep, so that it is rarely idle while
 this process judges. Verdicts the search no longer needs (it found a safe move

@@ -400,10 +400,12 @@ def driven_on(
     the move's judgement stops (:meth:`JointImagination.stopped_at_first_fall`). The risk is sampled round
     the same walks. None when that cannot be read off (see there).
     """
-    stopped = [a.joint.stopped_at_first_fall(spec.falling) if a.joint is not None else None for a in lead]
-    if any(s is None for s in stopped):
-        return None
-    answers = [partial(joint_answer, scene, s, uncertainty, spec.falling) for s in stopped if s is not None]
+    answers: list[Callable[[], Answer]] = []
+    for a in lead:
+        stopped = a.joint.stopped_at_first_fall(spec.falling) if a.joint is not None else None
+        if stopped is None:
+            return None
+        answers.append(partial(joint_answer, scene, stopped, uncertainty, spec.falling))
     return _judged_in_turn(spec, move, answers, uncertainty, scene.robot_name)
 
 
@@ -487,7 +489,8 @@ class _Judging:
     helper is lent the next candidates not yet handed out, :data:`AHEAD_DEPTH` at a time, while this
     process judges the others; the verdicts are gathered in candidate order, so the search sees what it
     would see alone. After a head start is sent, the first candidate's verdict is read off the head start's
-    (:func:`driven_on`); when it cannot be, the helper judges the second candidate alongside the first.
+    (:func:`driven_on`: a harmless head start imagined everyone, and nobody got stuck), so the helper is lent
+    the candidates after the second at once when it fails.
     """
 
     scene: Scene
@@ -578,15 +581,6 @@ class _Judging:
             return False
 
         mine = next(positions, None)  # the next candidate this process judges: always the first not lent
-        if self.lead is not None and self.read_off is None and self.ahead is not None and len(opening) == 2:
-            # The robot is already driving the head start: a search that switches from it switches one
-            # judgement sooner with the second candidate, drawn already, judged alongside the first. The
-            # ones after it wait for the first verdict, which the candidates that follow depend on.
-            second = k, move = next(positions)
-            if self.ahead.lend((self, k), self.scene, self.spec_at(k), move, self.uncertainty):
-                lent[k] = move
-            else:  # the helper is gone: the second candidate is judged here, in its turn
-                positions = chain([second], positions)
         while mine is not None:
             judged[mine[0]] = self.judge(*mine)
             exchange()
