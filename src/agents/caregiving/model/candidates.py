@@ -10,7 +10,8 @@ would hit, where and when. The robot's moves are ``move_to`` a pose:
   side, and farther back along the path, where the person will see the robot sooner;
 * **swerves**: the first stand-off shifted sideways, when the search found that the
   person, walking round the robot there, still grazes the obstacle on one side;
-* **crossings**: stand-offs of any object, within reach in time or not, whose drive crosses
+* **crossings**: stand-offs of any object, within reach in time or not, and then free poses on
+  and beside the person's way past the obstacle (:func:`beyond_poses`), whose drive crosses
   the rest of the person's route ahead of them: a robot that appears in someone's way,
   anywhere along it, makes them plan their walk anew, and the new route may miss the obstacle.
 
@@ -20,7 +21,8 @@ of it along the person's way first (a robot there is in view, and the detour
 around it also clears the obstacle; over 50 dangers of four scenarios the first
 of them removed the danger in 18 of the 28 the search could remove); then the
 path poses, those where the robot has the most seconds in hand first; then the
-crossings, soonest crossed first; then the stand-offs around the other objects
+crossings, soonest crossed first (the stand-offs, then the poses past the obstacle); then the
+stand-offs around the other objects
 by distance to the collision point. Two
 cheap tests prune before any imagination: the robot must fit at the pose, and a
 straight drive (the travel-time lower bound, from the robot's current speed),
@@ -58,6 +60,8 @@ SPACING = 0.25
 REACH = 1.0
 #: Spacing (m) of the points of a person's route that a crossing drive is tested against.
 CROSSING_STEP = 0.1
+#: Rows of :func:`beyond_poses`, :data:`SPACING` apart along the person's way past the obstacle.
+BEYOND_ROWS = 3
 #: Sideways shifts (m) of a swerve, the smaller first.
 SWERVE_SHIFTS = (0.15, 0.3)
 #: A touch this close to straight ahead (rad) is head-on: the person passed the obstacle on neither side,
@@ -179,20 +183,20 @@ def crossing_time(
 
 
 def crossings(scene: Scene, danger: Danger, start: Callable[[], float] = lambda: 0.0) -> Iterator[RobotMove]:
-    """The stand-offs of every object (the danger's first) whose drive crosses the person's route in time
-    (:func:`crossing_time`), soonest crossed first; the robot must fit at the pose."""
+    """The stand-offs of every object (the danger's first), then the :func:`beyond_poses`, whose drive crosses
+    the person's route in time (:func:`crossing_time`), each kind soonest crossed first; the robot must fit at
+    the pose."""
     route = route_ahead(scene, danger)
     if route is None:
         return
     names = [danger.obstacle] if _stays_put(scene, danger.obstacle) else []
     names += [o.name for o in other_objects(scene, danger)]
     now = start()
-    timed = [
-        (t, k, m)
-        for k, m in enumerate(m for name in names for m in standoffs(scene, danger, name))
-        if (t := crossing_time(scene, danger, m, now, route)) is not None
-    ]
-    yield from (m for _, _, m in sorted(timed, key=lambda c: (c[0], c[1])) if robot_fits(scene, m))
+    for moves in ([m for name in names for m in standoffs(scene, danger, name)], beyond_poses(scene, danger)):
+        timed = [
+            (t, k, m) for k, m in enumerate(moves) if (t := crossing_time(scene, danger, m, now, route)) is not None
+        ]
+        yield from (m for _, _, m in sorted(timed, key=lambda c: (c[0], c[1])) if robot_fits(scene, m))
 
 
 def path_poses(scene: Scene, danger: Danger) -> Iterator[tuple[RobotMove, float]]:
@@ -211,13 +215,41 @@ def path_poses(scene: Scene, danger: Danger) -> Iterator[tuple[RobotMove, float]
     nearest = person.radius + max(robot.length, robot.width) / 2 + 0.2
     distance = min(danger.time_to_collision * person.speed, route.length) - clearance
     while distance > nearest:
-        x, y = route.point_at(distance)
-        ax, ay = route.point_at(min(distance + 0.05, route.length))
-        heading = math.atan2(ay - y, ax - x)
-        for offset in LATERAL:
-            px, py = x - math.sin(heading) * offset, y + math.cos(heading) * offset
-            yield RobotMove(danger.obstacle, px, py, heading + math.pi / 2), distance / person.speed
+        for move in _broadside(route, distance, danger.obstacle):
+            yield move, distance / person.speed
         distance -= SPACING
+
+
+def beyond_poses(scene: Scene, danger: Danger) -> list[RobotMove]:
+    """Free poses on and beside the person's planned way past where they would touch the obstacle, nearest first.
+
+    The first row stands just clear of the person at the touch, the others :data:`SPACING` apart on along
+    their way, broadside across it. The robot seldom stands there before the person passes: these are
+    crossings (:func:`crossings`), whose drive puts the robot in the person's way early enough for the
+    detour they plan round it to clear the obstacle too.
+    """
+    robot, person = scene.robot, scene.person(danger.person)
+    assert robot is not None
+    if len(danger.path) < 2:
+        return []
+    route = Polyline.of(danger.path)
+    touch = route.arc_length_nearest(danger.point)
+    first = person.radius + max(robot.length, robot.width) / 2
+    rows = (touch + first + k * SPACING for k in range(BEYOND_ROWS))
+    return [
+        move for distance in rows if distance <= route.length for move in _broadside(route, distance, danger.obstacle)
+    ]
+
+
+def _broadside(route: Polyline, distance: float, target: str) -> list[RobotMove]:
+    """Poses on and beside ``route`` (:data:`LATERAL`) at ``distance`` along it, broadside across it."""
+    x, y = route.point_at(distance)
+    ax, ay = route.point_at(min(distance + 0.05, route.length))
+    heading = math.atan2(ay - y, ax - x)
+    return [
+        RobotMove(target, x - math.sin(heading) * offset, y + math.cos(heading) * offset, heading + math.pi / 2)
+        for offset in LATERAL
+    ]
 
 
 def standoffs(scene: Scene, danger: Danger, obstacle: str) -> list[RobotMove]:

@@ -301,6 +301,16 @@ class Polyline:
         s = np.clip(s, 0.0, cum[-1])
         return np.stack((np.interp(s, cum, pts[:, 0]), np.interp(s, cum, pts[:, 1])), axis=1)
 
+    def arc_length_nearest(self, point: tuple[float, float]) -> float:
+        """How far along the path its point nearest ``point`` lies."""
+        if len(self.points) == 1:
+            return 0.0
+        a, seg = self.points[:-1], np.diff(self.points, axis=0)
+        length2 = np.maximum((seg**2).sum(axis=1), 1e-12)
+        t = np.clip(((np.asarray(point) - a) * seg).sum(axis=1) / length2, 0.0, 1.0)
+        k = int(np.argmin(np.hypot(*(a + seg * t[:, None] - np.asarray(point)).T)))
+        return float(self.cumulative[k] + t[k] * math.sqrt(length2[k]))
+
     def remaining(self, distance: float, step: float) -> FloatArray:
         """Points every ``step`` metres from ``distance`` to the end (both ends included)."""
         n = max(2, int(math.ceil(max(self.length - distance, 0.0) / step)) + 1)

@@ -1,0 +1,77 @@
+"""Poses past the obstacle on the person's way: crossings whose drive, seen in the person's way, saves them."""
+
+from __future__ import annotations
+
+import math
+from functools import partial
+
+import pytest
+from recorded_cases import DELAY, EXACT, HELD_OUT, JUDGING, THRESHOLD, recorded_case
+
+from agents.caregiving.model.candidates import (
+    BEYOND_ROWS,
+    LATERAL,
+    SPACING,
+    Danger,
+    beyond_poses,
+    candidates,
+    crossing_time,
+    crossings,
+    standoffs,
+)
+from agents.caregiving.model.move_search import search
+from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.service import serve_one
+from bridges.experiment.perfect_belief import saved_in_truth
+
+
+def test_poses_past_the_obstacle_stand_on_and_beside_the_persons_way_beyond_the_touch() -> None:
+    scene = load_scenario("paper_experiment1").scene()
+    person, robot = scene.person("person"), scene.robot
+    assert robot is not None
+    path = ((0.0, 0.0), (1.0, 0.0), (3.0, 0.0))
+    danger = Danger("person", "couch", path, (1.5, 0.12), "ball", 2.0)
+    first = person.radius + max(robot.length, robot.width) / 2
+
+    poses = beyond_poses(scene, danger)
+
+    rows = [x for x in (1.5 + first + k * SPACING for k in range(BEYOND_ROWS)) if x <= 3.0]
+    assert rows
+    expected = [(x, offset) for x in rows for offset in LATERAL]
+    assert [c for m in poses for c in (m.x, m.y)] == pytest.approx([c for pose in expected for c in pose])
+    assert all(m.heading == pytest.approx(math.pi / 2) and m.target == "ball" for m in poses)
+    assert beyond_poses(scene, Danger("person", "couch", path[:1], (1.5, 0.12), "ball", 2.0)) == []
+
+
+def test_a_drive_towards_the_persons_way_past_the_obstacle_saves_them() -> None:
+    """The ward at seed 11, trial 9: no stand-off, path pose or crossing to a stand-off saves the patient.
+
+    The robot's drive towards a pose past the footstool on their way puts it in their way while they are
+    still far from the footstool; they plan their walk anew round it, and the new walk clears the footstool.
+    """
+    at = 0.6
+    trial, planner, scene, spec = recorded_case(HELD_OUT / "ward_footstool.yaml", 11, 9, at)
+    danger = spec.dangers[0]
+
+    result = search(
+        scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 24, judging=JUDGING, head_start=lambda lead: None
+    )
+
+    assert result.chosen is not None and result.chosen.risk < THRESHOLD
+    move = result.chosen.move
+    assert move in beyond_poses(scene, danger) and move not in standoffs(scene, danger, danger.obstacle)
+    assert crossing_time(scene, danger, move, 0.0) is not None
+    assert result.verdicts[-1] is result.chosen
+    # Every candidate before it walks the patient into something at the gaze found risky.
+    assert all(any(f.walk_set == 0 for f in v.falls) for v in result.verdicts[:-1])
+    assert sum(v.move not in beyond_poses(scene, danger) for v in result.verdicts) >= 10
+    assert saved_in_truth(trial, at, planner, DELAY, JUDGING, result)
+
+
+def test_the_poses_past_the_obstacle_are_the_last_crossings() -> None:
+    _, _, scene, spec = recorded_case(HELD_OUT / "ward_footstool.yaml", 11, 9, 0.6)
+    danger = spec.dangers[0]
+    crossing = list(crossings(scene, danger))
+    past = [m for m in crossing if m in beyond_poses(scene, danger)]
+    assert past and crossing[-len(past) :] == past
+    assert set(past) <= set(candidates(scene, spec.dangers))
