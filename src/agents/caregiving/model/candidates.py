@@ -21,10 +21,9 @@ of it along the person's way first (a robot there is in view, and the detour
 around it also clears the obstacle; over 50 dangers of four scenarios the first
 of them removed the danger in 18 of the 28 the search could remove); then the
 path poses, those where the robot has the most seconds in hand first; then the
-crossings, soonest crossed first (the stand-offs, then the poses past the obstacle); then the
-stand-offs around the other objects
-by distance to the collision point. Two
-cheap tests prune before any imagination: the robot must fit at the pose, and a
+crossings, soonest crossed first (the stand-offs, then the poses past the
+obstacle); then the stand-offs around the other objects by distance to the
+collision point. Two cheap tests prune before any imagination: the robot must fit at the pose, and a
 straight drive (the travel-time lower bound, from the robot's current speed),
 started when the robot would start on that candidate, must come within
 :data:`REACH` of it before the person passes it (path poses) or before the
