@@ -52,6 +52,7 @@ def test_a_drive_towards_the_persons_way_past_the_obstacle_saves_them() -> None:
     at = 0.6
     trial, planner, scene, spec = recorded_case(HELD_OUT / "ward_footstool.yaml", 11, 9, at)
     danger = spec.dangers[0]
+    past = beyond_poses(scene, danger)
 
     result = search(
         scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 24, judging=JUDGING, head_start=lambda lead: None
@@ -59,12 +60,12 @@ def test_a_drive_towards_the_persons_way_past_the_obstacle_saves_them() -> None:
 
     assert result.chosen is not None and result.chosen.risk < THRESHOLD
     move = result.chosen.move
-    assert move in beyond_poses(scene, danger) and move not in standoffs(scene, danger, danger.obstacle)
+    assert move in past and move not in standoffs(scene, danger, danger.obstacle)
     assert crossing_time(scene, danger, move, 0.0) is not None
     assert result.verdicts[-1] is result.chosen
     # Every candidate before it walks the patient into something at the gaze found risky.
     assert all(any(f.walk_set == 0 for f in v.falls) for v in result.verdicts[:-1])
-    assert sum(v.move not in beyond_poses(scene, danger) for v in result.verdicts) >= 10
+    assert sum(v.move not in past for v in result.verdicts) >= 10
     assert saved_in_truth(trial, at, planner, DELAY, JUDGING, result)
 
 

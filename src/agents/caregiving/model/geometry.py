@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import bisect
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -180,14 +181,19 @@ def nearest_segment(points: FloatArray, x: float, y: float) -> tuple[int, float]
         return 0, math.hypot(x - ax, y - ay)
     best, nearest = math.inf, 0
     for k, (bx, by) in enumerate(pts[1:]):
-        dx, dy = bx - ax, by - ay
-        norm = dx * dx + dy * dy
-        t = 0.0 if norm == 0.0 else min(max(((x - ax) * dx + (y - ay) * dy) / norm, 0.0), 1.0)
-        gap = math.hypot(x - ax - t * dx, y - ay - t * dy)
+        t = segment_fraction((ax, ay), (bx, by), x, y)
+        gap = math.hypot(x - ax - t * (bx - ax), y - ay - t * (by - ay))
         if gap <= best:
             best, nearest = gap, k
         ax, ay = bx, by
     return nearest, best
+
+
+def segment_fraction(a: Sequence[float], b: Sequence[float], x: float, y: float) -> float:
+    """How far along the segment from ``a`` to ``b`` (0 to 1) its point nearest ``(x, y)`` lies."""
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    norm = dx * dx + dy * dy
+    return 0.0 if norm == 0.0 else min(max(((x - a[0]) * dx + (y - a[1]) * dy) / norm, 0.0), 1.0)
 
 
 def polyline_distance(points: FloatArray, x: float, y: float) -> float:
@@ -302,14 +308,12 @@ class Polyline:
         return np.stack((np.interp(s, cum, pts[:, 0]), np.interp(s, cum, pts[:, 1])), axis=1)
 
     def arc_length_nearest(self, point: tuple[float, float]) -> float:
-        """How far along the path its point nearest ``point`` lies."""
-        if len(self.points) == 1:
+        """How far along the path its point nearest ``point`` lies (:func:`nearest_segment`)."""
+        cum, pts = self._plain
+        if len(pts) == 1:
             return 0.0
-        a, seg = self.points[:-1], np.diff(self.points, axis=0)
-        length2 = np.maximum((seg**2).sum(axis=1), 1e-12)
-        t = np.clip(((np.asarray(point) - a) * seg).sum(axis=1) / length2, 0.0, 1.0)
-        k = int(np.argmin(np.hypot(*(a + seg * t[:, None] - np.asarray(point)).T)))
-        return float(self.cumulative[k] + t[k] * math.sqrt(length2[k]))
+        k, _ = nearest_segment(self.points, *point)
+        return cum[k] + segment_fraction(pts[k], pts[k + 1], *point) * (cum[k + 1] - cum[k])
 
     def remaining(self, distance: float, step: float) -> FloatArray:
         """Points every ``step`` metres from ``distance`` to the end (both ends included)."""
