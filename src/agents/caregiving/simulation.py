@@ -18,8 +18,8 @@ queued batches' items, batches that judge robot moves (searches and joint
 imaginations: Algorithm 2, where the reaction time is spent) before batches of
 person-only imaginations, until its own batch is done, and hands over to the next.
 Each batch of robot moves logs where its time went (``served robot moves``):
-reading W and parsing the request, serving its items (and the CPU time of that), and waiting for the
-items of other batches.
+reading W and parsing the request, serving its items (and the CPU time of that: the whole process's,
+and the serving thread's own, without the transport's threads), and waiting for the items of other batches.
 With ``--judge-ahead`` (on with two or more cores), once a search's first
 candidate has failed (or, after a head start, from its second candidate), a
 helper process judges later candidates beside it
@@ -64,6 +64,7 @@ class _Job:
     results: list[Answer] = field(default_factory=list)
     wall_s: float = 0.0  # spent serving its items
     cpu_s: float = 0.0  # of which this process's CPU time (the helper's is not counted)
+    thread_s: float = 0.0  # of which the serving thread's own CPU time (not the transport's threads)
 
     @property
     def done(self) -> bool:
@@ -165,6 +166,7 @@ class Simulation(Agent):
                 context_ms=round((read - start) * 1e3, 1),
                 serving_ms=round(job.wall_s * 1e3, 1),
                 cpu_ms=round(job.cpu_s * 1e3, 1),
+                thread_ms=round(job.thread_s * 1e3, 1),
                 waiting_ms=round((total - (read - start) - job.wall_s) * 1e3, 1),
             )
         return reply(tuple(job.results))
@@ -177,12 +179,13 @@ class Simulation(Agent):
         """
         while not mine.done:
             job = min(self.jobs, key=lambda j: (j.priority, j.seq))
-            wall, cpu = time.perf_counter(), time.process_time()
+            wall, cpu, own = time.perf_counter(), time.process_time(), time.thread_time()
             job.results.append(
                 serve_one(job.scene, job.items[len(job.results)], Serving(self.rollout, self.ahead, job.head_start))
             )
             job.wall_s += time.perf_counter() - wall
             job.cpu_s += time.process_time() - cpu
+            job.thread_s += time.thread_time() - own
             if job.done:
                 self.jobs.remove(job)
             await asyncio.sleep(0)
