@@ -2,53 +2,27 @@
 
 ``python -m agents.caregiving.action --graph G --connect EP [--scenario S]``
 
-Triggered by each risky ``has_intention`` edge as it lands in W. The search
-itself is :mod:`agents.caregiving.model.move_search`; this agent turns W into its input
-(:mod:`agents.caregiving.robot_intentions` reads and writes W for it), asks the
-simulator to imagine the candidates, and writes the result:
+Triggered by each risky ``has_intention`` edge as it lands in W, the agent is the
+flow of Algorithm 2 and nothing more:
 
-* every endangered person is protected by one search, which the simulator runs
-  next to its imagination in one request (no round trip per candidate): the
-  candidates of all their dangers, interleaved, each imagined in time
-  (:mod:`agents.caregiving.model.joint`) with every gaze class of each endangered
-  person, the other people walking their likeliest intentions beside them, and
-  perception's uncertainty sampled, one at a time up to the first safe one;
-* a robot at rest does not stand idle while the search judges: when every
-  danger is at least even odds (``HEAD_START_RISK``), the first candidate is
-  judged first as a head start, and if it harms nobody (it trips nobody, and
-  whoever falls with it falls with the robot idle too), the simulator sends it
-  back at once, written as an intention with ``head_start`` set, and every
-  candidate is judged as a switch from it; the move chosen supersedes it (the
-  same move, when the first candidate is the one chosen). A head
-  start lasts as long as the search: when none is chosen, the robot brakes (a
-  ``stop`` with ``head_start`` set), or, when braking there would trip someone,
-  drives on with it until a later search replaces it;
-* when no single move keeps everyone safe, each danger is searched alone, most
-  urgent first, and the move found is written with the people it leaves unsaved;
-* while a move is under way, a new risky intention first re-imagines that move
-  from the robot's current state, speed included; it is kept while it still keeps
-  everyone safe at the gaze found risky and trips nobody at any gaze
-  (:func:`~agents.caregiving.model.move_search.holds`). One that fails without
-  walking anyone into the robot is kept for one more look, and given up only if it
-  fails again (:func:`~agents.caregiving.model.move_search.gives_up`); then a new
-  move is searched, and only one that ranks clearly above it, judged in the same
-  frame, replaces it (:func:`~agents.caregiving.model.move_search.replaces`); the
-  old one is then marked ``superseded``;
-* a move is never sent when its imagination shows a fall that would not happen
-  without it: every imagined walk with it is clear, but for a bystander's fall
-  into the very object their own risky intention already heads for (a danger not
-  searched now, say because no move saved it a moment ago), and but for a gaze
-  other than the one the danger was found at, where the person falls with the
-  robot as it is too (the move then saves them if their gaze is the one found):
-  the robot never causes a collision its imagination can see;
-* when the move under way, judged again, has someone walk into the robot or get
-  stuck, and no move replaces it, braking to a stop is judged from the robot's
-  current state; if it ranks clearly above carrying on, the robot brakes (a
-  ``stop`` intention).
+* :mod:`agents.caregiving.robot_intentions` turns W into the search's input (each
+  endangered person's most urgent danger, their gaze classes and what they know,
+  the others' likeliest walks, the move under way);
+* :mod:`agents.caregiving.model.response` decides what to do about them (keep the
+  move under way, give it one more look, send a new move, brake, or find none),
+  asking for each search it needs;
+* the simulator runs each search next to its imagination in one request
+  (:mod:`agents.caregiving.model.move_search`: every candidate imagined in time
+  with every gaze class of each endangered person, the other people beside them,
+  perception's uncertainty sampled; a move that makes anything worse is never
+  chosen), and sends its head start back as soon as it is found, which is written
+  at once as an intention with ``head_start`` set;
+* the response is written to W.
 
 The chosen move becomes the robot's ``intention`` node (``move_to``, target,
 final pose, ``status: proposed``, ``in_time``, ``reason``; or ``stop``, its target
-the robot), linked ``robot -has-> intention``; the executor drives it.
+the robot), linked ``robot -has-> intention``, superseding the move under way; the
+executor drives it.
 """
 
 from __future__ import annotations
@@ -61,15 +35,8 @@ from itertools import count
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
-from agents.caregiving.model.move_search import (
-    HEAD_START_RISK,
-    SearchItem,
-    SearchSpec,
-    gives_up,
-    holds,
-    replaces,
-)
-from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.move_search import SearchItem
+from agents.caregiving.model.response import Ask, Asked, Keep, NoMove, Policy, Response, Send, UnderWay, respond
 from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import SearchResult, Verdict
@@ -160,30 +127,17 @@ class Action(Agent):
         if not dangers:
             return
         started = time.perf_counter()
-        self.rpc_ms = self.sim_ms = 0.0
         current = move_under_way(self.g)
-        spec = search_spec(self.g, ctx, dangers, current)
-        under_way: Verdict | None = None
-        if current is not None:
-            again = await self._search(ctx, spec, 1.0, [move_of(current, ctx)])
-            under_way = again.verdicts[0] if again is not None and again.verdicts else None
-        robot = ctx.scene.robot_name
-        if under_way is not None and holds(under_way, self.args.risk_threshold, robot):
-            self.doubted = None
-            if not under_way.clear:
-                self.log.info("move kept", under_way=under_way.reason, risk=round(under_way.risk, 2))
-            return  # the move under way still keeps everyone safe, at least at the gaze found risky
-        if (
-            current is not None
-            and under_way is not None
-            and not gives_up(under_way, self.doubted == current.name or bool(current.get("head_start")), robot)
-        ):
-            self.doubted = current.name
-            self.log.info("move doubted", under_way=under_way.reason, risk=round(under_way.risk, 2))
-            return  # kept for one more look
-        idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
+        response, led = await self._respond(ctx, dangers, current, started)
+        self._act(ctx, dangers, response, led or current, led, started)
+
+    async def _respond(
+        self, ctx: Context, dangers: Dangers, current: Node | None, started: float
+    ) -> tuple[Response, Node | None]:
+        """Run :func:`respond`, each search it asks for by the simulator; also the head start written, if any."""
+        self.rpc_ms = self.sim_ms = 0.0
         self.tried = []
-        led: Node | None = None  # the head start written, if any
+        led: Node | None = None
 
         def lead(verdict: Verdict) -> None:
             nonlocal led
@@ -193,75 +147,93 @@ class Action(Agent):
             if self._write(ctx, verdict, dangers, None, None, "", started, head_start=True):
                 led = move_under_way(self.g)
 
-        likely = min(e.get("probability", 1.0) for e, _ in dangers.values()) >= HEAD_START_RISK
-        found = await self._find(ctx, spec, idle_risk, lead if current is None and likely else None)
-        chosen, unsaved = found.chosen if found is not None else None, ""
-        if led is not None:
-            current = led
-        if chosen is None and len(spec.dangers) > 1:
-            for d in sorted(spec.dangers, key=lambda d: d.time_to_collision):
-                alone = replace(spec, dangers=(d,))
-                alone_found = await self._find(ctx, alone, dangers[d.person][0].get("probability", 1.0))
-                chosen = alone_found.chosen if alone_found is not None else None
-                if chosen is not None:
-                    unsaved = ", ".join(sorted(p for p in dangers if p != d.person))
-                    break
-        if chosen is None:
-            for person in dangers:
-                self.failed[ctx.ids[person]] = ctx.scene.time
-            self.log.warning(
-                "no move removes the danger",
-                people=sorted(dangers),
-                search_ms=self._ms(started),
-                tried=len(self.tried),
-                why=sorted({v.reason for v in self.tried})[:4],
-                head_start=led is not None,
-            )
-            halt = found.halt if found is not None else None
-            newest = move_under_way(self.g)
-            # The head start ends with the search that sent it, unless another move has come under way since.
-            if halt is not None and led is not None and newest is not None and newest.id == led.id:
-                self._write(ctx, halt, dangers, current, None, "", started, head_start=True)
-            elif under_way is not None and under_way.move is not None and under_way.trips(robot):
-                braking = await self._braking(ctx, spec, under_way, robot)
-                if braking is not None:
-                    self._write(ctx, braking, dangers, current, under_way, "", started)
-            return
-        if under_way is not None and not replaces(chosen, under_way, self.args.samples, robot):
-            self.log.info(
-                "move kept",
-                under_way=under_way.reason,
-                risk=round(under_way.risk, 2),
-                best_new=chosen.reason,
-                new_risk=round(chosen.risk, 2),
-                search_ms=self._ms(started),
-            )
-            return
-        self._write(ctx, chosen, dangers, current, under_way, unsaved, started)
+        under_way = (
+            UnderWay(move_of(current, ctx), self.doubted == current.name or bool(current.get("head_start")))
+            if current is not None
+            else None
+        )
+        responding = respond(
+            search_spec(self.g, ctx, dangers, current),
+            {p: e.get("probability", 1.0) for p, (e, _) in dangers.items()},
+            under_way,
+            Policy(self.args.risk_threshold, self.args.samples, ctx.scene.robot_name),
+        )
+        try:
+            ask = next(responding)
+            while True:
+                found = await self._search(ctx, ask, lead if ask.head_start else None)
+                ask = responding.send(Asked(found, led is not None))
+        except StopIteration as done:
+            return done.value, led
+
+    def _act(
+        self,
+        ctx: Context,
+        dangers: Dangers,
+        response: Response,
+        current: Node | None,
+        led: Node | None,
+        started: float,
+    ) -> None:
+        """Carry out ``response``: ``current`` is the move under way now (the head start ``led``, if one was sent)."""
+        match response:
+            case Keep(again, doubted=True):
+                self.doubted = current.name if current is not None else None
+                self.log.info("move doubted", under_way=again.reason, risk=round(again.risk, 2))
+            case Keep(again, best_new=None):
+                self.doubted = None
+                if not again.clear:
+                    self.log.info("move kept", under_way=again.reason, risk=round(again.risk, 2))
+            case Keep(again, best_new=Verdict() as best):
+                self.log.info(
+                    "move kept",
+                    under_way=again.reason,
+                    risk=round(again.risk, 2),
+                    best_new=best.reason,
+                    new_risk=round(best.risk, 2),
+                    search_ms=self._ms(started),
+                )
+            case NoMove(halt):
+                self._no_move(ctx, dangers, started, led is not None)
+                newest = move_under_way(self.g)
+                # The head start ends with the search that sent it, unless another move has come under way since.
+                if halt is not None and led is not None and newest is not None and newest.id == led.id:
+                    self._write(ctx, halt, dangers, led, None, "", started, head_start=True)
+            case Send(chosen, again, unsaved, braking):
+                if braking:
+                    self._no_move(ctx, dangers, started, False)
+                self._write(ctx, chosen, dangers, current, again, ", ".join(unsaved), started)
+
+    def _no_move(self, ctx: Context, dangers: Dangers, started: float, head_start: bool) -> None:
+        """No move removes the danger: the people in it are searched for again only after ``--retry``."""
+        for person in dangers:
+            self.failed[ctx.ids[person]] = ctx.scene.time
+        self.log.warning(
+            "no move removes the danger",
+            people=sorted(dangers),
+            search_ms=self._ms(started),
+            tried=len(self.tried),
+            why=sorted({v.reason for v in self.tried})[:4],
+            head_start=head_start,
+        )
 
     # -- asking the simulator ------------------------------------------------------------------
     async def _search(
-        self,
-        ctx: Context,
-        spec: SearchSpec,
-        idle_risk: float,
-        moves: list[RobotMove | None] | None = None,
-        head_start: Callable[[Verdict], None] | None = None,
+        self, ctx: Context, ask: Ask, head_start: Callable[[Verdict], None] | None = None
     ) -> SearchResult | None:
         """One search, run by the simulator; each candidate imagines the robot starting when its command would arrive.
 
-        ``moves`` judges those moves instead of the generated candidates (``None``: braking). With
-        ``head_start``, a head start the simulator finds on the way is handed to it as soon as it arrives.
-        None when the simulator refused.
+        With ``head_start``, a head start the simulator finds on the way is handed to it as soon as it arrives.
+        A search of the generated candidates adds its verdicts to :attr:`tried`. None when the simulator refused.
         """
         item = SearchItem(
-            replace(spec, delay=self._delay(ctx)),
+            replace(ask.spec, delay=self._delay(ctx)),
             Uncertainty(self.size_error, ctx.sigma, self.args.samples),
             self.args.risk_threshold,
-            len(moves) if moves else self.args.max_moves,
-            idle_risk,
+            len(ask.moves) if ask.moves else self.args.max_moves,
+            ask.idle_risk,
             self.judging * self.clock.rate(self.g),
-            tuple(moves) if moves else None,
+            ask.moves,
             head_start is not None,
         )
 
@@ -283,22 +255,9 @@ class Action(Agent):
         if found.judged:
             per_move = reply.compute_ms / 1e3 / found.judged
             self.judging += JUDGING_WEIGHT * (per_move - self.judging)
-        return found
-
-    async def _find(
-        self, ctx: Context, spec: SearchSpec, idle_risk: float, head_start: Callable[[Verdict], None] | None = None
-    ) -> SearchResult | None:
-        """The search for ``spec`` (None when the simulator refused); every verdict on the way joins :attr:`tried`."""
-        found = await self._search(ctx, spec, idle_risk, head_start=head_start)
-        if found is not None:
+        if ask.moves is None:
             self.tried += found.verdicts
         return found
-
-    async def _braking(self, ctx: Context, spec: SearchSpec, under_way: Verdict, robot: str | None) -> Verdict | None:
-        """Braking to a stop, judged now, if it ranks clearly above the move under way."""
-        found = await self._search(ctx, spec, 1.0, [None])
-        braking = found.verdicts[0] if found is not None and found.verdicts else None
-        return braking if braking is not None and replaces(braking, under_way, self.args.samples, robot) else None
 
     def _delay(self, ctx: Context) -> float:
         """When a move decided now would reach the world, in simulated seconds after the context.

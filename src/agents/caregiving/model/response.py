@@ -1,0 +1,174 @@
+"""Algorithm 2's response to the dangers of one moment, as a protocol of pure steps.
+
+:func:`respond` decides what the robot does about the dangers Algorithm 1 has just
+flagged: keep the move under way, give it one more look, send a new move, or find
+none. It never imagines anything itself. Each search it needs is yielded as an
+:class:`Ask`; whoever drives it (the action agent, over Zenoh, or a bench calling
+:func:`~agents.caregiving.model.service.serve_one` in process, with :func:`drive`)
+runs that search and sends the result back as an :class:`Asked`. The generator's
+return value is the :class:`Response`.
+
+The steps, in order:
+
+* a move under way is judged again from the robot's current state first; it is
+  kept while it :func:`~agents.caregiving.model.move_search.holds`, and kept for
+  one more look while it does not :func:`~agents.caregiving.model.move_search.gives_up`;
+* otherwise one search protects every endangered person, the candidates of all
+  their dangers interleaved. A robot at rest does not stand idle while it judges:
+  when every danger is at least even odds
+  (:data:`~agents.caregiving.model.move_search.HEAD_START_RISK`), the first
+  candidate is judged first and, if it harms nobody (it trips nobody, and whoever
+  falls with it falls with the robot idle too), sent at once as a head start; every
+  other candidate is then judged as a switch from it. A head start lasts as long
+  as its search: when none is chosen, the robot brakes, or, when braking there
+  would trip someone, drives on with it until a later search replaces it;
+* when no single move keeps everyone safe, each danger is searched alone, most
+  urgent first, and the first move found is sent with the people it leaves unsaved;
+* a new move replaces the one under way only when it
+  :func:`~agents.caregiving.model.move_search.replaces` it;
+* when none is found: a head start ends in braking (when the search found braking
+  harmless), and a move under way that walks someone into the robot or leaves
+  them stuck is braked if braking ranks clearly above carrying on.
+
+No search chooses a move whose imagination shows a fall that would not happen
+without it (:class:`~agents.caregiving.model.move_search.NoWorse`): the robot never
+causes a collision its imagination can see.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Generator, Mapping
+from dataclasses import dataclass, replace
+
+from .move_search import HEAD_START_RISK, SearchSpec, gives_up, holds, replaces
+from .robot_moves import RobotMove
+from .verdict import SearchResult, Verdict
+
+
+@dataclass(frozen=True)
+class Ask:
+    """One search to run: the generated candidates (``moves`` None), or just ``moves`` (``None`` in it: braking).
+
+    ``idle_risk`` is the danger's probability with the robot idle; ``head_start`` asks for the first
+    candidate to be sent while the search judges on.
+    """
+
+    spec: SearchSpec
+    idle_risk: float
+    moves: tuple[RobotMove | None, ...] | None = None
+    head_start: bool = False
+
+
+@dataclass(frozen=True)
+class Asked:
+    """What came of an :class:`Ask`: the search (``None`` when the simulator refused it), and whether a head
+    start it sent on the way was written as the robot's move."""
+
+    found: SearchResult | None
+    led: bool = False
+
+
+@dataclass(frozen=True)
+class UnderWay:
+    """The robot's move under way: its target pose (``None``: braking), and whether it is on its second look
+    (it failed the look before, or it is a head start, which lasts only as long as its search)."""
+
+    move: RobotMove | None
+    second_look: bool
+
+
+@dataclass(frozen=True)
+class Keep:
+    """Keep the move under way. ``doubted``: it failed this look and gets one more; ``best_new``: the move a
+    search found that does not rank clearly above it."""
+
+    under_way: Verdict
+    doubted: bool = False
+    best_new: Verdict | None = None
+
+
+@dataclass(frozen=True)
+class Send:
+    """Send ``chosen``, superseding the move under way (``under_way`` its verdict now, if there is one).
+
+    ``unsaved`` names the people no single move keeps safe; ``braking`` marks a stop of the move under way.
+    """
+
+    chosen: Verdict
+    under_way: Verdict | None = None
+    unsaved: tuple[str, ...] = ()
+    braking: bool = False
+
+
+@dataclass(frozen=True)
+class NoMove:
+    """No move removes the danger. ``halt``: braking that ends the head start this response sent, if the search
+    found it harmless (``None``: the head start drives on until a later search replaces it)."""
+
+    halt: Verdict | None = None
+
+
+#: What :func:`respond` decides.
+Response = Keep | Send | NoMove
+#: The protocol: searches out, their results in, a response at the end.
+Responding = Generator[Ask, Asked, Response]
+
+
+@dataclass(frozen=True)
+class Policy:
+    """The thresholds the response is judged by: the risk a move must stay under, the sampled worlds behind a
+    risk (its sampling error), and the robot's name (walking into it is a fall the robot caused)."""
+
+    threshold: float
+    samples: int
+    robot: str | None
+
+
+def respond(
+    spec: SearchSpec, idle_risks: Mapping[str, float], under_way: UnderWay | None, policy: Policy
+) -> Responding:
+    """The response to the dangers of ``spec``; ``idle_risks`` gives each endangered person's probability of
+    falling with the robot idle. Every candidate search's verdicts are in :attr:`Asked.found` as they come."""
+    again: Verdict | None = None
+    if under_way is not None:
+        judged = (yield Ask(spec, 1.0, (under_way.move,))).found
+        again = judged.verdicts[0] if judged is not None and judged.verdicts else None
+    if again is not None:
+        if holds(again, policy.threshold, policy.robot):
+            return Keep(again)
+        if not gives_up(again, under_way is not None and under_way.second_look, policy.robot):
+            return Keep(again, doubted=True)
+    likely = min(idle_risks.values()) >= HEAD_START_RISK
+    asked = yield Ask(spec, max(idle_risks.values()), head_start=under_way is None and likely)
+    chosen = asked.found.chosen if asked.found is not None else None
+    unsaved: tuple[str, ...] = ()
+    if chosen is None and len(spec.dangers) > 1:
+        for danger in sorted(spec.dangers, key=lambda d: d.time_to_collision):
+            alone = (yield Ask(replace(spec, dangers=(danger,)), idle_risks[danger.person])).found
+            chosen = alone.chosen if alone is not None else None
+            if chosen is not None:
+                unsaved = tuple(sorted(p for p in idle_risks if p != danger.person))
+                break
+    if chosen is None:
+        if asked.led and asked.found is not None:
+            return NoMove(asked.found.halt)
+        if again is not None and again.move is not None and again.trips(policy.robot):
+            stopping = (yield Ask(spec, 1.0, (None,))).found
+            braking = stopping.verdicts[0] if stopping is not None and stopping.verdicts else None
+            if braking is not None and replaces(braking, again, policy.samples, policy.robot):
+                return Send(braking, again, braking=True)
+        return NoMove()
+    if again is not None and not replaces(chosen, again, policy.samples, policy.robot):
+        return Keep(again, best_new=chosen)
+    return Send(chosen, again, unsaved)
+
+
+def drive(responding: Responding, run: Callable[[Ask], Asked]) -> Response:
+    """Run the protocol to its response, each search with ``run`` (in process: benches and tests)."""
+    try:
+        ask = next(responding)
+        while True:
+            ask = responding.send(run(ask))
+    except StopIteration as done:
+        response: Response = done.value
+        return response

@@ -1,0 +1,173 @@
+"""Algorithm 2's response protocol: the searches it asks for, in order, and what it decides from their results.
+
+The protocol is pure, so most cases feed it search results made here and check each :class:`Ask` it yields;
+the last runs it to its end on a recorded danger with the real move search, in process.
+"""
+
+from functools import partial
+
+import pytest
+from recorded_cases import DELAY, EXACT, JUDGING, THRESHOLD, recorded_case
+
+from agents.caregiving.model.candidates import Danger
+from agents.caregiving.model.move_search import SearchItem, SearchSpec, search
+from agents.caregiving.model.response import (
+    Ask,
+    Asked,
+    Keep,
+    NoMove,
+    Policy,
+    Responding,
+    Response,
+    Send,
+    UnderWay,
+    drive,
+    respond,
+)
+from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.service import serve_one
+from agents.caregiving.model.verdict import Fall, SearchResult, Verdict
+from bridges.experiment.perfect_belief import saved_in_truth
+
+POLICY = Policy(threshold=0.2, samples=64, robot="robot")
+UNDER_WAY = RobotMove("ball", 1.0, 0.0, 0.0)
+NEW = RobotMove("ball", 0.5, 0.5, 1.57)
+
+
+def danger(person: str, ttc: float) -> Danger:
+    return Danger(person, "couch", ((0.0, 0.0), (2.0, 0.0)), (1.5, 0.0), "ball", ttc)
+
+
+def spec(*dangers: Danger) -> SearchSpec:
+    return SearchSpec(dangers, {d.person: (0.1,) for d in dangers}, {})
+
+
+def safe(move: RobotMove | None, risk: float = 0.0) -> Verdict:
+    return Verdict(move, True, risk, 1.0, "everyone imagined walks clear")
+
+
+def falls(move: RobotMove | None, into: str, walk_set: int = 0) -> Verdict:
+    return Verdict(move, False, 1.0, 1.0, f"walks into {into}", (Fall(walk_set, "ann", into, (1.0, 0.0)),))
+
+
+def found(*verdicts: Verdict, chosen: int | None = None) -> SearchResult:
+    return SearchResult(verdicts[chosen] if chosen is not None else None, verdicts, judged=len(verdicts))
+
+
+class Script:
+    """Drives the protocol with set results, one per ask, and keeps every ask."""
+
+    def __init__(self, *answers: Asked) -> None:
+        self.answers = list(answers)
+        self.asks: list[Ask] = []
+
+    def __call__(self, ask: Ask) -> Asked:
+        self.asks.append(ask)
+        return self.answers.pop(0)
+
+    def run(self, responding: Responding) -> Response:
+        response = drive(responding, self)
+        assert not self.answers, "the protocol asked for fewer searches than expected"
+        return response
+
+
+def test_at_rest_a_likely_danger_gets_one_search_with_a_head_start() -> None:
+    chosen = safe(NEW)
+    script = Script(Asked(found(falls(UNDER_WAY, "ball"), chosen, chosen=1)))
+    response = script.run(respond(spec(danger("ann", 2.0)), {"ann": 0.9}, None, POLICY))
+    assert response == Send(chosen)
+    (ask,) = script.asks
+    assert ask.head_start and ask.moves is None and ask.idle_risk == 0.9
+
+
+def test_an_unlikely_danger_gets_no_head_start() -> None:
+    script = Script(Asked(found(safe(NEW), chosen=0)))
+    script.run(respond(spec(danger("ann", 2.0), danger("bo", 3.0)), {"ann": 0.9, "bo": 0.3}, None, POLICY))
+    (ask,) = script.asks
+    assert not ask.head_start and ask.idle_risk == 0.9
+
+
+def test_a_move_under_way_that_still_holds_is_kept_without_a_search() -> None:
+    again = safe(UNDER_WAY, risk=0.1)
+    script = Script(Asked(found(again)))
+    response = script.run(respond(spec(danger("ann", 2.0)), {"ann": 1.0}, UnderWay(UNDER_WAY, False), POLICY))
+    assert response == Keep(again)
+    (ask,) = script.asks
+    assert ask.moves == (UNDER_WAY,) and ask.idle_risk == 1.0
+
+
+def test_a_move_under_way_that_fails_once_gets_one_more_look() -> None:
+    again = falls(UNDER_WAY, "ball")
+    script = Script(Asked(found(again)))
+    response = script.run(respond(spec(danger("ann", 2.0)), {"ann": 1.0}, UnderWay(UNDER_WAY, False), POLICY))
+    assert response == Keep(again, doubted=True)
+
+
+def test_a_move_under_way_that_fails_again_is_replaced_by_a_better_one() -> None:
+    again, better = falls(UNDER_WAY, "ball"), safe(NEW)
+    script = Script(Asked(found(again)), Asked(found(better, chosen=0)))
+    response = script.run(respond(spec(danger("ann", 2.0)), {"ann": 1.0}, UnderWay(UNDER_WAY, True), POLICY))
+    assert response == Send(better, again)
+    assert not script.asks[1].head_start and script.asks[1].moves is None  # no head start with a move under way
+
+
+def test_a_new_move_not_clearly_better_leaves_the_move_under_way() -> None:
+    again = safe(UNDER_WAY, risk=0.25)  # clear but above the threshold: it does not hold
+    near = safe(NEW, risk=0.24)  # within the sampling error of 0.25 over 64 samples
+    script = Script(Asked(found(again)), Asked(found(near, chosen=0)))
+    response = script.run(respond(spec(danger("ann", 2.0)), {"ann": 1.0}, UnderWay(UNDER_WAY, True), POLICY))
+    assert response == Keep(again, best_new=near)
+
+
+def test_a_move_under_way_that_trips_someone_is_braked_when_no_move_is_found() -> None:
+    again, braking = falls(UNDER_WAY, "robot"), safe(None)
+    script = Script(Asked(found(again)), Asked(found(falls(NEW, "ball"))), Asked(found(braking)))
+    response = script.run(respond(spec(danger("ann", 2.0)), {"ann": 1.0}, UnderWay(UNDER_WAY, False), POLICY))
+    assert response == Send(braking, again, braking=True)
+    assert script.asks[2].moves == (None,)
+
+
+def test_braking_that_ranks_no_better_is_not_sent() -> None:
+    again = falls(UNDER_WAY, "robot")
+    script = Script(Asked(found(again)), Asked(found()), Asked(found(falls(None, "robot"))))
+    response = script.run(respond(spec(danger("ann", 2.0)), {"ann": 1.0}, UnderWay(UNDER_WAY, False), POLICY))
+    assert response == NoMove()
+
+
+def test_when_no_move_saves_everyone_each_danger_is_searched_alone_most_urgent_first() -> None:
+    ann, bo = danger("ann", 3.0), danger("bo", 1.5)
+    rescue = safe(NEW)
+    script = Script(Asked(found(falls(NEW, "ball"))), Asked(found(falls(NEW, "ball"))), Asked(found(rescue, chosen=0)))
+    response = script.run(respond(spec(ann, bo), {"ann": 1.0, "bo": 1.0}, None, POLICY))
+    assert response == Send(rescue, unsaved=("bo",))
+    assert [a.spec.dangers for a in script.asks[1:]] == [(bo,), (ann,)]
+
+
+def test_a_head_start_with_no_move_chosen_ends_in_the_braking_the_search_judged() -> None:
+    halt = safe(None)
+    result = SearchResult(None, (falls(NEW, "ball"),), lead=safe(NEW), halt=halt, judged=2)
+    response = Script(Asked(result, led=True)).run(respond(spec(danger("ann", 2.0)), {"ann": 1.0}, None, POLICY))
+    assert response == NoMove(halt)
+
+
+@pytest.mark.parametrize("led", [False, True])
+def test_a_refused_search_finds_no_move(led: bool) -> None:
+    response = Script(Asked(None, led=led)).run(respond(spec(danger("ann", 2.0)), {"ann": 1.0}, None, POLICY))
+    assert response == NoMove()
+
+
+def test_on_a_recorded_danger_the_response_sends_the_searchs_move_and_it_saves_the_person() -> None:
+    """The paper's room at seed 2024, trial 50, as the live run first saw it: the protocol, driven by the real
+    search in process, sends the move a plain search chooses, and that move saves the person in the truth."""
+    trial, planner, scene, spec_now = recorded_case("paper_experiment1", 2024, 50, 0.55)
+    imagine = partial(serve_one, scene)
+
+    def run(ask: Ask) -> Asked:
+        item = SearchItem(ask.spec, EXACT, THRESHOLD, 24, ask.idle_risk, JUDGING, ask.moves, ask.head_start)
+        return Asked(item.run(scene, imagine, None, (lambda _lead: None) if ask.head_start else None))
+
+    response = drive(respond(spec_now, {d.person: 1.0 for d in spec_now.dangers}, None, POLICY), run)
+    plain = search(scene, spec_now, imagine, EXACT, THRESHOLD, 24, judging=JUDGING, head_start=lambda _lead: None)
+    assert isinstance(response, Send) and plain.chosen is not None
+    assert response.chosen == plain.chosen and not response.unsaved
+    assert saved_in_truth(trial, 0.55, planner, DELAY, JUDGING, plain)
