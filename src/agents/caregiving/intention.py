@@ -20,7 +20,8 @@ imagined to remember them (plan around them) even once they are out of view.
 A walking person's heading tells where they are going: a target whose imagined
 path starts more than ``--heading-gate-deg`` away from it is not their intention.
 An intention is risky when the nominal walk collides or the sampled collision
-probability reaches ``--risk-threshold``. Each surviving intention is written as
+probability reaches ``--risk-threshold``. The gate and this fold of each target's
+gaze classes are :mod:`agents.caregiving.model.guesses`. Each surviving intention is written as
 ``has_intention`` person -> target (risky, path, collision point and object,
 time to collision, gaze, probability); risky ones also get a ``collision`` edge
 person -> object. Edges are updated in place, rewritten only when their meaning
@@ -34,16 +35,14 @@ import asyncio
 import math
 import time
 from collections.abc import Awaitable
-from dataclasses import dataclass
 from typing import Any
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
-from agents.caregiving.model.geometry import resample_by_distance
-from agents.caregiving.model.imagine import Imagination
+from agents.caregiving.model.guesses import Guess, guesses, heading_error
 from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.imagine_request import PersonItem
-from agents.caregiving.model.uncertainty import NO_RISK, Uncertainty
+from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.visibility import GazeClass, candidate_targets, gaze_classes
 from agents.caregiving.model.world_model import Walk
 from wm import Event
@@ -53,63 +52,6 @@ from .context import Context, read_context
 from .imagination_cache import ImaginationCache, Key, footing
 from .names import COLLISION, HAS_INTENTION, KNOWS, OBJECT, PERSON, ROBOT
 from .risk_options import add_risk_arguments, size_error
-
-HEADING_PROBE = 0.4  # metres along the imagined path where its direction is measured
-
-
-@dataclass(frozen=True)
-class Guess:
-    """The summary of one (person, target) intention over its gaze classes."""
-
-    person: str
-    target: str
-    risky: bool
-    probability: float
-    path: tuple[tuple[float, float], ...]
-    gaze: float
-    ttc: float | None
-    point: tuple[float, float] | None
-    obstacle: str | None
-
-
-def walk_of(answer: Answer) -> Imagination:
-    """The imagined walk of a person item's answer."""
-    if answer.imagination is None:
-        raise ValueError(f"not a person's imagined walk: {answer.error or answer}")
-    return answer.imagination
-
-
-def summarise(person: str, target: str, answers: list[tuple[Answer, float]], threshold: float) -> Guess:
-    """Fold the gaze classes of one intention (reachable walks): risky if any class is; report the earliest danger.
-
-    Each answer comes with its ``advance`` (seconds of the walk behind the person, for one reused from the
-    cache), which its times are brought forward by.
-    """
-    worst: Guess | None = None
-    first: Guess | None = None
-    for a, advance in answers:
-        r, risk = walk_of(a), a.risk or NO_RISK
-        nominal = r.collided
-        risky = nominal or risk.probability >= threshold
-        times = [max(t - advance, 0.0) for t in (r.collision_time, risk.time) if t is not None]
-        ttc = min(times) if risky and times else None
-        point = (r.collision_point if nominal else risk.point) if risky else None
-        obstacle = (r.collision_object if nominal else risk.obstacle) if risky else None
-        g = Guess(person, target, risky, max(risk.probability, float(nominal)), r.path, r.gaze, ttc, point, obstacle)
-        first = first or g
-        if risky and (worst is None or (ttc or math.inf) < (worst.ttc or math.inf)):
-            worst = g
-    assert first is not None
-    return worst or first
-
-
-def heading_error(path: tuple[tuple[float, float], ...], heading: float) -> float:
-    """Angle between a heading and the direction the path sets off in (radians)."""
-    if len(path) < 2:
-        return 0.0
-    x, y = resample_by_distance(path, [HEADING_PROBE])[0]
-    direction = math.atan2(y - path[0][1], x - path[0][0])
-    return abs((direction - heading + math.pi) % (2 * math.pi) - math.pi)
 
 
 class Intention(Agent):
@@ -244,30 +186,26 @@ class Intention(Agent):
         return sorted(known | set(fresh))
 
     def _guesses(self, ctx: Context, items: list[PersonItem], results: list[tuple[Answer, float]]) -> list[Guess]:
-        grouped: dict[tuple[str, str], list[tuple[Answer, float]]] = {}
-        for item, (res, advance) in zip(items, results, strict=True):
-            if res.imagination is not None and res.imagination.reachable:
-                grouped.setdefault((item.walk.person, item.walk.target), []).append((res, advance))
-        guesses = []
-        gate = math.radians(self.args.heading_gate_deg)
-        for (person, target), answers in grouped.items():
-            p = ctx.scene.person(person)
-            if ctx.speed(person) > self.args.moving_speed:
-                answers = [x for x in answers if heading_error(walk_of(x[0]).path, p.heading) <= gate]
-            if answers:
-                guess = summarise(person, target, answers, self.args.risk_threshold)
-                guesses.append(guess)
-                self.log.debug(
-                    "guess",
-                    episode=ctx.episode,
-                    at=round(ctx.scene.time, 2),
-                    person=person,
-                    target=target,
-                    risky=guess.risky,
-                    probability=round(guess.probability, 3),
-                    nominal=any(walk_of(x).collided for x, _ in answers),
-                )
-        return guesses
+        walking = {p.name: p.heading for p in ctx.scene.people if ctx.speed(p.name) > self.args.moving_speed}
+        found = guesses(
+            [item.walk for item in items],
+            results,
+            walking,
+            math.radians(self.args.heading_gate_deg),
+            self.args.risk_threshold,
+        )
+        for guess in found:
+            self.log.debug(
+                "guess",
+                episode=ctx.episode,
+                at=round(ctx.scene.time, 2),
+                person=guess.person,
+                target=guess.target,
+                risky=guess.risky,
+                probability=round(guess.probability, 3),
+                nominal=guess.nominal,
+            )
+        return found
 
     def _write(self, ctx: Context, people: list[str], guesses: list[Guess]) -> None:
         g = self.g

@@ -1,0 +1,110 @@
+"""Algorithm 1's guesses: each person's imagined walks folded into one intention per target.
+
+A person item's answer is one imagined walk to one target at one gaze class, with its sampled collision
+risk. :func:`guesses` keeps, for a walking person, the walks whose start matches their heading (the
+heading gate), and folds each target's gaze classes into a :class:`Guess` (:func:`summarise`): risky
+when the nominal walk of any class collides or its sampled probability reaches the threshold, reported
+at its earliest danger.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+from .geometry import resample_by_distance
+from .imagine import Imagination
+from .imagine_reply import Answer
+from .uncertainty import NO_RISK
+from .world_model import Walk
+
+#: Metres along an imagined path where the direction it sets off in is measured.
+HEADING_PROBE = 0.4
+
+
+@dataclass(frozen=True)
+class Guess:
+    """The summary of one (person, target) intention over its gaze classes.
+
+    ``nominal`` tells whether the risk comes from a nominal walk that collides (else only from the sampled
+    worlds, or there is none).
+    """
+
+    person: str
+    target: str
+    risky: bool
+    probability: float
+    path: tuple[tuple[float, float], ...]
+    gaze: float
+    ttc: float | None
+    point: tuple[float, float] | None
+    obstacle: str | None
+    nominal: bool = False
+
+
+def walk_of(answer: Answer) -> Imagination:
+    """The imagined walk of a person item's answer."""
+    if answer.imagination is None:
+        raise ValueError(f"not a person's imagined walk: {answer.error or answer}")
+    return answer.imagination
+
+
+def heading_error(path: Sequence[tuple[float, float]], heading: float) -> float:
+    """Angle between a heading and the direction the path sets off in (radians)."""
+    if len(path) < 2:
+        return 0.0
+    x, y = resample_by_distance(path, [HEADING_PROBE])[0]
+    direction = math.atan2(y - path[0][1], x - path[0][0])
+    return abs((direction - heading + math.pi) % (2 * math.pi) - math.pi)
+
+
+def summarise(person: str, target: str, answers: Sequence[tuple[Answer, float]], threshold: float) -> Guess:
+    """Fold the gaze classes of one intention (reachable walks): risky if any class is; report the earliest danger.
+
+    Each answer comes with its ``advance`` (seconds of the walk behind the person, for one reused from the
+    cache), which its times are brought forward by.
+    """
+    worst: Guess | None = None
+    first: Guess | None = None
+    for a, advance in answers:
+        r, risk = walk_of(a), a.risk or NO_RISK
+        nominal = r.collided
+        risky = nominal or risk.probability >= threshold
+        times = [max(t - advance, 0.0) for t in (r.collision_time, risk.time) if t is not None]
+        ttc = min(times) if risky and times else None
+        point = (r.collision_point if nominal else risk.point) if risky else None
+        obstacle = (r.collision_object if nominal else risk.obstacle) if risky else None
+        probability = max(risk.probability, float(nominal))
+        g = Guess(person, target, risky, probability, r.path, r.gaze, ttc, point, obstacle, nominal)
+        first = first or g
+        if risky and (worst is None or (ttc or math.inf) < (worst.ttc or math.inf)):
+            worst = g
+    if first is None:
+        raise ValueError(f"no imagined walk of {person} to {target} to summarise")
+    return worst or first
+
+
+def guesses(
+    walks: Sequence[Walk],
+    answers: Sequence[tuple[Answer, float]],
+    headings: Mapping[str, float],
+    gate: float,
+    threshold: float,
+) -> list[Guess]:
+    """One guess per (person, target) with a reachable walk, from each walk's answer and its ``advance``.
+
+    ``headings`` holds the heading of each person walking (radians); their walks that set off more than
+    ``gate`` radians from it are not their intention. A target left with no walk gets no guess.
+    """
+    grouped: dict[tuple[str, str], list[tuple[Answer, float]]] = {}
+    for walk, (answer, advance) in zip(walks, answers, strict=True):
+        if answer.imagination is not None and answer.imagination.reachable:
+            grouped.setdefault((walk.person, walk.target), []).append((answer, advance))
+    out = []
+    for (person, target), kept in grouped.items():
+        if person in headings:
+            kept = [x for x in kept if heading_error(walk_of(x[0]).path, headings[person]) <= gate]
+        if kept:
+            out.append(summarise(person, target, kept, threshold))
+    return out

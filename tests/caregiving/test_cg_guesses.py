@@ -1,0 +1,90 @@
+"""Algorithm 1's guesses: the heading gate and the fold of gaze classes, on walks imagined in the paper's room."""
+
+import math
+from dataclasses import replace
+
+import pytest
+
+from agents.caregiving.model.guesses import Guess, guesses, heading_error, summarise
+from agents.caregiving.model.imagine import Imagination, imagine_person
+from agents.caregiving.model.imagine_reply import Answer
+from agents.caregiving.model.planner import GridPlanner
+from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.uncertainty import Risk
+from agents.caregiving.model.world_model import Walk
+from bridges.experiment.oracle import world_at
+from bridges.world.bridge import trial_for
+
+GATE = math.radians(20.0)
+THRESHOLD = 0.2
+
+
+@pytest.fixture(scope="module")
+def heading_for_the_couch() -> tuple[Scene, dict[str, Answer]]:
+    """Seed 2024's trial 94, half a second in: the person walks to the couch; a walk to the door would hit the ball.
+
+    Their walks to both, imagined at their gaze from the exact scene.
+    """
+    scenario = load_scenario("paper_experiment1")
+    trial = trial_for(scenario, 2024, 94)
+    scene = world_at(trial, 0.5, GridPlanner(scenario.scene().bounds)).scene()
+    gaze = math.radians(trial.people[0].gaze_deg)
+    walks = {t: Answer(imagination=imagine_person(scene, "person", t, gaze)) for t in ("couch", "door")}
+    return scene, walks
+
+
+def walk(answer: Answer) -> Imagination:
+    assert answer.imagination is not None
+    return answer.imagination
+
+
+def test_the_walk_to_the_door_sets_off_away_from_the_heading_and_hits_the_ball(heading_for_the_couch) -> None:
+    scene, walks = heading_for_the_couch
+    heading = scene.person("person").heading
+    couch, door = walk(walks["couch"]), walk(walks["door"])
+    assert not couch.collided and door.collided and door.collision_object == "ball"
+    assert heading_error(couch.path, heading) < math.radians(5.0) < GATE < heading_error(door.path, heading)
+
+
+def test_the_heading_gate_drops_the_walk_a_walking_person_is_not_on(heading_for_the_couch) -> None:
+    scene, walks = heading_for_the_couch
+    person = scene.person("person")
+    asked = [Walk("person", "couch", 0.1), Walk("person", "door", 0.1)]
+    answers = [(walks["couch"], 0.0), (walks["door"], 0.0)]
+    walking = guesses(asked, answers, {"person": person.heading}, GATE, THRESHOLD)
+    assert [(g.target, g.risky) for g in walking] == [("couch", False)]
+    standing = guesses(asked, answers, {}, GATE, THRESHOLD)  # not walking: no heading to go by
+    assert [(g.target, g.risky, g.obstacle) for g in standing] == [("couch", False, None), ("door", True, "ball")]
+
+
+def test_an_unreachable_walk_gets_no_guess(heading_for_the_couch) -> None:
+    _, walks = heading_for_the_couch
+    unreachable = Answer(imagination=replace(walk(walks["door"]), reachable=False))
+    found = guesses([Walk("person", "door", 0.1)], [(unreachable, 0.0)], {}, GATE, THRESHOLD)
+    assert found == []
+
+
+def test_the_fold_reports_the_earliest_danger_brought_forward_by_its_age(heading_for_the_couch) -> None:
+    _, walks = heading_for_the_couch
+    door = walk(walks["door"])
+    assert door.collision_time is not None
+    late = replace(door, gaze=0.15, collision_time=door.collision_time + 1.0)
+    sampled_only = Answer(imagination=walk(walks["couch"]), risk=Risk(0.3, 0.5, (1.0, 1.0), "ball"))
+    folded = summarise("person", "door", [(Answer(imagination=late), 0.0), (walks["door"], 0.25)], THRESHOLD)
+    assert folded.nominal and folded.gaze == door.gaze
+    assert folded.ttc == pytest.approx(door.collision_time - 0.25)
+    grazed_sooner = Answer(imagination=door, risk=Risk(0.9, door.collision_time - 1.0, (0.5, 0.5), "ball"))
+    assert summarise("person", "door", [(grazed_sooner, 0.25)], THRESHOLD).ttc == pytest.approx(
+        door.collision_time - 1.25
+    )
+    by_sampling = summarise("person", "couch", [(sampled_only, 0.0)], THRESHOLD)
+    assert by_sampling == Guess(
+        "person", "couch", True, 0.3, walk(walks["couch"]).path, walk(walks["couch"]).gaze, 0.5, (1.0, 1.0), "ball"
+    )
+    assert not summarise("person", "couch", [(sampled_only, 0.0)], 0.31).risky
+
+
+def test_a_fold_of_nothing_is_a_clear_error() -> None:
+    with pytest.raises(ValueError, match="no imagined walk"):
+        summarise("person", "couch", [], THRESHOLD)
