@@ -30,7 +30,8 @@ from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.verdict import SearchResult
 from agents.caregiving.model.world_model import World
 from bench_move_search import RECORDED, THRESHOLD
-from bench_move_search_noisy import Noise, add_belief_arguments, belief, perception_uncertainty
+from bench_move_search_noisy import add_belief_arguments
+from bridges.experiment.beliefs import Noise, belief, perception_uncertainty
 from bridges.experiment.oracle import world_at
 from bridges.experiment.perfect_belief import outcome_in_truth, spec_on
 from bridges.world.bridge import trial_for

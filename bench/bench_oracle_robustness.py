@@ -27,7 +27,7 @@ from dataclasses import replace
 import benchlib
 from agents.caregiving.model.scenario import ObjectSpec, Scenario
 from bench_move_search import cases
-from bench_move_search_noisy import sigmas, size_error
+from bridges.experiment.beliefs import sigmas, size_error
 from bridges.experiment.oracle import saves, saving_moves, world_at
 
 #: The four directions each one-sigma shift of a position is tried in.

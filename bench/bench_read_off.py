@@ -26,7 +26,7 @@ from agents.caregiving.model.imagine import planner_for
 from agents.caregiving.model.move_search import NoWorse, driven_on, judge_lead, judge_move
 from agents.caregiving.model.service import serve_one
 from bench_move_search import THRESHOLD, cases, search_spec
-from bench_move_search_noisy import perception_uncertainty
+from bridges.experiment.beliefs import perception_uncertainty
 
 RUNS = (
     "experiment1_knows",

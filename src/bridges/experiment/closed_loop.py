@@ -1,0 +1,182 @@
+"""Algorithm 2 in a closed loop on noisy beliefs, in process: every look at a danger answered, carried out in the truth.
+
+Live, the action agent looks again each time Algorithm 1 rewrites a danger while
+it lasts: it judges the move under way again from the robot's current state and
+keeps it, doubts it or replaces it (:mod:`agents.caregiving.model.response`).
+:func:`closed_loop` runs that loop on a trial's ground truth, from the moment its
+danger showed:
+
+* every :attr:`Setup.look` seconds, perception's belief of the truth is drawn
+  (:mod:`bridges.experiment.beliefs`), each object's size bias and the direction
+  of its position error drawn once per trial and kept (a bias the tracker never
+  averages away, and an average that only tightens), the people's errors drawn
+  anew at each look;
+* Algorithm 1's danger is imagined on that belief
+  (:func:`~bridges.experiment.perfect_belief.spec_on`); a person whose danger no
+  move removed is looked at again only after :attr:`Setup.retry` seconds, as live;
+* :func:`~agents.caregiving.model.response.respond` is driven with the real search
+  on the belief, the robot starting :attr:`Setup.delay` seconds after the look and
+  :attr:`Setup.judging` seconds later per judgement, and its moves are commanded in
+  the ground truth when they would be sent: a head start after its own judgement,
+  the move chosen (or braking) when the response ends.
+
+With :attr:`Setup.first_look_only`, only the first look acts and its move is driven
+on: what looking again buys.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from functools import partial
+
+import numpy as np
+
+from agents.caregiving.model.move_search import SearchItem
+from agents.caregiving.model.planner import GridPlanner
+from agents.caregiving.model.response import Ask, Asked, Keep, NoMove, Policy, Send, UnderWay, drive, respond
+from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.scenario import Scenario, SensorSpec
+from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.service import serve_one
+from agents.caregiving.model.uncertainty import Uncertainty
+from agents.caregiving.model.world_model import World
+
+from .beliefs import SAMPLES, Noise, belief, perception_uncertainty
+from .oracle import world_at
+from .perfect_belief import spec_on
+
+#: Moves a search judges at most, as the action agent's default.
+MAX_MOVES = 24
+#: Seconds past the danger's moment after which a trial's loop stops looking (the truth then runs to its end).
+HORIZON = 10.0
+
+
+@dataclass(frozen=True)
+class Setup:
+    """How the loop runs: the robot's start ``delay`` after a look and ``judging`` seconds more per judgement,
+    seconds between ``look``s at a danger and before a ``retry`` of one no move removed, whether only the first
+    look acts, the belief's ``noise``, and the risk ``threshold`` a move must stay under."""
+
+    delay: float
+    judging: float
+    look: float
+    retry: float
+    first_look_only: bool
+    noise: Noise
+    threshold: float = 0.2
+
+
+@dataclass
+class Loop:
+    """One draw's closed loop: the truth, the move under way, and what happened."""
+
+    truth: World
+    under_way: UnderWay | None = None
+    retry_after: float = -math.inf
+    looks: int = 0
+    commands: int = 0
+    judged: int = 0
+    responses: dict[str, int] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Perception:
+    """Draws beliefs of one trial's truth: the objects' errors drawn once, the people's anew at every look."""
+
+    sensors: SensorSpec
+    noise: Noise
+    seed: tuple[int, ...]
+
+    def belief(self, truth: Scene, at: float, look: int) -> Scene:
+        """The belief at the ``look``-th look, ``at`` seconds into the trial."""
+        objects = belief(truth, self.sensors, at, self.noise, *self._rngs(0))
+        people = belief(truth, self.sensors, at, self.noise, *self._rngs(look + 1))
+        return replace(objects, people=people.people)
+
+    def uncertainty(self, scene: Scene, at: float, look: int) -> Uncertainty:
+        """What the action agent samples round the belief (nothing when the noise says the search samples none)."""
+        if not self.noise.sampled_risk:
+            return Uncertainty(0.0, {}, 1)
+        return perception_uncertainty(scene, self.sensors, at, look)
+
+    def _rngs(self, stream: int) -> tuple[np.random.Generator, np.random.Generator]:
+        return np.random.default_rng([*self.seed, stream]), np.random.default_rng([*self.seed, stream, 1])
+
+
+def closed_loop(trial: Scenario, at: float, planner: GridPlanner, seed: tuple[int, ...], setup: Setup) -> Loop:
+    """Run ``trial`` in a closed loop from ``at`` (when the danger showed), its beliefs drawn from ``seed``; the
+    returned loop's truth has run to its end."""
+    idle = World.from_scenario(trial, planner=planner)
+    idle.run(60.0)
+    loop = Loop(world_at(trial, at, planner))
+    perception = Perception(trial.sensors, setup.noise, seed)
+    policy = Policy(setup.threshold, SAMPLES, trial.scene().robot_name)
+    now = at
+    while not loop.truth.done and not loop.truth.outcome().collisions and now < at + HORIZON:
+        if now >= loop.retry_after and (loop.looks == 0 or not setup.first_look_only):
+            scene = perception.belief(loop.truth.scene(), now, loop.looks)
+            _look(loop, scene, perception.uncertainty(scene, now, loop.looks), idle, now, policy, setup)
+        now = max(now + setup.look, loop.truth.time)
+        loop.truth.advance(now)
+    loop.truth.run(60.0)
+    return loop
+
+
+def _look(
+    loop: Loop, scene: Scene, uncertainty: Uncertainty, idle: World, now: float, policy: Policy, setup: Setup
+) -> None:
+    """One look: Algorithm 1's danger on ``scene``, Algorithm 2's response to it, carried out in the truth."""
+    spec = spec_on(scene, idle, loop.truth, setup.delay, any_class=True)
+    if spec is None:
+        return
+    loop.looks += 1
+    spec = replace(spec, current=loop.under_way.move if loop.under_way is not None else None)
+    judged = 0
+    lead: tuple[float, RobotMove] | None = None
+
+    def run(ask: Ask) -> Asked:
+        nonlocal judged, lead
+        delay = setup.delay + setup.judging * judged
+        item = SearchItem(
+            replace(ask.spec, delay=delay),
+            uncertainty,
+            setup.threshold,
+            len(ask.moves) if ask.moves else MAX_MOVES,
+            ask.idle_risk,
+            setup.judging,
+            ask.moves,
+            ask.head_start,
+        )
+        found = item.run(scene, partial(serve_one, scene), None, (lambda _lead: None) if ask.head_start else None)
+        if found.lead is not None and found.lead.move is not None:
+            lead = (now + delay + setup.judging, found.lead.move)
+        judged += found.judged
+        return Asked(found, led=found.lead is not None)
+
+    response = drive(respond(spec, {d.person: 1.0 for d in spec.dangers}, loop.under_way, policy), run)
+    loop.judged += judged
+    ended = now + setup.delay + setup.judging * judged
+    kind = type(response).__name__.lower() + ("_doubted" if isinstance(response, Keep) and response.doubted else "")
+    loop.responses[kind] = loop.responses.get(kind, 0) + 1
+    if lead is not None:
+        _command(loop, *lead)
+        loop.under_way = UnderWay(lead[1], second_look=True)
+    match response:
+        case Keep(doubted=doubted, best_new=None) if loop.under_way is not None:
+            loop.under_way = replace(loop.under_way, second_look=doubted)
+        case Send(chosen, braking=braking):
+            _command(loop, ended, chosen.move)
+            loop.under_way = UnderWay(chosen.move, second_look=False)
+            if braking:
+                loop.retry_after = now + setup.retry
+        case NoMove(halt):
+            if halt is not None and lead is not None:
+                _command(loop, ended, None)
+                loop.under_way = UnderWay(None, second_look=True)
+            loop.retry_after = now + setup.retry
+
+
+def _command(loop: Loop, at: float, move: RobotMove | None) -> None:
+    loop.truth.advance(at)
+    loop.commands += loop.truth.command_robot(move)
