@@ -19,6 +19,7 @@ same beliefs.
 from __future__ import annotations
 
 import time
+from collections import Counter
 
 import benchlib
 from bench_move_search import RUNS, THRESHOLD, cases
@@ -30,8 +31,8 @@ from bridges.experiment.closed_loop import Setup, closed_loop
 def closed_loops(runs: list[str], draws: int, setup: Setup) -> dict[str, object]:
     """Every draw of every saveable case in a closed loop; what came of them."""
     loops = saved = into_robot = looks = commands = judged = 0
-    responses: dict[str, int] = {}
-    lost: dict[str, int] = {}
+    responses: Counter[str] = Counter()
+    lost: Counter[str] = Counter()
     started = time.perf_counter()
     for case in cases(runs):
         if not case.saveable:
@@ -45,11 +46,8 @@ def closed_loops(runs: list[str], draws: int, setup: Setup) -> dict[str, object]
             looks += loop.looks
             commands += loop.commands
             judged += loop.judged
-            for kind, n in loop.responses.items():
-                responses[kind] = responses.get(kind, 0) + n
-            if collisions:
-                name = f"{case.run}#{case.index}"
-                lost[name] = lost.get(name, 0) + 1
+            responses.update(loop.responses)
+            lost.update([f"{case.run}#{case.index}"] if collisions else [])
     return {
         "draws": loops,
         "saved": saved,
@@ -59,7 +57,7 @@ def closed_loops(runs: list[str], draws: int, setup: Setup) -> dict[str, object]
         "judged": judged,
         "responses": dict(sorted(responses.items())),
         "seconds": round(time.perf_counter() - started, 1),
-        "lost_draws": lost,
+        "lost_draws": dict(lost),
     }
 
 
