@@ -74,9 +74,8 @@ def main() -> None:
     noise = Noise(sampled_risk=not args.no_sampled_risk)
     setup = Setup(args.delay, args.judging, args.look, args.retry, args.first_look_only, noise, THRESHOLD)
     found = closed_loops(args.runs, args.draws, setup)
-    benchlib.print_table("Algorithm 2 in a closed loop", [(k, v) for k, v in found.items() if k != "lost_draws"])
-    print("lost draws:", found["lost_draws"])
-    benchlib.write_json(
+    benchlib.report_draws(
+        "Algorithm 2 in a closed loop",
         args.json,
         {
             "runs": args.runs,
@@ -86,8 +85,8 @@ def main() -> None:
             "retry": args.retry,
             "first_look_only": args.first_look_only,
             "sampled_risk": noise.sampled_risk,
-            **found,
         },
+        found,
     )
 
 

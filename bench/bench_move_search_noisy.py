@@ -162,9 +162,8 @@ def main() -> None:
     found = noisy_search(
         args.runs, args.draws, args.delay, args.judging, args.settle_after_clear, noise, args.head_start, args.drive_on
     )
-    benchlib.print_table("Move search on a noisy belief", [(k, v) for k, v in found.items() if k != "lost_draws"])
-    print("lost draws:", found["lost_draws"])
-    benchlib.write_json(
+    benchlib.report_draws(
+        "Move search on a noisy belief",
         args.json,
         {
             "runs": args.runs,
@@ -180,8 +179,8 @@ def main() -> None:
                 "people_scale": noise.people,
                 "sampled_risk": noise.sampled_risk,
             },
-            **found,
         },
+        found,
     )
 
 

@@ -56,6 +56,13 @@ def print_table(title: str, rows: Sequence[tuple[str, Any]]) -> None:
         print(f"  {label:<{width}}  {value}")
 
 
+def report_draws(title: str, path: Path, settings: dict[str, Any], found: dict[str, Any]) -> None:
+    """Print a bench on drawn beliefs (its figures, then the draws lost by trial) and write them with its settings."""
+    print_table(title, [(k, v) for k, v in found.items() if k != "lost_draws"])
+    print("lost draws:", found["lost_draws"])
+    write_json(path, {**settings, **found})
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
