@@ -5,7 +5,7 @@ perception makes of it, and a move judged on that belief may fail in the truth,
 or a move that saves in the truth may be refused on it. This bench draws
 ``--draws`` beliefs per trial at the moment the run first saw the danger (its
 ``risk_at_time``), from the scenario's own sensor model, as perception's tracker
-would hold them then:
+would hold them then (``bridges.experiment.beliefs``):
 
 * each object's position off by the sensor's sigma averaged over the frames seen
   so far (the tracker averages a static object's detections), and its size off by
