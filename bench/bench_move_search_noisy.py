@@ -46,10 +46,9 @@ import numpy as np
 import benchlib
 from agents.caregiving.model import move_search
 from agents.caregiving.model.service import serve_one
-from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.world_model import World
 from bench_move_search import RUNS, THRESHOLD, cases
-from bridges.experiment.beliefs import Noise, belief, perception_uncertainty
+from bridges.experiment.beliefs import Noise, belief, search_uncertainty
 from bridges.experiment.oracle import world_at
 from bridges.experiment.perfect_belief import outcome_in_truth, spec_on
 
@@ -93,9 +92,7 @@ def noisy_search(
             if spec is None:
                 continue
             flagged += 1
-            uncertainty = (
-                perception_uncertainty(scene, sensors, case.at, k) if noise.sampled_risk else Uncertainty(0.0, {}, 1)
-            )
+            uncertainty = search_uncertainty(scene, sensors, case.at, k, noise)
             started = time.perf_counter()
             result = move_search.search(
                 scene,

@@ -10,7 +10,7 @@ import pytest
 from recorded_cases import DELAY, EXACT, JUDGING, THRESHOLD, recorded_case
 
 from agents.caregiving.model.candidates import Danger
-from agents.caregiving.model.move_search import SearchItem, SearchSpec, search
+from agents.caregiving.model.move_search import SearchSpec, search
 from agents.caregiving.model.response import (
     Ask,
     Asked,
@@ -163,7 +163,7 @@ def test_on_a_recorded_danger_the_response_sends_the_searchs_move_and_it_saves_t
     imagine = partial(serve_one, scene)
 
     def run(ask: Ask) -> Asked:
-        item = SearchItem(ask.spec, EXACT, THRESHOLD, 24, ask.idle_risk, JUDGING, ask.moves, ask.head_start)
+        item = ask.item(ask.spec.delay, EXACT, THRESHOLD, 24, JUDGING)
         return Asked(item.run(scene, imagine, None, (lambda _lead: None) if ask.head_start else None))
 
     response = drive(respond(spec_now, {d.person: 1.0 for d in spec_now.dangers}, None, POLICY), run)

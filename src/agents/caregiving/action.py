@@ -30,12 +30,10 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Callable
-from dataclasses import replace
 from itertools import count
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
-from agents.caregiving.model.move_search import SearchItem
 from agents.caregiving.model.response import Ask, Asked, Keep, NoMove, Policy, Response, Send, UnderWay, respond
 from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.uncertainty import Uncertainty
@@ -226,15 +224,12 @@ class Action(Agent):
         With ``head_start``, a head start the simulator finds on the way is handed to it as soon as it arrives.
         A search of the generated candidates adds its verdicts to :attr:`tried`. None when the simulator refused.
         """
-        item = SearchItem(
-            replace(ask.spec, delay=self._delay(ctx)),
+        item = ask.item(
+            self._delay(ctx),
             Uncertainty(self.size_error, ctx.sigma, self.args.samples),
             self.args.risk_threshold,
-            len(ask.moves) if ask.moves else self.args.max_moves,
-            ask.idle_risk,
+            self.args.max_moves,
             self.judging * self.clock.rate(self.g),
-            ask.moves,
-            head_start is not None,
         )
 
         def progress(reply: imagine_reply.ImagineReply) -> None:

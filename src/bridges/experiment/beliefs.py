@@ -86,3 +86,11 @@ def belief(
             tracked = replace(tracked, origin=(p.origin[0] + ox, p.origin[1] + oy))
         people.append(tracked)
     return replace(truth, obstacles=tuple(obstacles), people=tuple(people))
+
+
+def search_uncertainty(scene: Scene, sensors: SensorSpec, at: float, seed: int, noise: Noise) -> Uncertainty:
+    """What the search samples round a belief: :func:`perception_uncertainty`, or nothing when ``noise`` says the
+    search samples no risk."""
+    if not noise.sampled_risk:
+        return Uncertainty(0.0, {}, 1)
+    return perception_uncertainty(scene, sensors, at, seed)

@@ -32,7 +32,6 @@ from functools import partial
 
 import numpy as np
 
-from agents.caregiving.model.move_search import SearchItem
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.response import Ask, Asked, Keep, NoMove, Policy, Send, UnderWay, drive, respond
 from agents.caregiving.model.robot_moves import RobotMove
@@ -42,7 +41,7 @@ from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.world_model import World
 
-from .beliefs import SAMPLES, Noise, belief, perception_uncertainty
+from .beliefs import SAMPLES, Noise, belief, search_uncertainty
 from .oracle import world_at
 from .perfect_belief import spec_on
 
@@ -95,10 +94,8 @@ class Perception:
         return replace(objects, people=people.people)
 
     def uncertainty(self, scene: Scene, at: float, look: int) -> Uncertainty:
-        """What the action agent samples round the belief (nothing when the noise says the search samples none)."""
-        if not self.noise.sampled_risk:
-            return Uncertainty(0.0, {}, 1)
-        return perception_uncertainty(scene, self.sensors, at, look)
+        """What the action agent samples round the belief at the ``look``-th look."""
+        return search_uncertainty(scene, self.sensors, at, look, self.noise)
 
     def _rngs(self, stream: int) -> tuple[np.random.Generator, np.random.Generator]:
         return np.random.default_rng([*self.seed, stream]), np.random.default_rng([*self.seed, stream, 1])
@@ -138,16 +135,7 @@ def _look(
     def run(ask: Ask) -> Asked:
         nonlocal judged, lead
         delay = setup.delay + setup.judging * judged
-        item = SearchItem(
-            replace(ask.spec, delay=delay),
-            uncertainty,
-            setup.threshold,
-            len(ask.moves) if ask.moves else MAX_MOVES,
-            ask.idle_risk,
-            setup.judging,
-            ask.moves,
-            ask.head_start,
-        )
+        item = ask.item(delay, uncertainty, setup.threshold, MAX_MOVES, setup.judging)
         found = item.run(scene, partial(serve_one, scene), None, (lambda _lead: None) if ask.head_start else None)
         if found.lead is not None and found.lead.move is not None:
             lead = (now + delay + setup.judging, found.lead.move)

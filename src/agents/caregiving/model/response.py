@@ -40,8 +40,9 @@ from __future__ import annotations
 from collections.abc import Callable, Generator, Mapping
 from dataclasses import dataclass, replace
 
-from .move_search import HEAD_START_RISK, SearchSpec, gives_up, holds, replaces
+from .move_search import HEAD_START_RISK, SearchItem, SearchSpec, gives_up, holds, replaces
 from .robot_moves import RobotMove
+from .uncertainty import Uncertainty
 from .verdict import SearchResult, Verdict
 
 
@@ -57,6 +58,22 @@ class Ask:
     idle_risk: float
     moves: tuple[RobotMove | None, ...] | None = None
     head_start: bool = False
+
+    def item(
+        self, delay: float, uncertainty: Uncertainty, threshold: float, max_moves: int, judging: float
+    ) -> SearchItem:
+        """The search item that runs this ask: the robot starting ``delay`` seconds after the scene, ``judging``
+        seconds later per judgement, at most ``max_moves`` generated candidates (given moves: just those)."""
+        return SearchItem(
+            replace(self.spec, delay=delay),
+            uncertainty,
+            threshold,
+            len(self.moves) if self.moves else max_moves,
+            self.idle_risk,
+            judging,
+            self.moves,
+            self.head_start,
+        )
 
 
 @dataclass(frozen=True)
