@@ -5,10 +5,12 @@ from dataclasses import replace
 from functools import partial
 
 import pytest
+from recorded_cases import EXACT, HELD_OUT
 
 from agents.caregiving.model.candidates import REACH, Danger, candidates, drive_time, ordered_moves
 from agents.caregiving.model.errors import ReplyError, RequestError
 from agents.caregiving.model.fields import Fields
+from agents.caregiving.model.guesses import unguessed_walks
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.imagine_reply import Answer, decode_answer, encode_answer
 from agents.caregiving.model.imagine_request import JointItem, uncertainty_to_wire
@@ -24,6 +26,7 @@ from agents.caregiving.model.move_search import (
     replaces,
     search,
 )
+from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.robot_moves import RobotMove, robot_fits
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene
@@ -31,6 +34,8 @@ from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Risk, Uncertainty
 from agents.caregiving.model.verdict import Fall, SearchResult, Verdict
 from agents.caregiving.model.world_model import Walk, World
+from bridges.experiment.oracle import world_at
+from bridges.world.bridge import trial_for
 
 GAZE = math.radians(8)
 UNCERTAINTY = Uncertainty(0.2, {"person": 0.03}, 64)
@@ -101,6 +106,49 @@ def test_walk_sets_cover_every_gaze_class_of_every_endangered_person() -> None:
     items = spec.items(None, UNCERTAINTY)
     assert len(items) == 4 and items[0].move is None and items[0].walks == sets[0]
     assert items[0].to_wire()["kind"] == "joint" and items[0].uncertainty == UNCERTAINTY
+
+
+def test_a_bystanders_other_walks_are_each_imagined_in_a_set_of_their_own() -> None:
+    a = Danger("a", "couch", ((0, 0), (1, 0)), (0.5, 0.0), "ball", 2.0)
+    c_door, c_couch, c_plant = Walk("c", "door", 0.1), Walk("c", "couch", 0.1), Walk("c", "plant", 0.1)
+    d_door = Walk("d", "door", 0.2)
+    spec = SearchSpec((a,), {"a": (0.1, 0.2)}, {}, (c_door, d_door, c_couch, c_plant))
+    sets = spec.walk_sets()
+    assert [[(w.person, w.target, w.gaze) for w in s] for s in sets] == [
+        [("a", "couch", 0.1), ("c", "door", 0.1), ("d", "door", 0.2)],  # everyone's likeliest, every gaze class
+        [("a", "couch", 0.2), ("c", "door", 0.1), ("d", "door", 0.2)],
+        [("a", "couch", 0.1), ("c", "couch", 0.1), ("d", "door", 0.2)],  # then each other walk of c's
+        [("a", "couch", 0.1), ("c", "plant", 0.1), ("d", "door", 0.2)],
+    ]
+
+
+def test_a_walking_person_not_yet_guessed_is_not_imagined_standing_still() -> None:
+    """Three residents at seed 13, trial 4, 0.6 s in (exact scene): Ben's false alarm, before Ada is guessed.
+
+    A live run sent the robot to this armchair stand-off, judged clear with Ada imagined standing. In the
+    ground truth it turns her into the footstool, which she does not see; with the robot idle nobody falls.
+    """
+    scenario = load_scenario(HELD_OUT / "three_residents.yaml")
+    trial, planner = trial_for(scenario, 13, 4), GridPlanner(scenario.scene().bounds)
+    scene = world_at(trial, 0.6, planner).scene()
+    ada, ben = scene.person("ada"), scene.person("ben")
+    ahead = unguessed_walks(ada, scene.obstacles)
+    assert [w.target for w in ahead] == ["armchair", "bookcase"] and all(w.person == "ada" for w in ahead)
+    danger = Danger("ben", "bookcase", ((ben.x, ben.y), (1.475, 2.225)), (2.01, 1.92), "robot", 1.1)
+    stand_off = RobotMove("armchair", 2.698, -0.949, -math.pi / 4)
+
+    def verdict(bystanders: tuple[Walk, ...]) -> Verdict:
+        spec = SearchSpec((danger,), {"ben": (GAZE,)}, {}, bystanders)
+        return judge(stand_off, [serve_one(scene, i) for i in spec.items(stand_off, EXACT)])
+
+    cleo = Walk("cleo", "door", GAZE)
+    assert verdict((cleo,)).clear  # Ada standing still
+    refused = verdict((cleo, *ahead))
+    assert not refused.clear and [(f.person, f.obstacle) for f in refused.falls] == [("ada", "footstool")]
+    truth = world_at(trial, 0.65, planner)
+    assert truth.command_robot(stand_off)
+    assert [(c.person, c.obstacle) for c in truth.run(60.0).collisions] == [("ada", "footstool")]
+    assert world_at(trial, 0.65, planner).run(60.0).collisions == ()
 
 
 def test_verdicts_say_why_a_move_is_refused(scene: Scene) -> None:

@@ -7,12 +7,14 @@ import pytest
 
 import wm
 from agents.caregiving.context import Context
+from agents.caregiving.model.guesses import unguessed_walks
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.verdict import Verdict
 from agents.caregiving.names import HAS, HAS_INTENTION, OBJECT, PERSON, ROBOT
 from agents.caregiving.odometry import OdometryClock
 from agents.caregiving.robot_intentions import (
+    bystander_walks,
     dangers_in,
     move_of,
     move_under_way,
@@ -65,6 +67,23 @@ def test_the_most_urgent_danger_not_due_nor_failed_lately_is_read(w: tuple[wm.Gr
     assert dangers_in(ctx, [risky(g, ctx, "door", 0.1, 0.5)], {}, 0.5) == {}  # due before now
     assert dangers_in(ctx, [to_couch], {ctx.ids["person"]: 0.7}, 0.5) == {}  # no move found 0.3 s ago
     assert dangers_in(ctx, [to_couch], {ctx.ids["person"]: 0.4}, 0.5) != {}
+
+
+def test_a_bystander_is_imagined_on_their_guesses_or_when_walking_unguessed_on_every_target_ahead(
+    w: tuple[wm.Graph, Context],
+) -> None:
+    g, ctx = w
+    person = ctx.scene.person("person")
+    walking = replace(ctx, velocity={"person": (0.5, 0.1)})
+    assert bystander_walks(g, ctx, person) == ([], None)  # standing, nothing guessed: imagined standing
+    ahead, guess = bystander_walks(g, walking, person)
+    assert guess is None and ahead == list(unguessed_walks(person, ctx.scene.obstacles)) and len(ahead) > 1
+    for target, updated in (("couch", 1.0), ("door", 2.0)):
+        g.insert_or_assign_edge(ctx.ids["person"], ctx.ids[target], HAS_INTENTION, {"gaze": 0.1, "updated_at": updated})
+    walks, guess = bystander_walks(g, walking, person)
+    assert [x.target for x in walks] == ["door", "couch"]  # every guess, the latest first
+    assert guess is not None and guess.dst == ctx.ids["door"]
+    assert [x.target for x in bystander_walks(g, ctx, person)[0]] == ["door"]  # standing: the latest only
 
 
 def test_a_move_then_a_stop_are_written_each_superseding_the_one_before(w: tuple[wm.Graph, Context]) -> None:

@@ -49,7 +49,7 @@ from agents.caregiving.model.geometry import (
 )
 from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.scene import Scene
-from agents.caregiving.model.visibility import WALL_KIND
+from agents.caregiving.model.visibility import WALL_KIND, wrap_angle
 
 Key = tuple[str, str, frozenset[str]]
 STEP = 0.05  # metres between the path points bodies and the person are measured against
@@ -177,7 +177,7 @@ class ImaginationCache:
         """Seconds of the imagined walk behind the person, or None when they left it (by more than ``tol``)."""
         was, me = e.footing, now.person
         if e.aside:
-            turned = abs((now.heading - was.heading + math.pi) % (2 * math.pi) - math.pi)
+            turned = abs(wrap_angle(now.heading - was.heading))
             moved = math.hypot(me.x - was.person.x, me.y - was.person.y)
             return 0.0 if moved <= self.aside_tol and turned <= self.turn_tol else None
         gaps = np.hypot(e.path[:, 0] - me.x, e.path[:, 1] - me.y)

@@ -39,7 +39,7 @@ from typing import Any
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
-from agents.caregiving.model.guesses import Guess, guesses, heading_error
+from agents.caregiving.model.guesses import WALKING_SPEED, Guess, guesses, heading_error
 from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.imagine_request import PersonItem
 from agents.caregiving.model.uncertainty import Uncertainty
@@ -68,7 +68,7 @@ class Intention(Agent):
             default=20.0,
             help="a walking person's heading must match the path's start within this",
         )
-        parser.add_argument("--moving-speed", type=float, default=0.2, help="m/s above which a person walks")
+        parser.add_argument("--moving-speed", type=float, default=WALKING_SPEED, help="m/s above which a person walks")
         parser.add_argument("--min-track", type=float, default=0.3, help="seconds a person is tracked before guessing")
         parser.add_argument("--refresh", type=float, default=0.5, help="simulated seconds between unchanged rewrites")
         parser.add_argument(

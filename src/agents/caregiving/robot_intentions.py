@@ -15,8 +15,10 @@ import time
 from collections.abc import Mapping
 
 from agents.caregiving.model.candidates import Danger
+from agents.caregiving.model.guesses import WALKING_SPEED, unguessed_walks
 from agents.caregiving.model.move_search import SearchSpec
 from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.scene import PersonState
 from agents.caregiving.model.verdict import Verdict
 from agents.caregiving.model.visibility import GazeClass, gaze_classes
 from agents.caregiving.model.world_model import Walk
@@ -70,9 +72,29 @@ def dangers_in(ctx: Context, risky: list[Edge], failed: Mapping[int, float], ret
     return out
 
 
+def bystander_walks(g: Graph, ctx: Context, person: PersonState) -> tuple[list[Walk], Edge | None]:
+    """The walks a person not in danger may be on, likeliest first, and the guess of the likeliest (if guessed).
+
+    Someone standing is imagined on their latest guessed walk. Someone walking on every walk Algorithm 1
+    guesses for them (those their heading matches), the latest first; before it has guessed any, on
+    :func:`~agents.caregiving.model.guesses.unguessed_walks`. A move is then never judged with a walking
+    person imagined standing still.
+    """
+    guessed = sorted(
+        (e for e in g.edges(type=HAS_INTENTION, src=ctx.ids[person.name]) if e.dst in ctx.names),
+        key=lambda e: -e.get("updated_at", 0.0),
+    )
+    walking = ctx.speed(person.name) > WALKING_SPEED
+    if guessed:
+        kept = guessed if walking else guessed[:1]
+        return [Walk(person.name, ctx.names[e.dst], e.get("gaze", 0.0)) for e in kept], guessed[0]
+    return list(unguessed_walks(person, ctx.scene.obstacles)) if walking else [], None
+
+
 def search_spec(g: Graph, ctx: Context, dangers: Dangers, under_way: Node | None) -> SearchSpec:
     """What the search needs beside the scene: the dangers, each endangered person's gaze classes (the one
-    found risky first) and known objects, the others' likeliest walks, and the move under way."""
+    found risky first) and known objects, the walks the others may be on (:func:`bystander_walks`), and
+    the move under way."""
     scene, names = ctx.scene, ctx.names
     known = {
         p: tuple(sorted(names[e.dst] for e in g.edges(type=KNOWS, src=ctx.ids[p]) if e.dst in names)) for p in dangers
@@ -81,14 +103,15 @@ def search_spec(g: Graph, ctx: Context, dangers: Dangers, under_way: Node | None
         p: risky_first(gaze_classes(scene.person(p), scene.bodies_around(p)), edge.get("gaze", 0.0))
         for p, (edge, _) in dangers.items()
     }
-    bystanders, falling = [], {}
+    bystanders: list[Walk] = []
+    falling: dict[str, str] = {}
     for p in scene.people:
-        walks = [e for e in g.edges(type=HAS_INTENTION, src=ctx.ids[p.name]) if e.dst in names]
-        if p.name not in dangers and walks:
-            e = max(walks, key=lambda e: e.get("updated_at", 0.0))  # their likeliest walk: the latest guessed
-            bystanders.append(Walk(p.name, names[e.dst], e.get("gaze", 0.0)))
-            if e.get("risky") and e.get("collision_object") in names:  # a danger not searched now
-                falling[p.name] = names[e.get("collision_object")]
+        if p.name in dangers:
+            continue
+        walks, likeliest = bystander_walks(g, ctx, p)
+        bystanders += walks
+        if likeliest is not None and likeliest.get("risky") and likeliest.get("collision_object") in names:
+            falling[p.name] = names[likeliest.get("collision_object")]  # a danger not searched now
     return SearchSpec(
         tuple(d for _, d in dangers.values()),
         gazes,

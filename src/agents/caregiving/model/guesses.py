@@ -16,11 +16,15 @@ from dataclasses import dataclass
 from .geometry import resample_by_distance
 from .imagine import Imagination
 from .imagine_reply import Answer
+from .scene import Obstacle, PersonState
 from .uncertainty import NO_RISK
+from .visibility import candidate_targets, off_heading, wrap_angle
 from .world_model import Walk
 
 #: Metres along an imagined path where the direction it sets off in is measured.
 HEADING_PROBE = 0.4
+#: Speed (m/s) above which a person walks: their walks are held to the heading gate.
+WALKING_SPEED = 0.2
 
 
 @dataclass(frozen=True)
@@ -56,7 +60,7 @@ def heading_error(path: Sequence[tuple[float, float]], heading: float) -> float:
         return 0.0
     x, y = resample_by_distance(path, [HEADING_PROBE])[0]
     direction = math.atan2(y - path[0][1], x - path[0][0])
-    return abs((direction - heading + math.pi) % (2 * math.pi) - math.pi)
+    return abs(wrap_angle(direction - heading))
 
 
 def summarise(person: str, target: str, answers: Sequence[tuple[Answer, float]], threshold: float) -> Guess:
@@ -108,3 +112,11 @@ def guesses(
         if kept:
             out.append(summarise(person, target, kept, threshold))
     return out
+
+
+def unguessed_walks(person: PersonState, obstacles: Sequence[Obstacle]) -> tuple[Walk, ...]:
+    """The walks a walking person may be on before any is guessed: to every target in their view, the one
+    most nearly ahead first, at the middle of their gaze range."""
+    gaze = (person.gaze_min + person.gaze_max) / 2
+    ahead = sorted(candidate_targets(person, obstacles), key=lambda o: off_heading(person, o))
+    return tuple(Walk(person.name, o.name, gaze) for o in ahead)

@@ -53,7 +53,9 @@ class SearchSpec:
     """What a search must protect: the dangers, every gaze class to imagine their people at, and the bystanders.
 
     ``gazes`` maps each endangered person to the gaze pitches (one per gaze class) their walk is imagined at;
-    ``bystanders`` are the other people's likeliest walks, imagined alongside so that a move never trips them.
+    ``bystanders`` are the other people's walks, imagined alongside so that a move never trips them: each
+    bystander's first walk is their likeliest, in every walk set; a later walk of the same bystander is one
+    they may be on instead, imagined in a walk set of its own (see :meth:`walk_sets`).
     ``falling`` names the bystanders who walk into something with the robot as it is (their danger is not
     searched now, say because no move saved them a moment ago), and what they walk into: a move is not
     refused for that same fall, only for one it would cause.
@@ -72,17 +74,28 @@ class SearchSpec:
     lead_for: float = 0.0
 
     def walk_sets(self) -> list[tuple[Walk, ...]]:
-        """The sets of walks to imagine each move with: every gaze class of each endangered person in turn."""
+        """The sets of walks to imagine each move with: every gaze class of each endangered person in turn, with
+        every bystander on their likeliest walk; then each other walk a bystander may be on, in a set of its own
+        with the endangered people at the gaze found risky."""
         first = {
             d.person: Walk(d.person, d.target, self.gazes[d.person][0], self.known.get(d.person, ()))
             for d in self.dangers
         }
+        likeliest: dict[str, Walk] = {}
+        others: list[Walk] = []
+        for w in self.bystanders:
+            if w.person in likeliest:
+                others.append(w)
+            else:
+                likeliest[w.person] = w
         sets = []
         for d in self.dangers:
             for gaze in self.gazes[d.person][1 if sets else 0 :]:
                 walks = dict(first)
                 walks[d.person] = Walk(d.person, d.target, gaze, self.known.get(d.person, ()))
-                sets.append(tuple(walks.values()) + self.bystanders)
+                sets.append(tuple(walks.values()) + tuple(likeliest.values()))
+        for w in others:
+            sets.append(tuple(first.values()) + tuple({**likeliest, w.person: w}.values()))
         return sets
 
     def items(self, move: RobotMove | None, uncertainty: Uncertainty) -> list[JointItem]:

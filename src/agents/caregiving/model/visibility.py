@@ -24,8 +24,14 @@ from .scene import Obstacle, PersonState
 WALL_KIND = "wall"
 
 
-def _wrap(angle: float) -> float:
+def wrap_angle(angle: float) -> float:
+    """The angle in [-pi, pi)."""
     return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+def off_heading(person: PersonState, obstacle: Obstacle) -> float:
+    """How far (radians, unsigned) the direction to the obstacle's centre lies off the person's heading."""
+    return abs(wrap_angle(math.atan2(obstacle.shape.y - person.y, obstacle.shape.x - person.x) - person.heading))
 
 
 def in_horizontal_fov(person: PersonState, obstacle: Obstacle) -> bool:
@@ -38,7 +44,7 @@ def _in_cone(person: PersonState, shape: Shape, inside: float) -> bool:
     if inside <= 0.0:
         return True
     centre = math.atan2(shape.y - person.y, shape.x - person.x)
-    offset = _wrap(centre - person.heading)
+    offset = wrap_angle(centre - person.heading)
     half_fov = person.hfov / 2
     if -half_fov <= offset <= half_fov:
         return True  # the centre itself is in view (the footprint's span holds its direction)
@@ -47,7 +53,7 @@ def _in_cone(person: PersonState, shape: Shape, inside: float) -> bool:
         half = math.asin(min(1.0, shape.r / dist))
         lo, hi = -half, half
     else:
-        rel = [_wrap(math.atan2(y - person.y, x - person.x) - centre) for x, y in corner_points(shape)]
+        rel = [wrap_angle(math.atan2(y - person.y, x - person.x) - centre) for x, y in corner_points(shape)]
         lo, hi = min(rel), max(rel)
     return offset + hi >= -half_fov and offset + lo <= half_fov
 
