@@ -5,12 +5,13 @@ from dataclasses import replace
 
 import pytest
 
-from agents.caregiving.model.guesses import Guess, guesses, heading_error, summarise
+from agents.caregiving.model.geometry import Circle
+from agents.caregiving.model.guesses import Guess, guesses, heading_error, summarise, unguessed_walks
 from agents.caregiving.model.imagine import Imagination, imagine_person
 from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import load_scenario
-from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.scene import Obstacle, PersonState, Scene
 from agents.caregiving.model.uncertainty import Risk
 from agents.caregiving.model.world_model import Walk
 from bridges.experiment.oracle import world_at
@@ -88,3 +89,17 @@ def test_the_fold_reports_the_earliest_danger_brought_forward_by_its_age(heading
 def test_a_fold_of_nothing_is_a_clear_error() -> None:
     with pytest.raises(ValueError, match="no imagined walk"):
         summarise("person", "couch", [], THRESHOLD)
+
+
+def test_a_walking_person_not_yet_guessed_walks_to_the_targets_not_plainly_aside() -> None:
+    def target(name: str, bearing_deg: float) -> Obstacle:
+        b = math.radians(bearing_deg)
+        return Obstacle(name, "table", Circle(3 * math.cos(b), 3 * math.sin(b), 0.3), 0.7, target=True)
+
+    room = [target("ahead", 5), target("left", 35), target("right", -30), target("aside", 55), target("behind", 180)]
+    person = PersonState("p", 0.0, 0.0, 0.0, 0.5, 0.25, 1.6, math.radians(120), math.radians(40), 0.1, 0.2)
+    walks = unguessed_walks(person, room)
+    assert [w.target for w in walks] == ["ahead", "right", "left"]  # within twice the gate, most nearly ahead first
+    assert all(w.person == "p" and w.gaze == pytest.approx(0.15) for w in walks)  # the middle of their gaze range
+    turned = replace(person, heading=math.radians(100))
+    assert [w.target for w in unguessed_walks(turned, room)] == ["aside"]  # none within: the most nearly ahead

@@ -39,7 +39,7 @@ from typing import Any
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
-from agents.caregiving.model.guesses import WALKING_SPEED, Guess, guesses, heading_error
+from agents.caregiving.model.guesses import HEADING_GATE_DEG, WALKING_SPEED, Guess, guesses, heading_error
 from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.imagine_request import PersonItem
 from agents.caregiving.model.uncertainty import Uncertainty
@@ -65,7 +65,7 @@ class Intention(Agent):
         parser.add_argument(
             "--heading-gate-deg",
             type=float,
-            default=20.0,
+            default=HEADING_GATE_DEG,
             help="a walking person's heading must match the path's start within this",
         )
         parser.add_argument("--moving-speed", type=float, default=WALKING_SPEED, help="m/s above which a person walks")

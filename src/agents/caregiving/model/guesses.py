@@ -25,6 +25,10 @@ from .world_model import Walk
 HEADING_PROBE = 0.4
 #: Speed (m/s) above which a person walks: their walks are held to the heading gate.
 WALKING_SPEED = 0.2
+#: How far (degrees) a walking person's heading may be from where a walk sets off for it to be theirs.
+HEADING_GATE_DEG = 20.0
+#: Past this (radians), twice the gate, a walk is plainly not the one a walking person is on.
+ASIDE = 2 * math.radians(HEADING_GATE_DEG)
 
 
 @dataclass(frozen=True)
@@ -115,8 +119,10 @@ def guesses(
 
 
 def unguessed_walks(person: PersonState, obstacles: Sequence[Obstacle]) -> tuple[Walk, ...]:
-    """The walks a walking person may be on before any is guessed: to every target in their view, the one
-    most nearly ahead first, at the middle of their gaze range."""
+    """The walks a walking person may be on before any is guessed, at the middle of their gaze range: to every
+    target in their view not plainly aside (:data:`ASIDE`, its centre's bearing from their heading), the one
+    most nearly ahead first; with none, to the one most nearly ahead."""
     gaze = (person.gaze_min + person.gaze_max) / 2
     ahead = sorted(candidate_targets(person, obstacles), key=lambda o: off_heading(person, o))
-    return tuple(Walk(person.name, o.name, gaze) for o in ahead)
+    kept = [o for o in ahead if off_heading(person, o) <= ASIDE] or ahead[:1]
+    return tuple(Walk(person.name, o.name, gaze) for o in kept)
