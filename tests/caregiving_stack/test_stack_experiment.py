@@ -6,6 +6,7 @@ import json
 import subprocess
 from pathlib import Path
 
+from agents.caregiving.model.recorded_batch import read_batches
 from procs import REPO, WM
 
 KEYS = {
@@ -51,8 +52,12 @@ def experiment(*args: str) -> subprocess.CompletedProcess[str]:
 
 def test_short_experiment_writes_table_json_and_figures(tmp_path: Path) -> None:
     out, figures, logs = tmp_path / "exp.json", tmp_path / "figures", tmp_path / "logs"
-    result = experiment("--only", "1,0", "--json", str(out), "--figures", str(figures), "--logs", str(logs))
+    result = experiment(
+        "--only", "1,0", "--json", str(out), "--figures", str(figures), "--logs", str(logs), "--record-searches"
+    )
     assert result.returncode == 0, result.stderr[-3000:]
+    served = (logs / "simulation.log").read_text().count("served robot moves")
+    assert len(read_batches(logs / "searches")) == served  # the simulator recorded every batch of robot moves
     assert "Experiment 1 (Table I)" in result.stdout and "747.0 ms" in result.stdout
     data = json.loads(out.read_text())
     assert KEYS <= data.keys()

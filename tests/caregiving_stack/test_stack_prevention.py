@@ -19,7 +19,9 @@ import pytest
 from stack_helpers import GRAPH, run_trial
 
 from agents.caregiving.model.planner import GridPlanner
+from agents.caregiving.model.recorded_batch import read_batches
 from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.service import Serving, serve_one
 from agents.caregiving.model.world_model import run_idle
 from agents.caregiving.names import HAS, INTENTION, OBJECT, ROBOT, WORLD
 from bridges.experiment.launch import Stack
@@ -35,7 +37,8 @@ SEED, SAVEABLE, UNSAVEABLE = 7, 25, (5, 42)
 
 @pytest.fixture(scope="module")
 def stack(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Stack]:
-    with Stack(GRAPH, SCENARIO, tmp_path_factory.mktemp("prevention-logs"), rate=0.5) as s:
+    logs = tmp_path_factory.mktemp("prevention-logs")
+    with Stack(GRAPH, SCENARIO, logs, rate=0.5, record=logs / "searches") as s:
         yield s
 
 
@@ -48,6 +51,17 @@ def test_a_saveable_trial_is_saved(stack: Stack) -> None:
     assert oracle(trial, r.risky["at_time"], planner).saveable
     assert [c for c in r.outcome["commands"] if c["accepted"]]
     assert r.outcome["collisions"] == []
+
+
+def test_the_searches_are_recorded_as_served_and_serve_again_to_the_answers_sent(stack: Stack) -> None:
+    """Run after a saveable trial: every batch of robot moves served so far is recorded; the first ones,
+    served again offline, give the answers sent."""
+    batches = read_batches(stack.logdir / "searches")
+    assert len(batches) == (stack.logdir / "simulation.log").read_text().count("served robot moves") > 0
+    for batch in batches[:3]:
+        scene, items = batch.scene_and_items()
+        again = tuple(serve_one(scene, item, Serving(head_start=lambda lead: None)) for item in items)
+        assert again == batch.reply.results
 
 
 @pytest.mark.parametrize("index", UNSAVEABLE)

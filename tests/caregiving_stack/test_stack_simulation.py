@@ -17,9 +17,11 @@ from agents.caregiving.model.imagine_reply import ImagineReply
 from agents.caregiving.model.joint import imagine_joint
 from agents.caregiving.model.move_search import SearchItem
 from agents.caregiving.model.planner import GridPlanner
+from agents.caregiving.model.recorded_batch import read_batches
 from agents.caregiving.model.robot_moves import standoff_moves
 from agents.caregiving.model.rollout import BulletRollout
 from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.service import Serving, serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.world_model import Walk
 from agents.messaging import Messaging, NoReply, RemoteError
@@ -34,7 +36,13 @@ HURRIED_WALKER = Path(__file__).resolve().parents[2] / "docs" / "results" / "hel
 
 
 @pytest.fixture(scope="module")
-def sim_endpoint():
+def recorded(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Where the simulation agent records its batches of robot moves."""
+    return tmp_path_factory.mktemp("searches")
+
+
+@pytest.fixture(scope="module")
+def sim_endpoint(recorded: Path):
     port = free_port()
     proc = Proc(
         [
@@ -47,6 +55,8 @@ def sim_endpoint():
             endpoint(port),
             "--rollout",
             "bullet",
+            "--record",
+            str(recorded),
         ],
         "simulation",
     )
@@ -161,8 +171,11 @@ def test_malformed_requests_get_errors_and_the_service_carries_on(sim_endpoint) 
     assert proc.popen.poll() is None
 
 
-def test_a_head_start_comes_back_before_the_search_ends(sim_endpoint) -> None:
-    """Trial 0 of the held-out hurried walker: the first candidate fails harmlessly and is sent on the way."""
+def test_a_head_start_comes_back_before_the_search_ends(sim_endpoint, recorded: Path) -> None:
+    """Trial 0 of the held-out hurried walker: the first candidate fails harmlessly and is sent on the way.
+
+    The search is recorded as served, and served again offline it gives the answer sent.
+    """
     ep, _ = sim_endpoint
     s = load_scenario(HURRIED_WALKER)
     trial = trial_for(s, 6, 0)
@@ -182,3 +195,9 @@ def test_a_head_start_comes_back_before_the_search_ends(sim_endpoint) -> None:
     assert searched.chosen is not None and searched.chosen.safe(0.2)
     # An asker that takes no progress gets the same final reply, and nothing else.
     assert ask(ep, request).results[0].search == searched
+
+    mine = [b for b in read_batches(recorded) if b.request["items"] == request["items"]]
+    assert len(mine) == 2 and all(b.reply.results == final.results for b in mine)
+    scene_again, items_again = mine[0].scene_and_items()
+    assert scene_again == scene
+    assert serve_one(scene_again, items_again[0], Serving(head_start=lambda lead: None)).search == searched

@@ -20,6 +20,8 @@ person-only imaginations, until its own batch is done, and hands over to the nex
 Each batch of robot moves logs where its time went (``served robot moves``):
 reading W and parsing the request, serving its items (and the CPU time of that: the whole process's,
 and the serving thread's own, without the transport's threads), and waiting for the items of other batches.
+With ``--record DIR`` each batch of robot moves is written to DIR as served, with its scene, to be served
+again offline (:mod:`agents.caregiving.model.recorded_batch`), once its reply is on its way.
 With ``--judge-ahead`` (on with two or more cores), once a search's first
 candidate has failed (or, after a head start, from its second candidate), a
 helper process judges later candidates beside it
@@ -34,12 +36,14 @@ import os
 import time
 from dataclasses import dataclass, field
 from itertools import count
+from pathlib import Path
 from typing import Any
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.imagine_reply import Answer, ImagineReply
 from agents.caregiving.model.judge_ahead import JudgeAhead
+from agents.caregiving.model.recorded_batch import write_batch
 from agents.caregiving.model.rollout import BulletRollout, NumpyRollout, Rollout
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import HeadStart, Serving, batch_scene, judges_robot_moves, serve_one
@@ -92,6 +96,14 @@ class Simulation(Agent):
             "ones in a helper process beside it (default: on with two or more cores)",
         )
 
+        parser.add_argument(
+            "--record",
+            metavar="DIR",
+            default="",
+            help="write each batch of robot moves served, with its scene, to DIR to be served again offline "
+            "(default: none)",
+        )
+
     async def setup(self) -> None:
         self.bullet = BulletRollout.shared() if self.args.rollout == "bullet" else None
         self.rollout: Rollout = self.bullet or NumpyRollout()
@@ -102,6 +114,10 @@ class Simulation(Agent):
         self.jobs: list[_Job] = []
         self._seq = count()
         self._serving = asyncio.Lock()
+        self.record = Path(self.args.record) if self.args.record else None
+        self.recorded = 0
+        if self.record is not None:
+            self.record.mkdir(parents=True, exist_ok=True)
         self.serve_progress(keys.imagine(self.args.graph), self.imagine)
         self.log.info(
             "serving", key=keys.imagine(self.args.graph), rollout=self.args.rollout, judge_ahead=self.ahead is not None
@@ -169,7 +185,12 @@ class Simulation(Agent):
                 thread_ms=round(job.thread_s * 1e3, 1),
                 waiting_ms=round((total - (read - start) - job.wall_s) * 1e3, 1),
             )
-        return reply(tuple(job.results))
+        answer = reply(tuple(job.results))
+        if self.record is not None and job.priority == 0:
+            self.recorded += 1
+            args = (self.record, self.recorded, scene, items, answer, job.thread_s * 1e3)
+            asyncio.get_running_loop().call_soon(write_batch, *args)  # once the reply is sent
+        return answer
 
     async def _serve_until(self, mine: _Job) -> None:
         """Serve queued items one at a time, robot-move batches (Algorithm 2) first, until ``mine`` is done.

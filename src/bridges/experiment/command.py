@@ -35,6 +35,12 @@ def add_command(commands: Any) -> None:
     p.add_argument("--figures", type=Path, help="write the Fig. 3 style trial figure and the reaction histogram here")
     p.add_argument("--logs", type=Path, help="directory for the processes' logs (default: a temporary one)")
     p.add_argument(
+        "--record-searches",
+        action="store_true",
+        help="the simulator records each batch of robot moves it serves, with its scene, under LOGS/searches, "
+        "to be served again offline (bench/bench_replay_searches.py)",
+    )
+    p.add_argument(
         "--compare",
         type=Path,
         help="an earlier run's JSON: the trial figure then shows a trial saved now that collided there",
@@ -80,6 +86,7 @@ def main(args: argparse.Namespace) -> int:
             logdir=args.logs,
             compare=args.compare,
             only=args.only,
+            record_searches=args.record_searches,
         )
     except (ScenarioError, LaunchError, TrialError) as exc:
         print(f"wm experiment: error: {exc}", file=sys.stderr)

@@ -394,10 +394,12 @@ def experiment(
     nominal: bool = False,
     compare: Path | None = None,
     only: list[int] | None = None,
+    record_searches: bool = False,
 ) -> dict[str, Any]:
     """Start the stack, run the trials, print Table I, write the JSON and figures; returns the results.
 
-    ``only`` runs those trials of the seed's sequence instead of the first ``trials``.
+    ``only`` runs those trials of the seed's sequence instead of the first ``trials``. With
+    ``record_searches`` the simulator records its batches of robot moves under ``<logs>/searches``.
     """
     from . import figures as figs
 
@@ -407,7 +409,8 @@ def experiment(
     logs = logdir or Path(tempfile.mkdtemp(prefix="wm-experiment-"))
     indices: list[int | None] = [None] if nominal else list(only if only is not None else range(trials))
     started = time.monotonic()
-    with Stack(graph, scenario_path, logs, rate=rate) as stack:
+    record = logs / "searches" if record_searches else None
+    with Stack(graph, scenario_path, logs, rate=rate, record=record) as stack:
         console.print(
             f"stack up: {len(stack.names)} processes on {stack.endpoint}, simulated clock x{rate:g}, logs in {logs}"
         )

@@ -69,6 +69,8 @@ class Stack:
     scenario: str
     logdir: Path
     rate: float = 1.0
+    #: Where the simulator records its batches of robot moves (None: nowhere).
+    record: Path | None = None
     port: int = 0
     launcher: subprocess.Popen[bytes] | None = None
     names: tuple[str, ...] = field(default=())
@@ -88,6 +90,7 @@ class Stack:
             "scenario": self.scenario,
             "rate": f"{self.rate:g}",
             "zenoh": str(config),
+            "record": str(self.record) if self.record is not None else "",
         }
 
     def start(self, timeout: float = 60.0) -> Self:

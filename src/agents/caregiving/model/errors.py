@@ -17,3 +17,7 @@ class RequestError(CaregivingError, ValueError):
 
 class ReplyError(CaregivingError, ValueError):
     """An imagine reply is malformed (:mod:`agents.caregiving.model.imagine_reply`)."""
+
+
+class RecordingError(CaregivingError, ValueError):
+    """A file of recorded batches is not one (:mod:`agents.caregiving.model.recorded_batch`)."""

@@ -1,0 +1,88 @@
+"""Serve recorded batches of robot moves again in this process, and compare them with how they were served live.
+
+``wm experiment --record-searches`` (or the simulator's ``--record DIR``) writes every batch of robot moves
+the simulator served, with the scene it was served against
+(:mod:`agents.caregiving.model.recorded_batch`). This bench serves each one again, alone and idle, with
+the numpy rollout and no helper process (a head start it finds is taken, as live, and dropped),
+``--passes`` times, and reports:
+
+* whether each answer is the one sent live (the same moves judged, the same verdicts, the same choice and
+  head start): a search's answer is a function of its request, so any difference is a bug;
+* the live serving thread's CPU time beside the replay's wall time (the best of the passes), for the
+  batches that judged one candidate and those that judged several (live, a helper process may have judged
+  some of those).
+
+    python bench/bench_replay_searches.py DIR [--passes N] [--json PATH]
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import benchlib
+from agents.caregiving.model.imagine_reply import Answer
+from agents.caregiving.model.recorded_batch import RecordedBatch, read_batches
+from agents.caregiving.model.service import Serving, serve_one
+
+#: Serves as the simulator does without a helper: a search asked for a head start looks for one.
+TAKES_HEAD_START = Serving(head_start=lambda lead: None)
+
+
+def judged(answers: tuple[Answer, ...]) -> int:
+    """Candidates the batch's searches judged (a joint item is one)."""
+    return sum(a.search.judged if a.search is not None else 1 for a in answers)
+
+
+def replay(batch: RecordedBatch, passes: int) -> tuple[tuple[Answer, ...], float]:
+    """The batch's answers served again, and the best wall time of ``passes`` (ms)."""
+    scene, items = batch.scene_and_items()
+    best, answers = float("inf"), ()
+    for _ in range(passes):
+        started = time.perf_counter()
+        answers = tuple(serve_one(scene, item, TAKES_HEAD_START) for item in items)
+        best = min(best, (time.perf_counter() - started) * 1e3)
+    return answers, best
+
+
+def group(rows: list[tuple[float, float]]) -> dict[str, Any]:
+    """Live thread CPU and replay wall, summed, with their ratio."""
+    live, again = sum(r[0] for r in rows), sum(r[1] for r in rows)
+    return {
+        "batches": len(rows),
+        "live_thread_ms": round(live, 1),
+        "replay_ms": round(again, 1),
+        "live_per_replay": round(live / again, 3) if again else None,
+    }
+
+
+def main() -> None:
+    p = benchlib.parser("bench_replay_searches", __doc__.splitlines()[0])
+    p.add_argument("directory", type=Path, help="where the batches were recorded")
+    p.add_argument("--passes", type=int, default=2, help="times each batch is served again (default: %(default)s)")
+    args = p.parse_args()
+    batches = read_batches(args.directory)
+    same, different = 0, []
+    one: list[tuple[float, float]] = []
+    several: list[tuple[float, float]] = []
+    for batch in batches:
+        answers, ms = replay(batch, args.passes)
+        if answers == batch.reply.results:
+            same += 1
+        else:
+            different.append(batch.number)
+        (one if judged(batch.reply.results) <= 1 else several).append((batch.thread_ms, ms))
+    figures = {
+        "batches": len(batches),
+        "same_answers": same,
+        "different": different,
+        "one_candidate": group(one),
+        "several_candidates": group(several),
+    }
+    benchlib.print_table(f"recorded batches of {args.directory}, served again", list(figures.items()))
+    benchlib.write_json(args.json, {"directory": str(args.directory), "passes": args.passes, **figures})
+
+
+if __name__ == "__main__":
+    main()

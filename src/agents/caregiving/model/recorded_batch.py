@@ -1,0 +1,71 @@
+"""Batches of robot moves as the simulator served them: one file each, read back to be served again offline.
+
+With ``--record DIR`` the simulator writes every batch that judges robot moves (Algorithm 2's searches and
+joint imaginations) to ``DIR/<n>.msgpack``, ``n`` counting from 1 in the order they were served: the request
+with the scene it was served against pinned (so the file holds a request the service takes as it is), the
+reply it sent, and the serving thread's CPU time. :func:`read_batches` reads a directory of them back;
+``bench/bench_replay_searches.py`` serves them again and compares.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import msgpack
+
+from . import imagine_reply
+from .errors import RecordingError
+from .imagine_reply import ImagineReply
+from .scene import Scene
+from .service import batch_scene
+
+SUFFIX = ".msgpack"
+
+
+@dataclass(frozen=True)
+class RecordedBatch:
+    """One batch as served: its request (scene pinned), its reply and the serving thread's CPU time (ms)."""
+
+    number: int
+    request: dict[str, Any]
+    reply: ImagineReply
+    thread_ms: float
+
+    def scene_and_items(self) -> tuple[Scene, list[Any]]:
+        """The scene the batch was served against and its items, in their wire form."""
+        return batch_scene(self.request, None)
+
+
+def write_batch(
+    directory: Path, number: int, scene: Scene, items: list[Any], reply: dict[str, Any], thread_ms: float
+) -> Path:
+    """Write one served batch (``reply`` in its wire form) as ``directory/<number>.msgpack``."""
+    path = directory / f"{number:06d}{SUFFIX}"
+    record = {"request": {"items": items, "scene": scene.to_wire()}, "reply": reply, "thread_ms": thread_ms}
+    path.write_bytes(msgpack.packb(record, use_bin_type=True))
+    return path
+
+
+def read_batch(path: Path) -> RecordedBatch:
+    """Read one file :func:`write_batch` wrote; raises :class:`RecordingError` when it is not one."""
+    try:
+        data = msgpack.unpackb(path.read_bytes(), raw=False, strict_map_key=False)
+        if not isinstance(data, dict) or not isinstance(data.get("request"), dict):
+            raise RecordingError("expected a map with a request")
+        thread_ms = data.get("thread_ms")
+        if not isinstance(thread_ms, int | float) or thread_ms < 0:
+            raise RecordingError(f"thread_ms: expected a non-negative number, got {thread_ms!r}")
+        batch = RecordedBatch(int(path.stem), data["request"], imagine_reply.decode(data.get("reply")), thread_ms)
+        batch.scene_and_items()
+    except (OSError, ValueError, msgpack.UnpackException) as exc:
+        raise RecordingError(f"{path}: not a recorded batch: {exc}") from None
+    return batch
+
+
+def read_batches(directory: Path) -> list[RecordedBatch]:
+    """Every batch recorded in ``directory``, in the order they were served."""
+    if not directory.is_dir():
+        raise RecordingError(f"{directory}: no such directory")
+    return sorted((read_batch(p) for p in directory.glob(f"*{SUFFIX}")), key=lambda b: b.number)
