@@ -95,7 +95,6 @@ class Simulation(Agent):
             help="once a search's first candidate has failed (after a head start, from the second), judge later "
             "ones in a helper process beside it (default: on with two or more cores)",
         )
-
         parser.add_argument(
             "--record",
             metavar="DIR",
@@ -115,9 +114,10 @@ class Simulation(Agent):
         self._seq = count()
         self._serving = asyncio.Lock()
         self.record = Path(self.args.record) if self.args.record else None
-        self.recorded = 0
+        self.recorded = 0  # batches in the record directory, an earlier run's included: a new one is numbered on
         if self.record is not None:
             self.record.mkdir(parents=True, exist_ok=True)
+            self.recorded = max((int(p.stem) for p in self.record.glob("*.msgpack") if p.stem.isdigit()), default=0)
         self.serve_progress(keys.imagine(self.args.graph), self.imagine)
         self.log.info(
             "serving", key=keys.imagine(self.args.graph), rollout=self.args.rollout, judge_ahead=self.ahead is not None
@@ -189,8 +189,15 @@ class Simulation(Agent):
         if self.record is not None and job.priority == 0:
             self.recorded += 1
             args = (self.record, self.recorded, scene, items, answer, job.thread_s * 1e3)
-            asyncio.get_running_loop().call_soon(write_batch, *args)  # once the reply is sent
+            asyncio.get_running_loop().call_soon(self._record, *args)  # once the reply is sent
         return answer
+
+    def _record(self, directory: Path, *batch: Any) -> None:
+        """Write one served batch; a failed write is logged, and serving goes on."""
+        try:
+            write_batch(directory, *batch)
+        except OSError as exc:
+            self.log.warning("batch not recorded", directory=str(directory), error=str(exc))
 
     async def _serve_until(self, mine: _Job) -> None:
         """Serve queued items one at a time, robot-move batches (Algorithm 2) first, until ``mine`` is done.

@@ -1,7 +1,8 @@
 """Batches of robot moves as the simulator served them: one file each, read back to be served again offline.
 
 With ``--record DIR`` the simulator writes every batch that judges robot moves (Algorithm 2's searches and
-joint imaginations) to ``DIR/<n>.msgpack``, ``n`` counting from 1 in the order they were served: the request
+joint imaginations) to ``DIR/<n>.msgpack``, ``n`` counting on, in the order they were served, from the
+highest already there (a directory used before keeps its batches): the request
 with the scene it was served against pinned (so the file holds a request the service takes as it is), the
 reply it sent, and the serving thread's CPU time. :func:`read_batches` reads a directory of them back;
 ``bench/bench_replay_searches.py`` serves them again and compares.
