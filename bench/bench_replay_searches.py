@@ -24,10 +24,6 @@ from typing import Any
 import benchlib
 from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.recorded_batch import RecordedBatch, read_batches
-from agents.caregiving.model.service import Serving, serve_one
-
-#: Serves as the simulator does without a helper: a search asked for a head start looks for one.
-TAKES_HEAD_START = Serving(head_start=lambda lead: None)
 
 
 def judged(answers: tuple[Answer, ...]) -> int:
@@ -37,11 +33,10 @@ def judged(answers: tuple[Answer, ...]) -> int:
 
 def replay(batch: RecordedBatch, passes: int) -> tuple[tuple[Answer, ...], float]:
     """The batch's answers served again, and the best wall time of ``passes`` (ms)."""
-    scene, items = batch.scene_and_items()
     best, answers = float("inf"), ()
     for _ in range(passes):
         started = time.perf_counter()
-        answers = tuple(serve_one(scene, item, TAKES_HEAD_START) for item in items)
+        answers = batch.serve_again()
         best = min(best, (time.perf_counter() - started) * 1e3)
     return answers, best
 

@@ -23,9 +23,8 @@ def test_a_batch_written_reads_back_and_serves_again_to_the_answer_sent(tmp_path
         write_batch(tmp_path, number, scene, items, reply, 11.0 * number)
     batches = read_batches(tmp_path)
     assert [b.number for b in batches] == [1, 2] and batches[1].thread_ms == 22.0
-    again_scene, again_items = batches[0].scene_and_items()
-    assert again_scene == scene and again_items == items
-    assert batches[0].reply.results == answers == tuple(serve_one(again_scene, i) for i in again_items)
+    assert batches[0].scene == scene and batches[0].items == items
+    assert batches[0].reply.results == answers == batches[0].serve_again()
 
 
 def test_what_is_not_a_recorded_batch_is_refused_by_name(tmp_path: Path) -> None:

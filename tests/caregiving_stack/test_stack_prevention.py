@@ -21,7 +21,6 @@ from stack_helpers import GRAPH, run_trial
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.recorded_batch import read_batches
 from agents.caregiving.model.scenario import load_scenario
-from agents.caregiving.model.service import Serving, serve_one
 from agents.caregiving.model.world_model import run_idle
 from agents.caregiving.names import HAS, INTENTION, OBJECT, ROBOT, WORLD
 from bridges.experiment.launch import Stack
@@ -59,9 +58,7 @@ def test_the_searches_are_recorded_as_served_and_serve_again_to_the_answers_sent
     batches = read_batches(stack.logdir / "searches")
     assert len(batches) == (stack.logdir / "simulation.log").read_text().count("served robot moves") > 0
     for batch in batches[:3]:
-        scene, items = batch.scene_and_items()
-        again = tuple(serve_one(scene, item, Serving(head_start=lambda lead: None)) for item in items)
-        assert again == batch.reply.results
+        assert batch.serve_again() == batch.reply.results
 
 
 @pytest.mark.parametrize("index", UNSAVEABLE)

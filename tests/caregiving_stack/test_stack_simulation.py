@@ -21,7 +21,6 @@ from agents.caregiving.model.recorded_batch import read_batches
 from agents.caregiving.model.robot_moves import standoff_moves
 from agents.caregiving.model.rollout import BulletRollout
 from agents.caregiving.model.scenario import load_scenario
-from agents.caregiving.model.service import Serving, serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.world_model import Walk
 from agents.messaging import Messaging, NoReply, RemoteError
@@ -196,8 +195,7 @@ def test_a_head_start_comes_back_before_the_search_ends(sim_endpoint, recorded: 
     # An asker that takes no progress gets the same final reply, and nothing else.
     assert ask(ep, request).results[0].search == searched
 
-    mine = [b for b in read_batches(recorded) if b.request["items"] == request["items"]]
+    mine = [b for b in read_batches(recorded) if b.items == request["items"]]
     assert len(mine) == 2 and all(b.reply.results == final.results for b in mine)
-    scene_again, items_again = mine[0].scene_and_items()
-    assert scene_again == scene
-    assert serve_one(scene_again, items_again[0], Serving(head_start=lambda lead: None)).search == searched
+    assert mine[0].scene == scene
+    assert mine[0].serve_again()[0].search == searched

@@ -43,7 +43,7 @@ from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.imagine_reply import Answer, ImagineReply
 from agents.caregiving.model.judge_ahead import JudgeAhead
-from agents.caregiving.model.recorded_batch import write_batch
+from agents.caregiving.model.recorded_batch import last_number, write_batch
 from agents.caregiving.model.rollout import BulletRollout, NumpyRollout, Rollout
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import HeadStart, Serving, batch_scene, judges_robot_moves, serve_one
@@ -117,7 +117,7 @@ class Simulation(Agent):
         self.recorded = 0  # batches in the record directory, an earlier run's included: a new one is numbered on
         if self.record is not None:
             self.record.mkdir(parents=True, exist_ok=True)
-            self.recorded = max((int(p.stem) for p in self.record.glob("*.msgpack") if p.stem.isdigit()), default=0)
+            self.recorded = last_number(self.record)
         self.serve_progress(keys.imagine(self.args.graph), self.imagine)
         self.log.info(
             "serving", key=keys.imagine(self.args.graph), rollout=self.args.rollout, judge_ahead=self.ahead is not None

@@ -4,7 +4,8 @@ With ``--record DIR`` the simulator writes every batch that judges robot moves (
 joint imaginations) to ``DIR/<n>.msgpack``, ``n`` counting on, in the order they were served, from the
 highest already there (a directory used before keeps its batches): the request
 with the scene it was served against pinned (so the file holds a request the service takes as it is), the
-reply it sent, and the serving thread's CPU time. :func:`read_batches` reads a directory of them back;
+reply it sent, and the serving thread's CPU time. :func:`read_batches` reads a directory of them back, and
+:meth:`RecordedBatch.serve_again` serves one again;
 ``bench/bench_replay_searches.py`` serves them again and compares.
 """
 
@@ -18,25 +19,34 @@ import msgpack
 
 from . import imagine_reply
 from .errors import RecordingError
-from .imagine_reply import ImagineReply
+from .imagine_reply import Answer, ImagineReply
 from .scene import Scene
-from .service import batch_scene
+from .service import Serving, batch_scene, serve_one
 
 SUFFIX = ".msgpack"
+#: Serves as the simulator does without a helper: a search asked for a head start looks for one (and drops it).
+AS_SERVED = Serving(head_start=lambda lead: None)
 
 
 @dataclass(frozen=True)
 class RecordedBatch:
-    """One batch as served: its request (scene pinned), its reply and the serving thread's CPU time (ms)."""
+    """One batch as served: the scene it was served against, its items (in their wire form), its reply and the
+    serving thread's CPU time (ms)."""
 
     number: int
-    request: dict[str, Any]
+    scene: Scene
+    items: list[Any]
     reply: ImagineReply
     thread_ms: float
 
-    def scene_and_items(self) -> tuple[Scene, list[Any]]:
-        """The scene the batch was served against and its items, in their wire form."""
-        return batch_scene(self.request, None)
+    def serve_again(self) -> tuple[Answer, ...]:
+        """The batch's items served again here, in this process, as the simulator served them."""
+        return tuple(serve_one(self.scene, item, AS_SERVED) for item in self.items)
+
+
+def last_number(directory: Path) -> int:
+    """The highest number of a batch recorded in ``directory`` (0: none), so that a new one is numbered on."""
+    return max((int(p.stem) for p in directory.glob(f"*{SUFFIX}") if p.stem.isdigit()), default=0)
 
 
 def write_batch(
@@ -58,11 +68,10 @@ def read_batch(path: Path) -> RecordedBatch:
         thread_ms = data.get("thread_ms")
         if not isinstance(thread_ms, int | float) or thread_ms < 0:
             raise RecordingError(f"thread_ms: expected a non-negative number, got {thread_ms!r}")
-        batch = RecordedBatch(int(path.stem), data["request"], imagine_reply.decode(data.get("reply")), thread_ms)
-        batch.scene_and_items()
+        scene, items = batch_scene(data["request"], None)
+        return RecordedBatch(int(path.stem), scene, items, imagine_reply.decode(data.get("reply")), thread_ms)
     except (OSError, ValueError, msgpack.UnpackException) as exc:
         raise RecordingError(f"{path}: not a recorded batch: {exc}") from None
-    return batch
 
 
 def read_batches(directory: Path) -> list[RecordedBatch]:
