@@ -123,6 +123,6 @@ def unguessed_walks(person: PersonState, obstacles: Sequence[Obstacle]) -> tuple
     target in their view not plainly aside (:data:`ASIDE`, its centre's bearing from their heading), the one
     most nearly ahead first; with none, to the one most nearly ahead."""
     gaze = (person.gaze_min + person.gaze_max) / 2
-    ahead = sorted(candidate_targets(person, obstacles), key=lambda o: off_heading(person, o))
-    kept = [o for o in ahead if off_heading(person, o) <= ASIDE] or ahead[:1]
+    ahead = sorted(((off_heading(person, o), o) for o in candidate_targets(person, obstacles)), key=lambda x: x[0])
+    kept = [o for off, o in ahead if off <= ASIDE] or [o for _, o in ahead[:1]]
     return tuple(Walk(person.name, o.name, gaze) for o in kept)
