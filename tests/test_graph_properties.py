@@ -9,8 +9,9 @@ dangling edge, no deleted node back, and unique names.
 from __future__ import annotations
 
 import random
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -19,6 +20,7 @@ import wm
 
 NAMES = ["alice", "bob", "carol", "dan"]
 REPLICAS = 3
+T = TypeVar("T")
 
 
 @dataclass
@@ -72,25 +74,23 @@ class Net:
         self.in_flight.clear()
 
 
-def _pick(data: st.DataObject, count: int) -> int:
-    """An index below ``count``, drawn the same way whatever ``count`` is.
+def _pick(data: st.DataObject, items: Sequence[T]) -> T | None:
+    """One of ``items`` (None when there are none), drawn the same way however many there are.
 
     What a replica holds depends on its CRDT client id, which pycrdt draws at random, so a draw whose
     range followed the state would change shape between Hypothesis' runs of one example.
     """
-    return data.draw(st.integers(0, 2**16)) % count
+    index = data.draw(st.integers(0, 2**16))
+    return items[index % len(items)] if items else None
 
 
 def _pick_node(data: st.DataObject, graph: wm.Graph) -> int | None:
-    nodes = graph.nodes()
-    index = _pick(data, max(len(nodes), 1))
-    return nodes[index].id if nodes else None
+    node = _pick(data, graph.nodes())
+    return node.id if node is not None else None
 
 
 def _pick_edge(data: st.DataObject, graph: wm.Graph) -> wm.Edge | None:
-    edges = graph.edges()
-    index = _pick(data, max(len(edges), 1))
-    return edges[index] if edges else None
+    return _pick(data, graph.edges())
 
 
 finite = st.floats(-100, 100, allow_nan=False)
@@ -184,8 +184,8 @@ def test_random_operations_converge(data: st.DataObject) -> None:
         elif action == "flush":
             net.flush_volatile(r)
         else:
-            index, keep_copy = _pick(data, max(len(net.in_flight), 1)), data.draw(st.booleans())
-            if net.in_flight:
+            index, keep_copy = _pick(data, range(len(net.in_flight))), data.draw(st.booleans())
+            if index is not None:
                 net.deliver(index, keep_copy)
     stale = list(net.in_flight)
     for r in range(REPLICAS):
