@@ -4,6 +4,8 @@ import math
 from dataclasses import replace
 
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 from agents.caregiving.model.geometry import Box, Circle
 from agents.caregiving.model.scenario import load_scenario
@@ -15,6 +17,7 @@ from agents.caregiving.model.visibility import (
     gaze_classes,
     gaze_interval,
     in_horizontal_fov,
+    sight,
     visible,
 )
 
@@ -85,3 +88,49 @@ def test_paper_scenario_person_does_not_see_the_ball_at_any_gaze() -> None:
     person = scene.people[0]
     for c in gaze_classes(person, scene.bodies_around(person.name)):
         assert "ball" not in c.visible and "robot" in c.visible
+
+
+_ANGLE = st.floats(-math.pi, math.pi)
+_OFFSET = st.floats(-6.0, 6.0)
+
+
+@st.composite
+def _hidden_objects(draw: st.DrawFn) -> tuple[Obstacle, float]:
+    """An object (a disc or a turned box, low or tall) somewhere about the person, and a gaze pitch."""
+    x, y = draw(_OFFSET), draw(_OFFSET)
+    if draw(st.booleans()):
+        shape: Circle | Box = Circle(x, y, draw(st.floats(0.05, 0.6)))
+    else:
+        shape = Box(x, y, draw(st.floats(0.05, 1.0)), draw(st.floats(0.05, 1.0)), draw(_ANGLE))
+    height = draw(st.sampled_from([0.09, 0.3, 1.0, 1.8, 2.4]))
+    return Obstacle("thing", "thing", shape, height), math.radians(draw(st.floats(-25.0, 15.0)))
+
+
+@settings(max_examples=300, deadline=None)
+@given(_hidden_objects(), st.floats(0.0, 1.0), _ANGLE, st.floats(0.0, 1.0))
+def test_an_object_stays_hidden_within_the_bound_sight_gives(
+    drawn: tuple[Obstacle, float], share: float, direction: float, turn_share: float
+) -> None:
+    """Moved less than the bound's distance, in any direction, and turned less than its turn, the person
+    still does not see the object."""
+    obstacle, gaze = drawn
+    hidden = sight(PERSON, obstacle, gaze)
+    assume(hidden is not None and hidden.distance > 0.0)
+    assert hidden is not None
+    step = min(hidden.distance, 20.0) * share * 0.999
+    turn = min(hidden.turn, math.pi) * turn_share * 0.999 * (1 if direction > 0 else -1)
+    moved = PERSON.moved(PERSON.x + step * math.cos(direction), PERSON.y + step * math.sin(direction), turn)
+    assert not can_see(moved, obstacle, gaze)
+
+
+def test_sight_says_why_an_object_is_hidden() -> None:
+    """The ball close by is below the window until the person backs off; the plant behind only needs a turn
+    to show, so its bound holds for a turn short of the gap."""
+    gaze = math.radians(8)
+    assert sight(PERSON, TALL, gaze) is None
+    below = sight(PERSON, BALL, gaze)
+    assert below is not None and below.turn == math.inf and below.distance > 1.0
+    behind = sight(PERSON, replace(TALL, shape=Circle(-2.5, 0.0, 0.25)), gaze)
+    assert behind is not None and 0.0 < behind.turn < math.pi / 2 and behind.distance > 0.0
+    overhead = sight(PERSON, BALL, math.radians(60))  # a low ball, with the window above the horizon
+    assert overhead is not None and overhead.distance == math.inf

@@ -9,8 +9,9 @@ import pytest
 
 from agents.caregiving.model.robot_moves import RobotMove, standoff_moves, travel_time
 from agents.caregiving.model.scenario import load_scenario, sample_trial
+from agents.caregiving.model.scene import Obstacle
 from agents.caregiving.model.visibility import can_see
-from agents.caregiving.model.world_model import Walk, World, run_idle
+from agents.caregiving.model.world_model import Walk, World, _Walker, run_idle
 from bridges.world.bridge import trial_for
 
 STACK_SCENARIOS = Path(__file__).parents[1] / "caregiving_stack" / "scenarios"
@@ -182,6 +183,60 @@ def test_advancing_in_bulk_ends_as_stepping_does(scenario: str) -> None:
             bulk_steps += bulk.steps
             single_steps += round(stepped.time / stepped.dt)
     assert checked == 24 and bulk_steps < 0.8 * single_steps  # many steps went in bulk
+
+
+@pytest.mark.parametrize(
+    "scenario",
+    [
+        "two_people",
+        "two_people_two_obstacles",
+        *(str(HELD_OUT / f"{n}.yaml") for n in ("three_people_lounge", "crossing_hall")),
+    ],
+)
+def test_looking_again_only_when_a_thing_could_show_ends_as_looking_every_step(scenario: str) -> None:
+    """World._sees skips what stays hidden within visibility.sight's bound; with several people walking past a
+    driving robot, every trial must end as it does with every look worked out."""
+    s = load_scenario(scenario)
+    rng = np.random.default_rng(23)
+    for _ in range(4):
+        trial = sample_trial(s, rng)
+        for move in [None, *standoff_moves(trial.scene(), s.people[0].target)[:2]]:
+            walks = [Walk(p.name, p.target, math.radians(p.gaze_deg)) for p in trial.people]
+            _walk_alike(World(trial.scene(), walks), _LooksEveryStep(trial.scene(), walks), move)
+
+
+def test_a_slow_walker_overtaken_sees_the_other_come_into_view_at_once() -> None:
+    """The slow walker has hardly moved when the fast one comes into their cone: the other's steps count
+    against visibility.sight's bound too."""
+    scene = load_scenario("two_people").scene()
+    slow, fast = scene.people
+    overtaken = replace(scene, people=(replace(slow, speed=0.05), fast.moved(-3.4, -0.4, 0.15)))
+    walks = [Walk("person", "couch", math.radians(8)), Walk("visitor", "door", math.radians(8))]
+    _walk_alike(World(overtaken, walks), _LooksEveryStep(overtaken, walks), None)
+
+
+class _LooksEveryStep(World):
+    """The world with every look worked out afresh."""
+
+    def _sees(self, w: _Walker, o: Obstacle) -> bool:
+        return can_see(w.state, o, w.gaze)
+
+
+def _walk_alike(bounded: World, every: World, move: RobotMove | None) -> None:
+    """Step both worlds with the robot sent on ``move`` and check that everybody sees the same things at the
+    same step, and that the walks end alike."""
+    for world in (bounded, every):
+        world.advance(0.3)
+        world.command_robot(move)
+    names = every.walking()
+    while not every.done and every.time < 40.0 - 1e-9:
+        bounded.step()
+        every.step()
+        for name in names:
+            assert bounded.walker(name).known.keys() == every.walker(name).known.keys()
+    assert bounded.outcome() == every.outcome() and bounded.robot_seen == every.robot_seen
+    for name in names:
+        assert bounded.walker(name).track == every.walker(name).track
 
 
 def test_a_world_begun_midway_walks_the_route_planned_where_the_walk_began() -> None:

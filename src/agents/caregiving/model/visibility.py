@@ -22,6 +22,8 @@ from .geometry import Circle, FloatArray, Shape, bounding_radius, corner_points,
 from .scene import Obstacle, PersonState
 
 WALL_KIND = "wall"
+#: Metres taken off :func:`unseen_for`'s bound, far above the rounding of its arithmetic.
+UNSEEN_SLACK = 1e-6
 
 
 def wrap_angle(angle: float) -> float:
@@ -41,13 +43,18 @@ def in_horizontal_fov(person: PersonState, obstacle: Obstacle) -> bool:
 
 def _in_cone(person: PersonState, shape: Shape, inside: float) -> bool:
     """:func:`in_horizontal_fov`, given the person's signed distance to the shape."""
+    return _cone_gap(person, shape, inside) <= 0.0
+
+
+def _cone_gap(person: PersonState, shape: Shape, inside: float) -> float:
+    """The angle (rad) between the footprint's directions and the person's horizontal cone; 0.0 or less in it."""
     if inside <= 0.0:
-        return True
+        return 0.0
     centre = math.atan2(shape.y - person.y, shape.x - person.x)
     offset = wrap_angle(centre - person.heading)
     half_fov = person.hfov / 2
     if -half_fov <= offset <= half_fov:
-        return True  # the centre itself is in view (the footprint's span holds its direction)
+        return 0.0  # the centre itself is in view (the footprint's span holds its direction)
     dist = math.hypot(shape.x - person.x, shape.y - person.y)
     if isinstance(shape, Circle):
         half = math.asin(min(1.0, shape.r / dist))
@@ -55,7 +62,9 @@ def _in_cone(person: PersonState, shape: Shape, inside: float) -> bool:
     else:
         rel = [wrap_angle(math.atan2(y - person.y, x - person.x) - centre) for x, y in corner_points(shape)]
         lo, hi = min(rel), max(rel)
-    return offset + hi >= -half_fov and offset + lo <= half_fov
+    if offset > 0.0:  # left of the cone; the way round the back is the other gap
+        return min(offset + lo - half_fov, 2 * math.pi - offset - hi - half_fov)
+    return min(-half_fov - offset - hi, 2 * math.pi + offset + lo - half_fov)
 
 
 def elevation_span(person: PersonState, obstacle: Obstacle) -> tuple[float, float]:
@@ -90,16 +99,54 @@ def gaze_interval(person: PersonState, obstacle: Obstacle) -> tuple[float, float
 
 
 def can_see(person: PersonState, obstacle: Obstacle, gaze: float) -> bool:
-    """Whether the person, gazing at pitch ``gaze`` (rad), sees the obstacle.
+    """Whether the person, gazing at pitch ``gaze`` (rad), sees the obstacle."""
+    return sight(person, obstacle, gaze) is None
 
-    :func:`gaze_interval`'s two tests, the cheaper first: an object below or above the gaze window (a
-    low ball close by) is rejected before its bearing is worked out.
+
+@dataclass(frozen=True)
+class Hidden:
+    """Why a person cannot see an object now: how far (m) they must at least move before they can, while
+    turning less than ``turn`` (rad) from the heading they have now (``inf``: however they turn)."""
+
+    distance: float
+    turn: float = math.inf
+
+
+def sight(person: PersonState, obstacle: Obstacle, gaze: float) -> Hidden | None:
+    """``None`` when the person, gazing at pitch ``gaze`` (rad), sees the obstacle; else a :class:`Hidden` bound.
+
+    :func:`gaze_interval`'s two tests, the cheaper first: an object below or above the gaze window (a low
+    ball close by) is rejected before its bearing is worked out. The window's edges depend only on the
+    distances from the eyes' foot to the footprint's nearest point and to its far side, which moving ``d``
+    changes by at most ``d``; so an object outside the window stays out of it, however the person turns, until
+    they have moved the distance that closes the gap (``inf``: none does). An object in the window but outside
+    the cone stays outside while the person moves less than ``r sin(gap / 2)`` (``r`` their distance to it)
+    and turns less than ``gap / 2``: moving ``d`` turns the direction to any point of the footprint by at most
+    ``asin(d / r)``. Both bounds are shortened by :data:`UNSEEN_SLACK`, so that rounding never hides a sighting.
     """
     if obstacle.kind == WALL_KIND:
-        return True
+        return None
     inside = point_distance(obstacle.shape, person.x, person.y)
     low, high = _gaze_window(person, obstacle, inside)
-    return low <= gaze <= high and _in_cone(person, obstacle.shape, inside)
+    if low <= gaze <= high:
+        gap = _cone_gap(person, obstacle.shape, inside)
+        if gap <= 0.0:
+            return None
+        turn = max(gap / 2 - UNSEEN_SLACK, 0.0)
+        return Hidden(max(inside * math.sin(turn) - UNSEEN_SLACK, 0.0), turn)
+    half = person.vfov / 2
+    near = max(inside, 1e-3)
+    top = obstacle.height - person.eye_height
+    if gaze < low:  # the footprint's nearest floor point lies below the window: come nearer
+        needed = near - person.eye_height / math.tan(-(gaze + half))
+    elif top >= 0.0:  # a tall object's top lies below the window: come nearer
+        needed = near - top / math.tan(gaze - half)
+    elif gaze - half < 0.0:  # a low object's top lies below the window: step back until it rises into it
+        far = math.hypot(obstacle.shape.x - person.x, obstacle.shape.y - person.y) + bounding_radius(obstacle.shape)
+        needed = top / math.tan(gaze - half) - far
+    else:
+        return Hidden(math.inf)
+    return Hidden(max(needed - UNSEEN_SLACK, 0.0))
 
 
 def _wrap_all(angles: FloatArray) -> FloatArray:

@@ -43,7 +43,7 @@ from .robot_moves import RobotMove, robot_fits
 from .rollout import DT
 from .scenario import Scenario
 from .scene import PERSON_KIND, ROBOT_KIND, Obstacle, PersonState, RobotState, Scene
-from .visibility import WALL_KIND, can_see, seen_along
+from .visibility import WALL_KIND, Hidden, can_see, seen_along, sight, wrap_angle
 
 #: A seen robot or person that moved more than this triggers a re-plan.
 REPLAN_SHIFT = 0.1
@@ -107,6 +107,11 @@ class _Walker:
     track: list[tuple[float, float]] = field(default_factory=list)
     # Closest approach to the robot while it drives or stands where the walker does not know it to be.
     robot_clearance: float = math.inf
+    # The length of the polygonal line through every place the walker has stood, and, for the things but the
+    # robot they have not seen, why not: their own and the thing's reading of it and their heading when that
+    # was worked out, with the bound (see World._sees).
+    travelled: float = 0.0
+    unseen: dict[str, tuple[float, float, float, Hidden]] = field(default_factory=dict)
 
 
 @dataclass
@@ -149,6 +154,7 @@ class World:
             for p in scene.people
             if p.name in intents
         ]
+        self._walker_named = {w.state.name: w for w in self._walkers}
         self.robot: RobotState = scene.robot
         self._speed = scene.robot.speed
         self._drive: _Drive | None = None
@@ -166,7 +172,10 @@ class World:
     def fork(self) -> World:
         """An independent copy of the world now (sharing the planner and its caches)."""
         twin = copy.copy(self)
-        twin._walkers = [replace(w, known=dict(w.known), track=list(w.track)) for w in self._walkers]
+        twin._walkers = [
+            replace(w, known=dict(w.known), track=list(w.track), unseen=dict(w.unseen)) for w in self._walkers
+        ]
+        twin._walker_named = {w.state.name: w for w in twin._walkers}
         twin._drive = replace(self._drive) if self._drive is not None else None
         twin._collisions = list(self._collisions)
         twin.robot_seen = dict(self.robot_seen)
@@ -305,7 +314,7 @@ class World:
         for o in around:
             old = w.known.get(o.name)
             if old is None:
-                if not can_see(w.state, o, w.gaze):
+                if not self._sees(w, o):
                     continue
                 if o.kind == ROBOT_KIND:
                     self.robot_seen.setdefault(w.state.name, self.time)
@@ -322,6 +331,31 @@ class World:
                 changed = changed or self._in_the_way(w, o)
             w.known[o.name] = o
         return changed
+
+    def _sees(self, w: _Walker, o: Obstacle) -> bool:
+        """Whether ``w`` sees ``o`` now, not working it out again while it stays hidden.
+
+        :func:`visibility.sight` bounds how far ``w`` must move before ``o`` can show; a person ``o`` moving
+        ``d`` changes the distances and directions it reads by at most as much as ``w`` moving ``d`` does, so
+        what both have walked since counts against the bound. The robot turns as it drives, which the bound
+        does not cover: it is looked at every time.
+        """
+        if o.kind == ROBOT_KIND:
+            return can_see(w.state, o, w.gaze)
+        other = self._walker_named.get(o.name)
+        moved = other.travelled if other is not None else 0.0
+        known = w.unseen.get(o.name)
+        if known is not None:
+            mine, theirs, heading, bound = known
+            if w.travelled - mine + moved - theirs < bound.distance and (
+                bound.turn == math.inf or abs(wrap_angle(w.state.heading - heading)) < bound.turn
+            ):
+                return False
+        hidden = sight(w.state, o, w.gaze)
+        if hidden is None:
+            return True
+        w.unseen[o.name] = (w.travelled, moved, w.state.heading, hidden)
+        return False
 
     def _in_the_way(self, w: _Walker, body: Obstacle) -> bool:
         """Whether ``body`` comes within :data:`REPLAN_SHIFT` of the walker's disc along the rest of their plan."""
@@ -359,6 +393,7 @@ class World:
         s = w.state
         heading = math.atan2(y - s.y, x - s.x) if math.hypot(x - s.x, y - s.y) > 1e-9 else s.heading
         w.state = s.moved(x, y, heading)
+        w.travelled += math.hypot(x - s.x, y - s.y)
         w.track.append((w.state.x, w.state.y))
         if w.walked >= length - 1e-9:
             w.status, w.arrival = "arrived", self.time + self.dt
@@ -508,6 +543,7 @@ class World:
             w.robot_clearance = min(w.robot_clearance, float(clear[:last, robot_column].min()))
         w.walked = float(walked[last - 1])
         w.state = s.moved(float(xs[last - 1]), float(ys[last - 1]), headings[last - 1])
+        w.travelled += math.hypot(w.state.x - s.x, w.state.y - s.y)
         w.track.extend(zip(xs[:last].tolist(), ys[:last].tolist(), strict=True))
         end = starts[last - 1] + self.dt
         if w.walked >= route.length - 1e-9:
