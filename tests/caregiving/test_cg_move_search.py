@@ -425,3 +425,35 @@ def test_a_bystander_falling_anyway_does_not_veto_a_move_but_any_other_fall_does
                 RequestError,
             )
         )
+
+
+def test_a_search_finds_for_itself_who_falls_with_the_robot_as_it_is_and_lets_no_such_fall_refuse_a_move() -> None:
+    """Nobody has told the search that the visitor walks into the shoe whatever the robot does: it imagines
+    the robot as it is first, and a move that saves the person is then not refused for the visitor's fall.
+    In a walk set where the visitor heads elsewhere, that fall would refuse it."""
+    scene = load_scenario("two_people_two_obstacles").scene()
+    way = imagine_person(scene, "visitor", "door", GAZE).path
+    x, y = way[len(way) // 2]
+    shoe = scene.obstacle("shoe")
+    scene = replace(
+        scene,
+        obstacles=tuple(replace(o, shape=replace(o.shape, x=x, y=y)) if o is shoe else o for o in scene.obstacles),
+    )
+    danger, to_door = danger_of(scene), Walk("visitor", "door", GAZE)
+    spec = SearchSpec((danger,), {"person": (GAZE,)}, {}, (to_door,))
+    result = search(scene, spec, lambda item: serve_one(scene, item), UNCERTAINTY, 0.2, 32)
+    assert result.chosen is not None and result.chosen.clear, [v.reason for v in result.verdicts]
+    assert result.chosen.reason.endswith("falls with the robot as it is too: visitor into shoe")
+    # The robot sent there, the person reaches the couch, and the visitor falls into the shoe as before.
+    world = World(scene, [Walk("person", "couch", GAZE), to_door])
+    assert world.command_robot(result.chosen.move)
+    outcome = world.run()
+    assert [(c.person, c.obstacle) for c in outcome.collisions] == [("visitor", "shoe")]
+
+    anyway = replace(spec, falls_anyway=((to_door, "shoe"),))
+    assert SearchSpec.from_fields(Fields(anyway.to_wire(), "spec", RequestError)) == anyway
+    assert anyway.falling_in([to_door]) == {"visitor": "shoe"}
+    assert anyway.falling_in([Walk("visitor", "couch", GAZE)]) == {}
+    stray = replace(anyway, falls_anyway=((Walk("visitor", "couch", GAZE), "shoe"),)).to_wire()
+    with pytest.raises(RequestError, match=r"falls_anyway\[0\]\.walk"):
+        SearchSpec.from_fields(Fields(stray, "spec", RequestError))

@@ -13,7 +13,7 @@ simulator in its wire form, and the :class:`SearchResult` comes back.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import partial
 from itertools import chain, islice
@@ -23,7 +23,7 @@ from .candidates import Danger, candidates
 from .fields import Fields
 from .imagine_reply import Answer, joint_answer
 from .imagine_request import MAX_DELAY, JointItem, falling_from_fields, uncertainty_from_fields, uncertainty_to_wire
-from .joint import WalkOutcome, walk_from_fields, walk_to_wire
+from .joint import JointImagination, WalkOutcome, walk_from_fields, walk_to_wire
 from .robot_moves import RobotMove
 from .scene import Scene
 from .uncertainty import NO_RISK, Uncertainty
@@ -59,6 +59,9 @@ class SearchSpec:
     ``falling`` names the bystanders who walk into something with the robot as it is (their danger is not
     searched now, say because no move saved them a moment ago), and what they walk into: a move is not
     refused for that same fall, only for one it would cause.
+    ``falls_anyway`` pairs a bystander's walk with what they walk into on it with the robot as it is, the
+    search finds (see :func:`falls_anyway`): in a walk set where they walk it, a move is not refused for that
+    fall either.
     ``current`` is the move the robot is driving now (if any), which it keeps for ``delay`` seconds.
     ``lead`` is a head start the search sent (see :func:`search`), driven for ``lead_for`` seconds after that.
     """
@@ -72,6 +75,13 @@ class SearchSpec:
     falling: dict[str, str] = field(default_factory=dict)
     lead: RobotMove | None = None
     lead_for: float = 0.0
+    falls_anyway: tuple[tuple[Walk, str], ...] = ()
+
+    def falling_in(self, walks: Iterable[Walk]) -> dict[str, str]:
+        """The falls that do not refuse a move in a walk set of ``walks``: ``falling``'s, and ``falls_anyway``'s
+        where the bystander walks that walk."""
+        on = set(walks)
+        return {**self.falling, **{w.person: hit for w, hit in self.falls_anyway if w in on}}
 
     def walk_sets(self) -> list[tuple[Walk, ...]]:
         """The sets of walks to imagine each move with: every gaze class of each endangered person in turn, with
@@ -101,7 +111,17 @@ class SearchSpec:
     def items(self, move: RobotMove | None, uncertainty: Uncertainty) -> list[JointItem]:
         """The simulator items that judge one move, one per walk set, each ending at the first fall that refuses it."""
         return [
-            JointItem(walks, move, self.current, self.delay, uncertainty, True, self.falling, self.lead, self.lead_for)
+            JointItem(
+                walks,
+                move,
+                self.current,
+                self.delay,
+                uncertainty,
+                True,
+                self.falling_in(walks),
+                self.lead,
+                self.lead_for,
+            )
             for walks in self.walk_sets()
         ]
 
@@ -117,6 +137,7 @@ class SearchSpec:
             "falling": dict(self.falling),
             "lead": self.lead.to_wire() if self.lead else None,
             "lead_for": self.lead_for,
+            "falls_anyway": [{"walk": walk_to_wire(w), "object": hit} for w, hit in self.falls_anyway],
         }
 
     @classmethod
@@ -133,6 +154,12 @@ class SearchSpec:
                 raise gazes_f.fail(d.person, "expected one or more pitches in [-pi/2, pi/2] rad")
             gazes[d.person] = values
         bystanders = tuple(walk_from_fields(w) for w in f.children("bystanders", []))
+        anyway = []
+        for fall in f.children("falls_anyway", []):
+            walk = walk_from_fields(fall.child("walk"))
+            if walk not in bystanders:
+                raise fall.fail("walk", "expected one of the bystanders' walks")
+            anyway.append((walk, fall.string("object")))
         return cls(
             dangers,
             gazes,
@@ -143,6 +170,7 @@ class SearchSpec:
             falling_from_fields(f.child("falling", {}), {w.person for w in bystanders}),
             RobotMove.optional_from(f, "lead"),
             f.number("lead_for", 0.0, non_negative=True, at_most=MAX_DELAY),
+            tuple(anyway),
         )
 
 
@@ -171,15 +199,15 @@ class RobotMargin:
 def judge(
     move: RobotMove | None,
     answers: list[Answer],
-    falling: Mapping[str, str] | None = None,
+    falling: Mapping[str, str] | SearchSpec | None = None,
     margin: RobotMargin | None = None,
 ) -> Verdict:
     """Fold a move's answers (one per walk set) into a verdict; the first walk that is not clear says why.
 
-    A fall that ``falling`` names (``{bystander: object}``, see :class:`SearchSpec`) does not refuse the move.
-    With ``margin``, a walk that passes the robot closer than it allows refuses the move as a fall into the robot.
+    A fall that ``falling`` names (``{bystander: object}``, or a spec's :meth:`SearchSpec.falling_in` the
+    answer's walks) does not refuse the move. With ``margin``, a walk that passes the robot closer than it
+    allows refuses the move as a fall into the robot.
     """
-    falling = falling or {}
     arrival, risk, worst, refused = None, 0.0, "", ""
     falls: list[Fall] = []
     for k, a in enumerate(answers):
@@ -188,7 +216,8 @@ def judge(
         if not a.joint.robot_reachable:
             return Verdict(move, False, 1.0, None, "the robot cannot reach the pose")
         arrival = a.joint.robot_arrival if arrival is None else arrival
-        w = next((w for w in a.joint.walks if not w.fine_given(falling)), None)
+        excused = _excused(falling, a.joint)
+        w = next((w for w in a.joint.walks if not w.fine_given(excused)), None)
         if w is not None:
             falls.append(Fall(k, w.walk.person, w.collision_object if w.collided else None, w.collision_point))
             what = f"into {w.collision_object}" if w.collided else "stuck"
@@ -210,6 +239,35 @@ def judge(
         return Verdict(move, False, 1.0 if falls[0].walk_set == 0 else risk, arrival, refused, tuple(falls))
     reason = f"everyone imagined walks clear; sampled risk {risk:.2f}" + (f" ({worst})" if risk > 0 else "")
     return Verdict(move, True, risk, arrival, reason)
+
+
+def _excused(falling: Mapping[str, str] | SearchSpec | None, joint: JointImagination) -> Mapping[str, str]:
+    """The falls that do not refuse a move in ``joint``'s walk set."""
+    if isinstance(falling, SearchSpec):
+        return falling.falling_in(w.walk for w in joint.walks)
+    return falling or {}
+
+
+def falls_anyway(spec: SearchSpec, imagine: Imagine, robot: str | None) -> tuple[tuple[Walk, str], ...]:
+    """The bystanders who walk into something in the first walk set with the robot as it is, the dangers' and
+    ``falling``'s own falls let happen: each one's walk and what they walk into (see :class:`SearchSpec`).
+
+    Such a fall happens whatever the robot does, so it must not refuse every move that saves someone else.
+    Walking into the robot is not among them: that one the robot can undo by moving.
+    """
+    if not spec.bystanders:
+        return ()
+    excused = {**spec.falling, **{d.person: d.obstacle for d in spec.dangers}}
+    walks = spec.walk_sets()[0]
+    item = JointItem(walks, spec.current, spec.current, spec.delay, None, False, excused, spec.lead, spec.lead_for)
+    joint = imagine(item).joint
+    if joint is None:
+        return ()
+    return tuple(
+        (w.walk, w.collision_object)
+        for w in joint.walks
+        if w.collision_object is not None and w.walk.person not in excused and w.collision_object != robot
+    )
 
 
 def lowers_risk(verdict: Verdict, idle_risk: float) -> bool:
@@ -328,7 +386,7 @@ class NoWorse:
         if walk_set not in self._idle:
             item = self.spec.items(self.spec.current, self.uncertainty)[walk_set]
             margin = RobotMargin.of(self.robot, self.uncertainty)
-            self._idle[walk_set] = judge(self.spec.current, [self.imagine(item)], self.spec.falling, margin)
+            self._idle[walk_set] = judge(self.spec.current, [self.imagine(item)], self.spec, margin)
         return self._idle[walk_set]
 
 
@@ -381,10 +439,10 @@ def _judged_in_turn(
     """:func:`judge_move`, with each walk set's answer got by calling ``answers[k]``, only when it is needed."""
     margin = RobotMargin.of(robot, uncertainty)
     first = [answers[0]()]
-    verdict = judge(move, first, spec.falling, margin)
+    verdict = judge(move, first, spec, margin)
     if not verdict.clear or len(answers) == 1:
         return verdict
-    return judge(move, first + [answer() for answer in answers[1:]], spec.falling, margin)
+    return judge(move, first + [answer() for answer in answers[1:]], spec, margin)
 
 
 def judge_lead(
@@ -397,9 +455,8 @@ def judge_lead(
     whether anyone else falls, or anyone walks into the robot, before a better move replaces it.
     No risk is sampled: a head start is driven only while the search looks for a safe move.
     """
-    excused = {**spec.falling, **{d.person: d.obstacle for d in spec.dangers}}
-    items = replace(spec, falling=excused).items(move, uncertainty)
-    answers = [imagine(replace(item, uncertainty=None)) for item in items]
+    excused = replace(spec, falling={**spec.falling, **{d.person: d.obstacle for d in spec.dangers}})
+    answers = [imagine(replace(item, uncertainty=None)) for item in excused.items(move, uncertainty)]
     return judge(move, answers, excused, RobotMargin.of(robot, uncertainty)), answers
 
 
@@ -415,10 +472,10 @@ def driven_on(
     """
     answers: list[Callable[[], Answer]] = []
     for a in lead:
-        stopped = a.joint.stopped_at_first_fall(spec.falling) if a.joint is not None else None
+        stopped = a.joint.stopped_at_first_fall(_excused(spec, a.joint)) if a.joint is not None else None
         if stopped is None:
             return None
-        answers.append(partial(joint_answer, scene, stopped, uncertainty, spec.falling))
+        answers.append(partial(joint_answer, scene, stopped, uncertainty, _excused(spec, stopped)))
     return _judged_in_turn(spec, move, answers, uncertainty, scene.robot_name)
 
 
@@ -445,6 +502,8 @@ def search(
     Each candidate is imagined with the robot starting ``judging`` seconds later than the one before, since
     the move is sent only once the search has judged it: the k-th candidate (from 1) after
     ``spec.delay + judging * k``. The result holds every verdict and the move to send (see :func:`choose`).
+    A bystander's fall that happens with the robot as it is (:func:`falls_anyway`, imagined first) refuses
+    no move; the chosen move's reason names it.
     ``moves`` replaces the generated candidates (to judge the move under way again, for instance; ``None``
     among them judges braking to a stop from the robot's current state). With
     ``ahead``, a helper process judges candidates meanwhile (same verdicts, less wall time).
@@ -461,6 +520,7 @@ def search(
     otherwise it drives the head start on, which harms nobody). The result's ``judged`` counts the
     slots the search took.
     """
+    spec = replace(spec, falls_anyway=falls_anyway(spec, imagine, scene.robot_name))
     verdicts: list[Verdict] = []
     generated = candidates(scene, spec.dangers, verdicts, spec.delay, judging)
     pool: Iterator[RobotMove | None] = islice(generated if moves is None else iter(moves), max_moves)
@@ -481,6 +541,10 @@ def search(
         chosen = verdicts[-1] = replace(
             last, reason=f"clear at the gaze found risky; at another, {last.reason}, as with the robot as it is"
         )
+    if chosen is not None and spec.falls_anyway:
+        k = next(k for k, v in enumerate(verdicts) if v is chosen)
+        anyway = ", ".join(f"{w.person} into {hit}" for w, hit in spec.falls_anyway)
+        chosen = verdicts[k] = replace(chosen, reason=f"{chosen.reason}; falls with the robot as it is too: {anyway}")
     slots = len(verdicts) + judging_.lead_judged - (judging_.read_off is not None)
     if judging_.lead is None:
         return SearchResult(chosen, tuple(verdicts), judged=slots)
