@@ -532,19 +532,15 @@ def search(
     judging_.in_order(pool, threshold, verdicts, settles)
     chosen = choose(verdicts, threshold, idle_risk)
     if chosen is not None and settles.by_count and not chosen.safe(threshold):
-        k = next(k for k, v in enumerate(verdicts) if v is chosen)
-        chosen = verdicts[k] = replace(
-            chosen, reason=f"{chosen.reason}; no safe move within {settle_after_clear} candidates past a clear one"
-        )
+        chosen = _noted(verdicts, chosen, f"no safe move within {settle_after_clear} candidates past a clear one")
     if chosen is None and settles.by_no_worse:
         last = verdicts[-1]
         chosen = verdicts[-1] = replace(
             last, reason=f"clear at the gaze found risky; at another, {last.reason}, as with the robot as it is"
         )
     if chosen is not None and spec.falls_anyway:
-        k = next(k for k, v in enumerate(verdicts) if v is chosen)
         anyway = ", ".join(f"{w.person} into {hit}" for w, hit in spec.falls_anyway)
-        chosen = verdicts[k] = replace(chosen, reason=f"{chosen.reason}; falls with the robot as it is too: {anyway}")
+        chosen = _noted(verdicts, chosen, f"falls with the robot as it is too: {anyway}")
     slots = len(verdicts) + judging_.lead_judged - (judging_.read_off is not None)
     if judging_.lead is None:
         return SearchResult(chosen, tuple(verdicts), judged=slots)
@@ -555,6 +551,13 @@ def search(
         halt = braking if no_worse.harmless(braking) else None
         slots += 1
     return SearchResult(chosen, tuple(verdicts), judging_.lead, halt, slots)
+
+
+def _noted(verdicts: list[Verdict], chosen: Verdict, note: str) -> Verdict:
+    """``chosen``, one of ``verdicts``, with ``note`` added to its reason, there too."""
+    k = next(k for k, v in enumerate(verdicts) if v is chosen)
+    verdicts[k] = replace(chosen, reason=f"{chosen.reason}; {note}")
+    return verdicts[k]
 
 
 @dataclass(eq=False)  # compared by identity: it tags the moves it lends the helper
