@@ -393,8 +393,8 @@ def test_a_person_walking_into_another_person_gets_path_poses_and_a_search() -> 
     assert result.verdicts and not any(v.reason.startswith("not imagined") for v in result.verdicts)
 
 
-def test_a_bystander_falling_anyway_does_not_veto_a_move_but_any_other_fall_does() -> None:
-    """Never make it worse: a bystander's fall into what they head for anyway refuses no move; a new one does."""
+def shoe_on_the_visitors_way() -> Scene:
+    """Two people, two obstacles, with the shoe moved halfway along the visitor's walk to the door."""
     scene = load_scenario("two_people_two_obstacles").scene()
     way = imagine_person(scene, "visitor", "door", GAZE).path
     x, y = way[len(way) // 2]
@@ -403,6 +403,13 @@ def test_a_bystander_falling_anyway_does_not_veto_a_move_but_any_other_fall_does
         scene,
         obstacles=tuple(replace(o, shape=replace(o.shape, x=x, y=y)) if o is shoe else o for o in scene.obstacles),
     )
+    return scene
+
+
+def test_a_bystander_falling_anyway_does_not_veto_a_move_but_any_other_fall_does() -> None:
+    """Never make it worse: a bystander's fall into what they head for anyway refuses no move; a new one does."""
+    scene = shoe_on_the_visitors_way()
+    shoe = scene.obstacle("shoe")
     visitor = imagine_person(scene, "visitor", "door", GAZE)
     assert visitor.collided and visitor.collision_object == "shoe"
     danger, bystander = danger_of(scene), Walk("visitor", "door", GAZE)
@@ -431,14 +438,7 @@ def test_a_search_finds_for_itself_who_falls_with_the_robot_as_it_is_and_lets_no
     """Nobody has told the search that the visitor walks into the shoe whatever the robot does: it imagines
     the robot as it is first, and a move that saves the person is then not refused for the visitor's fall.
     In a walk set where the visitor heads elsewhere, that fall would refuse it."""
-    scene = load_scenario("two_people_two_obstacles").scene()
-    way = imagine_person(scene, "visitor", "door", GAZE).path
-    x, y = way[len(way) // 2]
-    shoe = scene.obstacle("shoe")
-    scene = replace(
-        scene,
-        obstacles=tuple(replace(o, shape=replace(o.shape, x=x, y=y)) if o is shoe else o for o in scene.obstacles),
-    )
+    scene = shoe_on_the_visitors_way()
     danger, to_door = danger_of(scene), Walk("visitor", "door", GAZE)
     spec = SearchSpec((danger,), {"person": (GAZE,)}, {}, (to_door,))
     result = search(scene, spec, lambda item: serve_one(scene, item), UNCERTAINTY, 0.2, 32)
