@@ -22,7 +22,7 @@ from .geometry import Circle, FloatArray, Shape, bounding_radius, corner_points,
 from .scene import Obstacle, PersonState
 
 WALL_KIND = "wall"
-#: Metres taken off :func:`unseen_for`'s bound, far above the rounding of its arithmetic.
+#: Metres (and radians) taken off :func:`sight`'s bounds, far above the rounding of their arithmetic.
 UNSEEN_SLACK = 1e-6
 
 
