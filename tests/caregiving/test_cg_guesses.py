@@ -103,3 +103,4 @@ def test_a_walking_person_not_yet_guessed_walks_to_the_targets_not_plainly_aside
     assert all(w.person == "p" and w.gaze == pytest.approx(0.15) for w in walks)  # the middle of their gaze range
     turned = replace(person, heading=math.radians(100))
     assert [w.target for w in unguessed_walks(turned, room)] == ["aside"]  # none within: the most nearly ahead
+    assert [w.target for w in unguessed_walks(person, room, math.radians(20))] == ["ahead"]  # a narrower gate

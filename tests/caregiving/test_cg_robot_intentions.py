@@ -1,18 +1,22 @@
 """The robot's side of W for Algorithm 2: reading dangers and the move under way, writing moves and stops."""
 
+import argparse
 import math
 from dataclasses import replace
 
 import pytest
 
 import wm
+from agents.caregiving.action import Action
 from agents.caregiving.context import Context
-from agents.caregiving.model.guesses import unguessed_walks
+from agents.caregiving.intention import Intention
+from agents.caregiving.model.guesses import DEFAULT_WALKING, Walking, unguessed_walks
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.verdict import Verdict
 from agents.caregiving.names import HAS, HAS_INTENTION, OBJECT, PERSON, ROBOT
 from agents.caregiving.odometry import OdometryClock
+from agents.caregiving.risk_options import walking
 from agents.caregiving.robot_intentions import (
     bystander_walks,
     dangers_in,
@@ -74,16 +78,31 @@ def test_a_bystander_is_imagined_on_their_guesses_or_when_walking_unguessed_on_e
 ) -> None:
     g, ctx = w
     person = ctx.scene.person("person")
-    walking = replace(ctx, velocity={"person": (0.5, 0.1)})
+    moving = replace(ctx, velocity={"person": (0.5, 0.1)})
     assert bystander_walks(g, ctx, person) == ([], None)  # standing, nothing guessed: imagined standing
-    ahead, guess = bystander_walks(g, walking, person)
+    ahead, guess = bystander_walks(g, moving, person)
     assert guess is None and ahead == list(unguessed_walks(person, ctx.scene.obstacles)) and len(ahead) > 1
     for target, updated in (("couch", 1.0), ("door", 2.0)):
         g.insert_or_assign_edge(ctx.ids["person"], ctx.ids[target], HAS_INTENTION, {"gaze": 0.1, "updated_at": updated})
-    walks, guess = bystander_walks(g, walking, person)
+    walks, guess = bystander_walks(g, moving, person)
     assert [x.target for x in walks] == ["door", "couch"]  # every guess, the latest first
     assert guess is not None and guess.dst == ctx.ids["door"]
     assert [x.target for x in bystander_walks(g, ctx, person)[0]] == ["door"]  # standing: the latest only
+    slower = Walking(speed=0.6)  # the agents' --moving-speed: at 0.51 m/s the person now stands
+    assert [x.target for x in bystander_walks(g, moving, person, slower)[0]] == ["door"]
+
+
+def test_the_action_agent_takes_the_intention_agents_walking_options() -> None:
+    """Who walks, and which targets lie aside of them, must be the same for Algorithm 1 and Algorithm 2."""
+    parsers = []
+    for agent in (Action, Intention):
+        parser = argparse.ArgumentParser()
+        agent.add_arguments(parser)
+        parsers.append(parser)
+    argv = ["--heading-gate-deg", "15", "--moving-speed", "0.3"]
+    action, intention = (walking(p.parse_args(argv)) for p in parsers)
+    assert action == intention == Walking(0.3, math.radians(30))
+    assert walking(parsers[0].parse_args([])) == DEFAULT_WALKING
 
 
 def test_a_move_then_a_stop_are_written_each_superseding_the_one_before(w: tuple[wm.Graph, Context]) -> None:

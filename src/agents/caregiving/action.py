@@ -44,7 +44,7 @@ from ..runtime import Agent, main, on
 from .context import Context, read_context
 from .names import HAS_INTENTION, WORLD
 from .odometry import OdometryClock
-from .risk_options import add_risk_arguments, size_error
+from .risk_options import add_risk_arguments, add_walking_arguments, size_error, walking
 from .robot_intentions import (
     Dangers,
     clear_intentions,
@@ -69,6 +69,7 @@ class Action(Agent):
     @classmethod
     def add_arguments(cls, parser: argparse.ArgumentParser) -> None:
         add_risk_arguments(parser)
+        add_walking_arguments(parser)
         parser.add_argument("--max-moves", type=int, default=24, help="moves tried per search at most")
         parser.add_argument(
             "--retry",
@@ -151,7 +152,7 @@ class Action(Agent):
             else None
         )
         responding = respond(
-            search_spec(self.g, ctx, dangers, current),
+            search_spec(self.g, ctx, dangers, current, walking(self.args)),
             {p: e.get("probability", 1.0) for p, (e, _) in dangers.items()},
             under_way,
             Policy(self.args.risk_threshold, self.args.samples, ctx.scene.robot_name),

@@ -39,7 +39,7 @@ from typing import Any
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
-from agents.caregiving.model.guesses import HEADING_GATE_DEG, WALKING_SPEED, Guess, guesses, heading_error
+from agents.caregiving.model.guesses import Guess, guesses, heading_error
 from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.imagine_request import PersonItem
 from agents.caregiving.model.uncertainty import Uncertainty
@@ -51,7 +51,7 @@ from ..runtime import Agent, main, on
 from .context import Context, read_context
 from .imagination_cache import ImaginationCache, Key, footing
 from .names import COLLISION, HAS_INTENTION, KNOWS, OBJECT, PERSON, ROBOT
-from .risk_options import add_risk_arguments, size_error
+from .risk_options import add_risk_arguments, add_walking_arguments, size_error, walking
 
 
 class Intention(Agent):
@@ -62,13 +62,7 @@ class Intention(Agent):
     @classmethod
     def add_arguments(cls, parser: argparse.ArgumentParser) -> None:
         add_risk_arguments(parser)
-        parser.add_argument(
-            "--heading-gate-deg",
-            type=float,
-            default=HEADING_GATE_DEG,
-            help="a walking person's heading must match the path's start within this",
-        )
-        parser.add_argument("--moving-speed", type=float, default=WALKING_SPEED, help="m/s above which a person walks")
+        add_walking_arguments(parser)
         parser.add_argument("--min-track", type=float, default=0.3, help="seconds a person is tracked before guessing")
         parser.add_argument("--refresh", type=float, default=0.5, help="simulated seconds between unchanged rewrites")
         parser.add_argument(
@@ -159,7 +153,7 @@ class Intention(Agent):
         """Whether an imagined walk sets off so far from the heading (twice the gate) that it is plainly not taken."""
         r = answer.imagination
         path = r.path if r is not None and r.reachable else ()
-        return bool(path) and heading_error(path, heading) > 2 * math.radians(self.args.heading_gate_deg)
+        return bool(path) and heading_error(path, heading) > walking(self.args).aside
 
     def _remember(self, ctx: Context, person: str, classes: tuple[GazeClass, ...]) -> list[str]:
         """Objects (and the robot) the person sees in every gaze class are surely seen: mark them ``knows`` in W.

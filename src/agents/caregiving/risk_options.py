@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import math
 
+from agents.caregiving.model.guesses import HEADING_GATE_DEG, WALKING_SPEED, Walking
 from agents.caregiving.model.scenario import load_scenario
 
 DEFAULT_SIZE_ERROR = 0.2
@@ -21,6 +23,23 @@ def add_risk_arguments(parser: argparse.ArgumentParser) -> None:
         default=0.2,
         help="collision probability deemed risky (see docs/caregiving.md, precision)",
     )
+
+
+def add_walking_arguments(parser: argparse.ArgumentParser) -> None:
+    """When a person counts as walking, and how far off their heading a walk of theirs may set off: Algorithm 1
+    gates its guesses with them, and Algorithm 2 imagines bystanders by them, so both agents take the same."""
+    parser.add_argument(
+        "--heading-gate-deg",
+        type=float,
+        default=HEADING_GATE_DEG,
+        help="a walking person's heading must match the path's start within this",
+    )
+    parser.add_argument("--moving-speed", type=float, default=WALKING_SPEED, help="m/s above which a person walks")
+
+
+def walking(args: argparse.Namespace) -> Walking:
+    """The options :func:`add_walking_arguments` added: the speed, and twice the gate as the bearing aside."""
+    return Walking(args.moving_speed, 2 * math.radians(args.heading_gate_deg))
 
 
 def size_error(args: argparse.Namespace) -> float:

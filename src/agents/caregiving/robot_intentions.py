@@ -15,7 +15,7 @@ import time
 from collections.abc import Mapping
 
 from agents.caregiving.model.candidates import Danger
-from agents.caregiving.model.guesses import WALKING_SPEED, unguessed_walks
+from agents.caregiving.model.guesses import DEFAULT_WALKING, Walking, unguessed_walks
 from agents.caregiving.model.move_search import SearchSpec
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.scene import PersonState
@@ -72,26 +72,30 @@ def dangers_in(ctx: Context, risky: list[Edge], failed: Mapping[int, float], ret
     return out
 
 
-def bystander_walks(g: Graph, ctx: Context, person: PersonState) -> tuple[list[Walk], Edge | None]:
+def bystander_walks(
+    g: Graph, ctx: Context, person: PersonState, walking: Walking = DEFAULT_WALKING
+) -> tuple[list[Walk], Edge | None]:
     """The walks a person not in danger may be on, likeliest first, and the guess of the likeliest (if guessed).
 
     Someone standing is imagined on their latest guessed walk. Someone walking on every walk Algorithm 1
     guesses for them (those their heading matches), the latest first; before it has guessed any, on
     :func:`~agents.caregiving.model.guesses.unguessed_walks`. A move is then never judged with a walking
-    person imagined standing still.
+    person imagined standing still. ``walking`` says who walks, and which targets lie plainly aside.
     """
     guessed = sorted(
         (e for e in g.edges(type=HAS_INTENTION, src=ctx.ids[person.name]) if e.dst in ctx.names),
         key=lambda e: -e.get("updated_at", 0.0),
     )
-    walking = ctx.speed(person.name) > WALKING_SPEED
+    walks = ctx.speed(person.name) > walking.speed
     if guessed:
-        kept = guessed if walking else guessed[:1]
+        kept = guessed if walks else guessed[:1]
         return [Walk(person.name, ctx.names[e.dst], e.get("gaze", 0.0)) for e in kept], guessed[0]
-    return list(unguessed_walks(person, ctx.scene.obstacles)) if walking else [], None
+    return list(unguessed_walks(person, ctx.scene.obstacles, walking.aside)) if walks else [], None
 
 
-def search_spec(g: Graph, ctx: Context, dangers: Dangers, under_way: Node | None) -> SearchSpec:
+def search_spec(
+    g: Graph, ctx: Context, dangers: Dangers, under_way: Node | None, walking: Walking = DEFAULT_WALKING
+) -> SearchSpec:
     """What the search needs beside the scene: the dangers, each endangered person's gaze classes (the one
     found risky first) and known objects, the walks the others may be on (:func:`bystander_walks`), and
     the move under way."""
@@ -108,7 +112,7 @@ def search_spec(g: Graph, ctx: Context, dangers: Dangers, under_way: Node | None
     for p in scene.people:
         if p.name in dangers:
             continue
-        walks, likeliest = bystander_walks(g, ctx, p)
+        walks, likeliest = bystander_walks(g, ctx, p, walking)
         bystanders += walks
         if likeliest is not None and likeliest.get("risky") and likeliest.get("collision_object") in names:
             falling[p.name] = names[likeliest.get("collision_object")]  # a danger not searched now

@@ -32,6 +32,19 @@ ASIDE = 2 * math.radians(HEADING_GATE_DEG)
 
 
 @dataclass(frozen=True)
+class Walking:
+    """When a person counts as walking (over ``speed`` m/s), and the bearing (rad) past which a target lies
+    plainly aside of their heading (``aside``: twice Algorithm 1's heading gate)."""
+
+    speed: float = WALKING_SPEED
+    aside: float = ASIDE
+
+
+#: The intention and action agents' default :class:`Walking`.
+DEFAULT_WALKING = Walking()
+
+
+@dataclass(frozen=True)
 class Guess:
     """The summary of one (person, target) intention over its gaze classes.
 
@@ -118,11 +131,11 @@ def guesses(
     return out
 
 
-def unguessed_walks(person: PersonState, obstacles: Sequence[Obstacle]) -> tuple[Walk, ...]:
+def unguessed_walks(person: PersonState, obstacles: Sequence[Obstacle], aside: float = ASIDE) -> tuple[Walk, ...]:
     """The walks a walking person may be on before any is guessed, at the middle of their gaze range: to every
-    target in their view not plainly aside (:data:`ASIDE`, its centre's bearing from their heading), the one
-    most nearly ahead first; with none, to the one most nearly ahead."""
+    target in their view not plainly aside (its centre's bearing from their heading within ``aside`` rad), the
+    one most nearly ahead first; with none, to the one most nearly ahead."""
     gaze = (person.gaze_min + person.gaze_max) / 2
     ahead = sorted(((off_heading(person, o), o) for o in candidate_targets(person, obstacles)), key=lambda x: x[0])
-    kept = [o for off, o in ahead if off <= ASIDE] or [o for _, o in ahead[:1]]
+    kept = [o for off, o in ahead if off <= aside] or [o for _, o in ahead[:1]]
     return tuple(Walk(person.name, o.name, gaze) for o in kept)
