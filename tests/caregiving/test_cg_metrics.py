@@ -90,3 +90,22 @@ def test_the_reaction_is_the_head_start_the_action_drives_on_with() -> None:
     assert switched.reaction_ms == pytest.approx(80.0) and switched.e2e_ms == pytest.approx(90.0)
     m = metrics([Scored(driven_on, True, True), Scored(switched, True, True)])
     assert m["reaction_ms_mean"] == pytest.approx(50.0) and m["decision_ms_mean"] == pytest.approx(80.0)
+
+
+def test_a_person_tripped_by_the_robot_is_counted_even_where_somebody_else_falls_anyway() -> None:
+    """Trial 0 is safe idle and Ben falls with the robot acting (one robot-caused collision, one person); in
+    trial 1 Ada falls either way and Ben only with the robot acting (no robot-caused trial, one person)."""
+
+    def trial(index: int, fell_acting: list[str], fell_idle: frozenset[str]) -> Scored:
+        record = TrialRecord(index, intentions=1, outcome={"collisions": [{"person": p} for p in fell_acting]})
+        return Scored(record, truly_risky=bool(fell_idle), idle_fallers=fell_idle)
+
+    scored = [
+        trial(0, ["ben"], frozenset()),
+        trial(1, ["ada", "ben"], frozenset({"ada"})),
+        trial(2, ["ada"], frozenset({"ada"})),
+    ]
+    m = metrics(scored)
+    assert m["robot_caused_collisions"] == 1
+    assert m["robot_tripped_people"] == 2
+    assert [s.robot_tripped for s in scored] == [["ben"], ["ben"], []]

@@ -35,6 +35,7 @@ KEYS = {
     "oracle_saveable_after_delay",
     "prevention_rate_of_saveable_after_delay",
     "robot_caused_collisions",
+    "robot_tripped_people",
 }
 
 
@@ -62,6 +63,7 @@ def test_short_experiment_writes_table_json_and_figures(tmp_path: Path) -> None:
     data = json.loads(out.read_text())
     assert KEYS <= data.keys()
     assert data["trials"] == 2 and [t["index"] for t in data["per_trial"]] == [1, 0]
+    assert all(isinstance(t["robot_tripped"], list) for t in data["per_trial"])
     assert data["sensor_noise"] is True and data["paper"]["precision"] == 0.61
     assert data["scenario"] == data["scenario_file"] == "paper_experiment1"  # a shipped scenario, by name
     assert (figures / "reaction_times.png").stat().st_size > 0

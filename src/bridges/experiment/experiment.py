@@ -30,7 +30,9 @@ the command, and the wait for the world's next step), and
 the same broad set saves when commanded that much later;
 ``prevention_rate_of_saveable_after_delay`` is the prevention rate over those.
 ``robot_caused_collisions`` counts trials that were safe with the robot idle and
-collided with it acting. ``head_starts`` counts trials in which the robot set off on a head start
+collided with it acting; ``robot_tripped_people`` counts, over every trial, the people who collided with
+the robot acting but not with it idle (in a room with several people, a trial in which somebody falls
+anyway can hide someone the robot tripped). ``head_starts`` counts trials in which the robot set off on a head start
 while the search judged on (an intention with ``head_start`` set: the robot's first command, but not
 a move found to remove the danger, so not an action; ``head_start_ms_p50`` is its median time
 from the risky intention, and ``first_response_ms_mean`` and ``_p50`` time the robot's first intention of
@@ -103,6 +105,12 @@ class Scored:
     saveable: bool | None = None
     standoff_saveable: bool | None = None
     saveable_after_delay: bool | None = None  # by a move commanded the pipeline's median delay later
+    idle_fallers: frozenset[str] = frozenset()  # who collides with the robot idle
+
+    @property
+    def robot_tripped(self) -> list[str]:
+        """The people who collided with the robot acting but not with it idle."""
+        return sorted({c["person"] for c in self.record.outcome.get("collisions", [])} - self.idle_fallers)
 
     @property
     def discarded(self) -> bool:
@@ -201,6 +209,7 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "prevented_saveable_after_delay": saved_late,
         "prevention_rate_of_saveable_after_delay": _ratio(saved_late, len(late)),
         "robot_caused_collisions": sum(s.record.collided and not s.truly_risky for s in scored),
+        "robot_tripped_people": sum(len(s.robot_tripped) for s in scored),
         "head_starts": sum(s.record.head_start is not None for s in scored),
         "head_start_ms_p50": percentile(finite([s.record.head_start_ms for s in scored]), 50),
         "truly_risky": len(risky),
@@ -260,6 +269,7 @@ ROWS = [
     ("Truly risky trials some move could save, commanded that late", "oracle_saveable_after_delay"),
     ("Prevented (of those)", "prevention_rate_of_saveable_after_delay"),
     ("Collisions the robot caused", "robot_caused_collisions"),
+    ("People who fell only with the robot acting", "robot_tripped_people"),
     ("End to end p50", "e2e_ms_p50"),
     ("End to end p99", "e2e_ms_p99"),
 ]
@@ -315,7 +325,9 @@ async def run_trials(
                 stack.check()
                 record = await harness.run(seed, index, timeout, scenario_file)
                 truth = run_idle(trial_for(scenario, seed, index), planner=planner)
-                scored.append(Scored(record, truth.collided, min(truth.min_clearance.values(), default=float("inf"))))
+                clearance = min(truth.min_clearance.values(), default=float("inf"))
+                fallers = frozenset(c.person for c in truth.collisions)
+                scored.append(Scored(record, truth.collided, clearance, idle_fallers=fallers))
                 progress.update(
                     task, advance=1, description=f"trials ({sum(s.record.collided for s in scored)} collided)"
                 )
@@ -368,6 +380,7 @@ def trial_json(s: Scored) -> dict[str, Any]:
         "standoff_saveable": s.standoff_saveable,
         "saveable_after_delay": s.saveable_after_delay,
         "robot_caused": r.collided and not s.truly_risky,
+        "robot_tripped": s.robot_tripped,
         "reason": (r.action or {}).get("reason"),
         "head_start_ms": r.head_start_ms,
         "idle_min_clearance": s.idle_clearance,
