@@ -83,6 +83,10 @@ class SearchSpec:
         on = set(walks)
         return {**self.falling, **{w.person: hit for w, hit in self.falls_anyway if w in on}}
 
+    def letting_dangers_fall(self) -> SearchSpec:
+        """The spec with the dangers' own falls let happen too, as they do with the robot idle."""
+        return replace(self, falling={**self.falling, **{d.person: d.obstacle for d in self.dangers}})
+
     def walk_sets(self) -> list[tuple[Walk, ...]]:
         """The sets of walks to imagine each move with: every gaze class of each endangered person in turn, with
         every bystander on their likeliest walk; then each other walk a bystander may be on, in a set of its own
@@ -108,8 +112,9 @@ class SearchSpec:
             sets.append(tuple(first.values()) + tuple({**likeliest, w.person: w}.values()))
         return sets
 
-    def items(self, move: RobotMove | None, uncertainty: Uncertainty) -> list[JointItem]:
-        """The simulator items that judge one move, one per walk set, each ending at the first fall that refuses it."""
+    def items(self, move: RobotMove | None, uncertainty: Uncertainty | None) -> list[JointItem]:
+        """The simulator items that judge one move, one per walk set, each ending at the first fall that refuses it
+        (``uncertainty`` None: no risk sampled)."""
         return [
             JointItem(
                 walks,
@@ -257,16 +262,14 @@ def falls_anyway(spec: SearchSpec, imagine: Imagine, robot: str | None) -> tuple
     """
     if not spec.bystanders:
         return ()
-    excused = {**spec.falling, **{d.person: d.obstacle for d in spec.dangers}}
-    walks = spec.walk_sets()[0]
-    item = JointItem(walks, spec.current, spec.current, spec.delay, None, False, excused, spec.lead, spec.lead_for)
-    joint = imagine(item).joint
+    let_fall = spec.letting_dangers_fall()
+    joint = imagine(replace(let_fall.items(spec.current, None)[0], until_first_fall=False)).joint
     if joint is None:
         return ()
     return tuple(
         (w.walk, w.collision_object)
         for w in joint.walks
-        if w.collision_object is not None and w.walk.person not in excused and w.collision_object != robot
+        if w.collision_object is not None and w.walk.person not in let_fall.falling and w.collision_object != robot
     )
 
 
@@ -455,8 +458,8 @@ def judge_lead(
     whether anyone else falls, or anyone walks into the robot, before a better move replaces it.
     No risk is sampled: a head start is driven only while the search looks for a safe move.
     """
-    excused = replace(spec, falling={**spec.falling, **{d.person: d.obstacle for d in spec.dangers}})
-    answers = [imagine(replace(item, uncertainty=None)) for item in excused.items(move, uncertainty)]
+    excused = spec.letting_dangers_fall()
+    answers = [imagine(item) for item in excused.items(move, None)]
     return judge(move, answers, excused, RobotMargin.of(robot, uncertainty)), answers
 
 
@@ -472,10 +475,13 @@ def driven_on(
     """
     answers: list[Callable[[], Answer]] = []
     for a in lead:
-        stopped = a.joint.stopped_at_first_fall(_excused(spec, a.joint)) if a.joint is not None else None
+        if a.joint is None:
+            return None
+        excused = _excused(spec, a.joint)
+        stopped = a.joint.stopped_at_first_fall(excused)
         if stopped is None:
             return None
-        answers.append(partial(joint_answer, scene, stopped, uncertainty, _excused(spec, stopped)))
+        answers.append(partial(joint_answer, scene, stopped, uncertainty, excused))
     return _judged_in_turn(spec, move, answers, uncertainty, scene.robot_name)
 
 
