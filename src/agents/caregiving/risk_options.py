@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import math
 
-from agents.caregiving.model.guesses import HEADING_GATE_DEG, WALKING_SPEED, Walking
+from agents.caregiving.model.guesses import HEADING_GATE_DEG, WALKING_SPEED, Walking, aside_of
 from agents.caregiving.model.scenario import load_scenario
 
 DEFAULT_SIZE_ERROR = 0.2
@@ -38,8 +37,8 @@ def add_walking_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def walking(args: argparse.Namespace) -> Walking:
-    """The options :func:`add_walking_arguments` added: the speed, and twice the gate as the bearing aside."""
-    return Walking(args.moving_speed, 2 * math.radians(args.heading_gate_deg))
+    """The options :func:`add_walking_arguments` added, as a :class:`Walking`."""
+    return Walking(args.moving_speed, aside_of(args.heading_gate_deg))
 
 
 def size_error(args: argparse.Namespace) -> float:

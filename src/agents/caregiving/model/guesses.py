@@ -27,8 +27,15 @@ HEADING_PROBE = 0.4
 WALKING_SPEED = 0.2
 #: How far (degrees) a walking person's heading may be from where a walk sets off for it to be theirs.
 HEADING_GATE_DEG = 20.0
-#: Past this (radians), twice the gate, a walk is plainly not the one a walking person is on.
-ASIDE = 2 * math.radians(HEADING_GATE_DEG)
+
+
+def aside_of(gate_deg: float) -> float:
+    """The bearing (rad) past which a walk is plainly not the one a walking person is on: twice the gate."""
+    return 2 * math.radians(gate_deg)
+
+
+#: The bearing aside for the default gate.
+ASIDE = aside_of(HEADING_GATE_DEG)
 
 
 @dataclass(frozen=True)
