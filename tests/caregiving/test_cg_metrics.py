@@ -7,10 +7,13 @@ import pytest
 from bridges.experiment.experiment import Scored, metrics, pipeline_delay, prevention_line
 from bridges.experiment.trials import TrialRecord
 
+#: Who collides with the robot idle: somebody (a truly risky trial), or nobody.
+FELL, NOBODY = frozenset({"p"}), frozenset[str]()
+
 
 def _trial(index: int, risky: bool, saveable: bool | None, action: dict[str, object] | None) -> Scored:
     record = TrialRecord(index, intentions=1, risky={"probability": 1.0}, action=action)
-    return Scored(record, truly_risky=risky, saveable=saveable, standoff_saveable=saveable)
+    return Scored(record, FELL if risky else NOBODY, saveable=saveable, standoff_saveable=saveable)
 
 
 def test_action_rates_over_all_detections_and_over_the_saveable_ones() -> None:
@@ -33,7 +36,7 @@ def test_action_rates_over_all_detections_and_over_the_saveable_ones() -> None:
 
 
 def test_action_rates_are_absent_without_detections() -> None:
-    scored = [Scored(TrialRecord(0, intentions=1), truly_risky=False)]
+    scored = [Scored(TrialRecord(0, intentions=1), NOBODY)]
     m = metrics(scored)
     assert m["action_rate"] is None and m["action_rate_saveable"] is None
 
@@ -43,7 +46,7 @@ def _commanded(index: int, at: float, command: float | None, saveable: bool, lat
     if command is not None:
         outcome["commands"] = [{"time": command, "move": None, "accepted": True}]
     record = TrialRecord(index, intentions=1, risky={"probability": 1.0, "at_time": at}, outcome=outcome)
-    return Scored(record, truly_risky=True, saveable=saveable, standoff_saveable=saveable, saveable_after_delay=late)
+    return Scored(record, FELL, saveable=saveable, standoff_saveable=saveable, saveable_after_delay=late)
 
 
 def test_the_pipeline_delay_and_the_trials_still_saveable_that_late() -> None:
@@ -70,8 +73,8 @@ def test_no_command_means_no_delay_and_no_late_oracle() -> None:
 def test_a_head_start_is_neither_an_action_nor_a_reaction_but_the_robots_first_response() -> None:
     head = {"risk_at": 1.0, "created_at": 1.03, "head_start": True}
     move = {"risk_at": 1.0, "created_at": 1.09, "observed_at": 0.99, "in_time": True}
-    led = Scored(TrialRecord(0, intentions=1, risky={"probability": 1.0}, action=move, head_start=head), True, True)
-    only_head = Scored(TrialRecord(1, intentions=1, risky={"probability": 1.0}, head_start=head), True, True)
+    led = Scored(TrialRecord(0, intentions=1, risky={"probability": 1.0}, action=move, head_start=head), FELL)
+    only_head = Scored(TrialRecord(1, intentions=1, risky={"probability": 1.0}, head_start=head), FELL)
     m = metrics([led, only_head, _trial(2, True, True, move)])
     assert m["action_rate"] == 2 / 3 and m["head_starts"] == 2
     assert m["reaction_ms_mean"] == pytest.approx(90.0)
@@ -88,7 +91,7 @@ def test_the_reaction_is_the_head_start_the_action_drives_on_with() -> None:
     switched = TrialRecord(1, 1, {"probability": 1.0}, other, head, head)
     assert driven_on.reaction_ms == pytest.approx(20.0) and driven_on.e2e_ms == pytest.approx(30.0)
     assert switched.reaction_ms == pytest.approx(80.0) and switched.e2e_ms == pytest.approx(90.0)
-    m = metrics([Scored(driven_on, True, True), Scored(switched, True, True)])
+    m = metrics([Scored(driven_on, FELL), Scored(switched, FELL)])
     assert m["reaction_ms_mean"] == pytest.approx(50.0) and m["decision_ms_mean"] == pytest.approx(80.0)
 
 
@@ -98,7 +101,7 @@ def test_a_person_tripped_by_the_robot_is_counted_even_where_somebody_else_falls
 
     def trial(index: int, fell_acting: list[str], fell_idle: frozenset[str]) -> Scored:
         record = TrialRecord(index, intentions=1, outcome={"collisions": [{"person": p} for p in fell_acting]})
-        return Scored(record, truly_risky=bool(fell_idle), idle_fallers=fell_idle)
+        return Scored(record, fell_idle)
 
     scored = [
         trial(0, ["ben"], frozenset()),

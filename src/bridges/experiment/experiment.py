@@ -100,12 +100,16 @@ class Scored:
     """One trial with its ground truth (and, for truly risky trials, whether any move could save it)."""
 
     record: TrialRecord
-    truly_risky: bool
+    idle_fallers: frozenset[str]  # who collides with the robot idle
     idle_clearance: float = float("inf")
     saveable: bool | None = None
     standoff_saveable: bool | None = None
     saveable_after_delay: bool | None = None  # by a move commanded the pipeline's median delay later
-    idle_fallers: frozenset[str] = frozenset()  # who collides with the robot idle
+
+    @property
+    def truly_risky(self) -> bool:
+        """Whether somebody collides with the robot idle."""
+        return bool(self.idle_fallers)
 
     @property
     def robot_tripped(self) -> list[str]:
@@ -325,9 +329,8 @@ async def run_trials(
                 stack.check()
                 record = await harness.run(seed, index, timeout, scenario_file)
                 truth = run_idle(trial_for(scenario, seed, index), planner=planner)
-                clearance = min(truth.min_clearance.values(), default=float("inf"))
                 fallers = frozenset(c.person for c in truth.collisions)
-                scored.append(Scored(record, truth.collided, clearance, idle_fallers=fallers))
+                scored.append(Scored(record, fallers, min(truth.min_clearance.values(), default=float("inf"))))
                 progress.update(
                     task, advance=1, description=f"trials ({sum(s.record.collided for s in scored)} collided)"
                 )
