@@ -10,7 +10,9 @@ the numpy rollout and no helper process (a head start it finds is taken, as live
   head start): a search's answer is a function of its request, so any difference is a bug;
 * the live serving thread's CPU time beside the replay's wall time (the best of the passes), for the
   batches that judged one candidate and those that judged several (live, a helper process may have judged
-  some of those).
+  some of those);
+* for the batches whose search sent a head start, how long after the batch began it went out (the best of
+  the passes): what the robot waits, at rest, before it moves at all.
 
     python bench/bench_replay_searches.py DIR [--passes N] [--json PATH]
 """
@@ -31,14 +33,19 @@ def judged(answers: tuple[Answer, ...]) -> int:
     return sum(a.search.judged if a.search is not None else 1 for a in answers)
 
 
-def replay(batch: RecordedBatch, passes: int) -> tuple[tuple[Answer, ...], float]:
-    """The batch's answers served again, and the best wall time of ``passes`` (ms)."""
-    best, answers = float("inf"), ()
+def replay(batch: RecordedBatch, passes: int) -> tuple[tuple[Answer, ...], float, float | None]:
+    """The batch's answers served again, the best wall time of ``passes`` (ms), and the best time to its head
+    start (ms; None when it sent none)."""
+    best, leads, answers = float("inf"), [], ()
+    sent: list[float] = []
     for _ in range(passes):
+        sent.clear()
         started = time.perf_counter()
-        answers = batch.serve_again()
+        answers = batch.serve_again(head_start=lambda lead: sent.append(time.perf_counter()))
         best = min(best, (time.perf_counter() - started) * 1e3)
-    return answers, best
+        if sent:
+            leads.append((sent[0] - started) * 1e3)
+    return answers, best, min(leads, default=None)
 
 
 def group(rows: list[tuple[float, float]]) -> dict[str, Any]:
@@ -61,8 +68,11 @@ def main() -> None:
     same, different = 0, []
     one: list[tuple[float, float]] = []
     several: list[tuple[float, float]] = []
+    leads: list[float] = []
     for batch in batches:
-        answers, ms = replay(batch, args.passes)
+        answers, ms, lead_ms = replay(batch, args.passes)
+        if lead_ms is not None:
+            leads.append(lead_ms)
         if answers == batch.reply.results:
             same += 1
         else:
@@ -74,6 +84,8 @@ def main() -> None:
         "different": different,
         "one_candidate": group(one),
         "several_candidates": group(several),
+        "head_starts": len(leads),
+        "head_start_ms": benchlib.percentiles(leads) if leads else None,
     }
     benchlib.print_table(f"recorded batches of {args.directory}, served again", list(figures.items()))
     benchlib.write_json(args.json, {"directory": str(args.directory), "passes": args.passes, **figures})

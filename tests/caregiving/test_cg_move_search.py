@@ -19,6 +19,7 @@ from agents.caregiving.model.move_search import (
     SearchSpec,
     Settles,
     choose,
+    falls_anyway,
     gives_up,
     holds,
     judge,
@@ -457,3 +458,38 @@ def test_a_search_finds_for_itself_who_falls_with_the_robot_as_it_is_and_lets_no
     stray = replace(anyway, falls_anyway=((Walk("visitor", "couch", GAZE), "shoe"),)).to_wire()
     with pytest.raises(RequestError, match=r"falls_anyway\[0\]\.walk"):
         SearchSpec.from_fields(Fields(stray, "spec", RequestError))
+
+
+@pytest.mark.parametrize(("visitor_heads_for", "falls_anyway_first"), [("couch", False), ("door", True)])
+def test_a_head_start_no_fall_anyway_could_refuse_goes_out_before_the_robot_as_it_is_is_imagined(
+    visitor_heads_for: str, falls_anyway_first: bool
+) -> None:
+    """The robot as it is is imagined only once the head start is sent, unless the head start was refused
+    for a bystander's fall: then it is judged again, the walk sets that fall ended imagined anew. Either way
+    the search decides as one that knew who falls anyway from the start."""
+    scene = shoe_on_the_visitors_way()
+    spec = SearchSpec((danger_of(scene),), {"person": (GAZE,)}, {}, (Walk("visitor", visitor_heads_for, GAZE),))
+    imagined: list[JointItem] = []
+
+    def imagine(item: JointItem) -> Answer:
+        imagined.append(item)
+        return serve_one(scene, item)
+
+    sent_after: list[int] = []
+    lazy = search(
+        scene,
+        spec,
+        imagine,
+        UNCERTAINTY,
+        0.2,
+        32,
+        judging=0.02,
+        head_start=lambda lead: sent_after.append(len(imagined)),
+    )
+    robot_as_it_is = [k for k, item in enumerate(imagined) if not item.until_first_fall]
+    assert len(robot_as_it_is) == 1 and len(sent_after) == 1
+    assert (robot_as_it_is[0] < sent_after[0]) == falls_anyway_first
+    plain = partial(serve_one, scene)
+    told = replace(spec, falls_anyway=falls_anyway(spec, plain, scene.robot_name))
+    assert bool(told.falls_anyway) == falls_anyway_first
+    assert lazy == search(scene, told, plain, UNCERTAINTY, 0.2, 32, judging=0.02, head_start=lambda lead: None)

@@ -449,7 +449,12 @@ def _judged_in_turn(
 
 
 def judge_lead(
-    spec: SearchSpec, move: RobotMove | None, imagine: Imagine, uncertainty: Uncertainty, robot: str | None
+    spec: SearchSpec,
+    move: RobotMove | None,
+    imagine: Imagine,
+    uncertainty: Uncertainty,
+    robot: str | None,
+    before: Sequence[Answer] = (),
 ) -> tuple[Verdict, list[Answer]]:
     """Judge ``move`` as a head start (or, ``None``, braking at its end): at every walk set, the dangers' own
     falls let happen. Returns the verdict and the answers, one per walk set.
@@ -457,10 +462,22 @@ def judge_lead(
     The falls the dangers foresee happen with the robot idle too; what matters of a head start is
     whether anyone else falls, or anyone walks into the robot, before a better move replaces it.
     No risk is sampled: a head start is driven only while the search looks for a safe move.
+    ``before`` are answers of the same move judged with fewer falls excused: each one where no fall is
+    excused now is the imagination it would be again (it stops at the same fall), and is kept.
     """
     excused = spec.letting_dangers_fall()
-    answers = [imagine(item) for item in excused.items(move, None)]
+    answers = [
+        before[k] if k < len(before) and not _excuses_more(before[k], item.falling) else imagine(item)
+        for k, item in enumerate(excused.items(move, None))
+    ]
     return judge(move, answers, excused, RobotMargin.of(robot, uncertainty)), answers
+
+
+def _excuses_more(answer: Answer, falling: Mapping[str, str]) -> bool:
+    """Whether ``falling`` excuses a fall of ``answer``'s imagination (or it has none to tell)."""
+    if answer.joint is None:
+        return True
+    return any(w.collided and falling.get(w.walk.person) == w.collision_object for w in answer.joint.walks)
 
 
 def driven_on(
@@ -508,8 +525,9 @@ def search(
     Each candidate is imagined with the robot starting ``judging`` seconds later than the one before, since
     the move is sent only once the search has judged it: the k-th candidate (from 1) after
     ``spec.delay + judging * k``. The result holds every verdict and the move to send (see :func:`choose`).
-    A bystander's fall that happens with the robot as it is (:func:`falls_anyway`, imagined first) refuses
-    no move; the chosen move's reason names it.
+    A bystander's fall that happens with the robot as it is (:func:`falls_anyway`, imagined before any
+    candidate, but after a head start that no such fall could refuse is sent) refuses no move; the chosen
+    move's reason names it.
     ``moves`` replaces the generated candidates (to judge the move under way again, for instance; ``None``
     among them judges braking to a stop from the robot's current state). With
     ``ahead``, a helper process judges candidates meanwhile (same verdicts, less wall time).
@@ -526,16 +544,16 @@ def search(
     otherwise it drives the head start on, which harms nobody). The result's ``judged`` counts the
     slots the search took.
     """
-    spec = replace(spec, falls_anyway=falls_anyway(spec, imagine, scene.robot_name))
     verdicts: list[Verdict] = []
     generated = candidates(scene, spec.dangers, verdicts, spec.delay, judging)
     pool: Iterator[RobotMove | None] = islice(generated if moves is None else iter(moves), max_moves)
     no_worse = NoWorse(spec, imagine, uncertainty, threshold, scene.robot_name)
     settles = Settles(no_worse, idle_risk, settle_after_clear)
-    judging_ = _Judging(scene, spec, imagine, uncertainty, judging, ahead)
+    judging_ = _Judging(scene, spec, imagine, uncertainty, judging, ahead, no_worse)
     if head_start is not None and moves is None and spec.current is None:
-        judging_.send_lead, judging_.no_worse = head_start, no_worse
+        judging_.send_lead = head_start
     judging_.in_order(pool, threshold, verdicts, settles)
+    spec = judging_.spec
     chosen = choose(verdicts, threshold, idle_risk)
     if chosen is not None and settles.by_count and not chosen.safe(threshold):
         chosen = _noted(verdicts, chosen, f"no safe move within {settle_after_clear} candidates past a clear one")
@@ -580,13 +598,14 @@ class _Judging:
     """
 
     scene: Scene
-    spec: SearchSpec
+    spec: SearchSpec  # with its falls_anyway once know_falls_anyway has run
     imagine: Imagine
     uncertainty: Uncertainty
     judging: float
     ahead: JudgeAhead | None
+    no_worse: NoWorse  # tells a harmless head start, and shares the spec
     send_lead: Callable[[Verdict], None] | None = None  # sends a head start, until one is decided on
-    no_worse: NoWorse | None = None  # tells a harmless head start
+    knows_falls_anyway: bool = False
     lead: Verdict | None = None  # the head start sent
     lead_judged: bool = False  # whether a head start was judged (sent or not): it took the first slot
     read_off: Verdict | None = None  # the first candidate's verdict, read off the head start's (see driven_on)
@@ -606,16 +625,33 @@ class _Judging:
         """The spec with the robot starting when a head start is sent: after its own judgement."""
         return replace(self.spec, delay=self.spec.delay + self.judging)
 
+    def know_falls_anyway(self) -> bool:
+        """Imagine :func:`falls_anyway` into the spec, once; whether it found any."""
+        if not self.knows_falls_anyway:
+            self.knows_falls_anyway = True
+            self.spec = replace(self.spec, falls_anyway=falls_anyway(self.spec, self.imagine, self.scene.robot_name))
+            self.no_worse.spec = self.spec
+        return bool(self.spec.falls_anyway)
+
     def consider_head_start(self, first: RobotMove | None) -> None:
-        """Judge the first candidate as a head start, and send it if it is harmless."""
+        """Judge the first candidate as a head start, and send it if it is harmless.
+
+        It is judged before :func:`falls_anyway` is imagined, which only excuses falls: a head start clear
+        without it is clear with it, on the same imaginations (no risk is sampled), and goes out one
+        imagination sooner. One that is not clear is judged again if some bystander does fall anyway.
+        """
         send, self.send_lead = self.send_lead, None
-        if send is None or self.no_worse is None or first is None:
+        if send is None or first is None:
             return
         self.lead_judged = True
         lead, answers = judge_lead(self.lead_sent(), first, self.imagine, self.uncertainty, self.scene.robot_name)
+        if not lead.clear and self.know_falls_anyway():
+            robot = self.scene.robot_name
+            lead, answers = judge_lead(self.lead_sent(), first, self.imagine, self.uncertainty, robot, answers)
         if self.no_worse.harmless(lead):
             self.lead = lead
             send(lead)
+            self.know_falls_anyway()
             self.read_off = driven_on(self.scene, self.spec, first, answers, self.uncertainty)
 
     def in_order(
@@ -632,6 +668,7 @@ class _Judging:
         opening = list(islice(enumerate(moves, start=1), 2)) if self.send_lead is not None else []
         if len(opening) == 2:  # a head start is for a search that judges on past its first candidate
             self.consider_head_start(opening[0][1])
+        self.know_falls_anyway()
         positions = chain(opening, enumerate(moves, start=len(opening) + 1))
         judged: dict[int, Verdict] = {}
         lent: dict[int, RobotMove | None] = {}  # the candidates the helper is judging, by position

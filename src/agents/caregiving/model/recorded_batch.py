@@ -21,11 +21,9 @@ from . import imagine_reply
 from .errors import RecordingError
 from .imagine_reply import Answer, ImagineReply
 from .scene import Scene
-from .service import Serving, batch_scene, serve_one
+from .service import HeadStart, Serving, batch_scene, serve_one
 
 SUFFIX = ".msgpack"
-#: Serves as the simulator does without a helper: a search asked for a head start looks for one (and drops it).
-AS_SERVED = Serving(head_start=lambda lead: None)
 
 
 @dataclass(frozen=True)
@@ -39,9 +37,11 @@ class RecordedBatch:
     reply: ImagineReply
     thread_ms: float
 
-    def serve_again(self) -> tuple[Answer, ...]:
-        """The batch's items served again here, in this process, as the simulator served them."""
-        return tuple(serve_one(self.scene, item, AS_SERVED) for item in self.items)
+    def serve_again(self, head_start: HeadStart | None = None) -> tuple[Answer, ...]:
+        """The batch's items served again here, in this process, as the simulator served them without a helper:
+        a search asked for a head start looks for one, and hands it to ``head_start`` (if given) when found."""
+        serving = Serving(head_start=head_start or (lambda lead: None))
+        return tuple(serve_one(self.scene, item, serving) for item in self.items)
 
 
 def last_number(directory: Path) -> int:
