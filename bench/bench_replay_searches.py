@@ -8,7 +8,8 @@ the numpy rollout and no helper process (a head start it finds is taken, as live
 
 * whether each answer is the one sent live (the same moves judged, the same verdicts, the same choice and
   head start): a search's answer is a function of its request, so any difference is a bug;
-* the live serving thread's CPU time beside the replay's wall time (the best of the passes), for the
+* the live serving thread's CPU time beside the replay's wall time (the best of the passes, each pass
+  starting with no walk planned, as a live search on a new belief does), for the
   batches that judged one candidate and those that judged several (live, a helper process may have judged
   some of those);
 * for the batches whose search sent a head start, how long after the batch began it went out (the best of
@@ -24,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 import benchlib
+from agents.caregiving.model.imagine import planner_for
 from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.recorded_batch import RecordedBatch, read_batches
 
@@ -39,6 +41,7 @@ def replay(batch: RecordedBatch, passes: int) -> tuple[tuple[Answer, ...], float
     best, leads, answers = float("inf"), [], ()
     sent: list[float] = []
     for _ in range(passes):
+        planner_for(batch.scene.bounds).forget_plans()
         sent.clear()
         started = time.perf_counter()
         answers = batch.serve_again(head_start=lambda lead: sent.append(time.perf_counter()))
