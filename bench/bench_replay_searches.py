@@ -13,7 +13,11 @@ the numpy rollout and no helper process (a head start it finds is taken, as live
   batches that judged one candidate and those that judged several (live, a helper process may have judged
   some of those);
 * for the batches whose search sent a head start, how long after the batch began it went out (the best of
-  the passes): what the robot waits, at rest, before it moves at all.
+  the passes): what the robot waits, at rest, before it moves at all;
+* for the searches of generated candidates, how much later than it did each was imagined to end (its
+  slots times the ``judging`` it was asked with, less the live serving thread's time): the search imagines
+  its k-th candidate setting off ``judging * k`` after the first, so a search that ends well before that
+  sends a move that sets off earlier than it was imagined to.
 
     python bench/bench_replay_searches.py DIR [--passes N] [--json PATH]
 """
@@ -72,6 +76,7 @@ def main() -> None:
     one: list[tuple[float, float]] = []
     several: list[tuple[float, float]] = []
     leads: list[float] = []
+    imagined_later: list[float] = []
     for batch in batches:
         answers, ms, lead_ms = replay(batch, args.passes)
         if lead_ms is not None:
@@ -81,6 +86,9 @@ def main() -> None:
         else:
             different.append(batch.number)
         (one if judged(batch.reply.results) <= 1 else several).append((batch.thread_ms, ms))
+        item, found = batch.items[0], batch.reply.results[0].search
+        if item.get("kind") == "search" and item.get("moves") is None and found is not None and found.judged:
+            imagined_later.append(item["judging"] * 1e3 * found.judged - batch.thread_ms)
     figures = {
         "batches": len(batches),
         "same_answers": same,
@@ -89,6 +97,8 @@ def main() -> None:
         "several_candidates": group(several),
         "head_starts": len(leads),
         "head_start_ms": benchlib.percentiles(leads) if leads else None,
+        "imagined_end_after_served_ms": benchlib.percentiles(imagined_later) if imagined_later else None,
+        "ended_over_50_ms_early": sum(later > 50.0 for later in imagined_later),
     }
     benchlib.print_table(f"recorded batches of {args.directory}, served again", list(figures.items()))
     benchlib.write_json(args.json, {"directory": str(args.directory), "passes": args.passes, **figures})

@@ -254,8 +254,36 @@ def test_each_candidate_is_imagined_starting_later_by_the_time_judging_takes(sce
         return serve_one(scene, replace(item, move=RobotMove("couch", 3.5, 0.0, 0.0)))  # never reachable
 
     found = search(scene, spec, imagine, UNCERTAINTY, 0.2, 3, judging=0.04)
-    assert found.chosen is None and len(found.verdicts) == 3
+    assert found.chosen is None and len(found.verdicts) == 3 and found.sets_off is None
     assert delays == pytest.approx([0.14, 0.18, 0.22])
+
+
+def test_the_move_chosen_is_to_set_off_when_its_own_judgement_imagined_it_not_when_the_search_ended(
+    scene: Scene,
+) -> None:
+    spec = SearchSpec((danger_of(scene),), {"person": (GAZE,)}, {}, delay=0.1)
+    inside_the_couch, behind = RobotMove("couch", 3.5, 0.0, 0.0), RobotMove("ball", 0.46, 0.0, -math.pi)
+    risky_once: list[JointItem] = []
+
+    def imagine(item: JointItem) -> Answer:  # the pose behind the ball is clear but risky: the search judges on
+        answer = serve_one(scene, item)
+        if item.move == behind and not risky_once:
+            risky_once.append(item)
+            return replace(answer, risk=Risk(0.3, None, None, "ball"))
+        return answer
+
+    moves = [inside_the_couch, behind, inside_the_couch, inside_the_couch]
+    found = search(scene, spec, imagine, UNCERTAINTY, 0.2, 4, judging=0.04, moves=moves, settle_after_clear=2)
+    assert found.chosen is found.verdicts[1] and len(found.verdicts) == 4
+    assert found.sets_off == pytest.approx(0.1 + 0.04 * 2)  # the second slot's, not the fourth's
+    back = decode_answer(Fields(encode_answer(Answer(search=found)), "answer", ReplyError)).search
+    assert back is not None and back.sets_off == found.sets_off
+    for bad in (-0.5, "soon"):
+        wire = {**found.to_wire(), "sets_off": bad}
+        with pytest.raises(ReplyError, match="sets_off"):
+            SearchResult.from_fields(Fields(wire, "search", ReplyError))
+    with pytest.raises(ReplyError, match="sets_off"):
+        SearchResult.from_fields(Fields({**found.to_wire(), "chosen": None}, "search", ReplyError))
 
 
 def test_a_search_and_its_spec_survive_the_wire(scene: Scene) -> None:

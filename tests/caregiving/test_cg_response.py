@@ -14,6 +14,7 @@ from agents.caregiving.model.move_search import SearchSpec, search
 from agents.caregiving.model.response import (
     Ask,
     Asked,
+    JudgingTime,
     Keep,
     NoMove,
     Policy,
@@ -171,3 +172,18 @@ def test_on_a_recorded_danger_the_response_sends_the_searchs_move_and_it_saves_t
     assert isinstance(response, Send) and plain.chosen is not None
     assert response.chosen == plain.chosen and not response.unsaved
     assert saved_in_truth(trial, 0.55, planner, DELAY, JUDGING, plain)
+
+
+def test_the_searches_of_generated_candidates_time_a_candidate_by_their_sums() -> None:
+    searched = Ask(spec(danger("ada", 2.0)), 1.0)
+    again = Ask(spec(danger("ada", 2.0)), 1.0, moves=(UNDER_WAY,))
+    judging = JudgingTime(seconds=0.03, weight=0.5)
+    judging.timed(again, SearchResult(None, (), judged=1), compute_ms=90.0)  # one whole imagination
+    assert judging.seconds == pytest.approx(0.03)
+    judging.timed(searched, SearchResult(None, (), judged=1), compute_ms=60.0)  # a clear first candidate
+    assert judging.seconds == pytest.approx(0.06)
+    judging.timed(searched, SearchResult(None, (), judged=10), compute_ms=100.0)  # most refused at a fall
+    assert judging.seconds == pytest.approx((0.5 * 60.0 + 100.0) / (0.5 * 1 + 10) / 1e3)  # not (60 + 10) / 2 ms
+    before = judging.seconds
+    judging.timed(searched, SearchResult(None, (), judged=0), compute_ms=5.0)  # refused before judging any
+    assert judging.seconds == before

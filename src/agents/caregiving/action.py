@@ -28,13 +28,25 @@ executor drives it.
 from __future__ import annotations
 
 import argparse
+import asyncio
 import time
 from collections.abc import Callable
 from itertools import count
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
-from agents.caregiving.model.response import Ask, Asked, Keep, NoMove, Policy, Response, Send, UnderWay, respond
+from agents.caregiving.model.response import (
+    Ask,
+    Asked,
+    JudgingTime,
+    Keep,
+    NoMove,
+    Policy,
+    Response,
+    Send,
+    UnderWay,
+    respond,
+)
 from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import SearchResult, Verdict
@@ -54,11 +66,6 @@ from .robot_intentions import (
     search_spec,
     write_intention,
 )
-
-#: Wall seconds one candidate move takes to judge in the simulator, until the first search has measured it.
-JUDGING = 0.03
-#: Weight of the newest search in the running estimate of the time a candidate takes to judge.
-JUDGING_WEIGHT = 0.3
 
 
 class Action(Agent):
@@ -92,7 +99,7 @@ class Action(Agent):
         self.rpc_ms = self.sim_ms = 0.0
         self.pending: set[tuple[int, int]] = set()
         self.tried: list[Verdict] = []  # the moves the last search judged, for its log line
-        self.judging = JUDGING  # wall seconds per candidate judged, measured by every search
+        self.judging = JudgingTime()
         self.clock = OdometryClock()
         self.new_episode = True
         self.failed: dict[int, float] = {}  # person node id -> simulated time their last search found no move
@@ -128,7 +135,23 @@ class Action(Agent):
         started = time.perf_counter()
         current = move_under_way(self.g)
         response, led = await self._respond(ctx, dangers, current, started)
+        if isinstance(response, Send) and response.sets_off is not None:
+            await self._until_set_off(ctx, response.sets_off)
         self._act(ctx, dangers, response, led or current, led, started)
+
+    async def _until_set_off(self, ctx: Context, sets_off: float) -> None:
+        """Wait until a move written now would reach the world no sooner than its search imagined it setting
+        off, ``sets_off`` simulated seconds after the context, give or take one world step (the world takes a
+        command at its next step).
+
+        The search imagines its k-th candidate setting off ``judging * k`` after the first, from a running
+        estimate of a candidate's cost; a search that ends sooner than that would otherwise send the robot
+        on its way before the moment its move was judged for, into a room where people are elsewhere.
+        """
+        early = sets_off - self._delay(ctx) - DT
+        if early > 0.0:
+            self.log.info("move held", until_s=round(sets_off, 3), held_ms=round(early * 1e3, 1))
+            await asyncio.sleep(early / self.clock.rate(self.g))
 
     async def _respond(
         self, ctx: Context, dangers: Dangers, current: Node | None, started: float
@@ -230,7 +253,7 @@ class Action(Agent):
             Uncertainty(self.size_error, ctx.sigma, self.args.samples),
             self.args.risk_threshold,
             self.args.max_moves,
-            self.judging * self.clock.rate(self.g),
+            self.judging.seconds * self.clock.rate(self.g),
         )
 
         def progress(reply: imagine_reply.ImagineReply) -> None:
@@ -248,9 +271,7 @@ class Action(Agent):
         if found is None:
             self.log.error("the simulator refused the search", error=reply.results[0].error if reply.results else None)
             return None
-        if found.judged:
-            per_move = reply.compute_ms / 1e3 / found.judged
-            self.judging += JUDGING_WEIGHT * (per_move - self.judging)
+        self.judging.timed(ask, found, reply.compute_ms)
         if ask.moves is None:
             self.tried += found.verdicts
         return found

@@ -566,15 +566,19 @@ def search(
         anyway = ", ".join(f"{w.person} into {hit}" for w, hit in spec.falls_anyway)
         chosen = _noted(verdicts, chosen, f"falls with the robot as it is too: {anyway}")
     slots = len(verdicts) + judging_.lead_judged - (judging_.read_off is not None)
+    sets_off = None
+    if chosen is not None:
+        at = judging_.spec_at(next(k for k, v in enumerate(verdicts, start=1) if v is chosen))
+        sets_off = at.delay + at.lead_for
     if judging_.lead is None:
-        return SearchResult(chosen, tuple(verdicts), judged=slots)
+        return SearchResult(chosen, tuple(verdicts), judged=slots, sets_off=sets_off)
     halt = None
     if chosen is None:
         at_end = judging_.spec_at(len(verdicts) + 1)
         braking, _ = judge_lead(at_end, None, imagine, uncertainty, scene.robot_name)
         halt = braking if no_worse.harmless(braking) else None
         slots += 1
-    return SearchResult(chosen, tuple(verdicts), judging_.lead, halt, slots)
+    return SearchResult(chosen, tuple(verdicts), judging_.lead, halt, slots, sets_off)
 
 
 def _noted(verdicts: list[Verdict], chosen: Verdict, note: str) -> Verdict:

@@ -112,7 +112,8 @@ class SearchResult:
     :func:`agents.caregiving.model.move_search.search`); ``halt``, when none is chosen after it, braking
     at the search's end, judged harmless (``None``: the robot drives the head start on). ``judged`` is how
     many judgements the search took in turn, the head start's and braking's included: its time, in
-    candidate slots.
+    candidate slots. ``sets_off`` is when the chosen move was imagined to set off (switching from the head
+    start, if one was sent), in simulated seconds after the scene: the robot must not set off on it sooner.
     """
 
     chosen: Verdict | None
@@ -120,10 +121,13 @@ class SearchResult:
     lead: Verdict | None = None
     halt: Verdict | None = None
     judged: int = 0
+    sets_off: float | None = None
 
     def __post_init__(self) -> None:
         if self.judged < len(self.verdicts):
             raise ValueError(f"a search of {len(self.verdicts)} verdicts took at least as many judgements")
+        if self.sets_off is not None and (self.chosen is None or self.sets_off < 0.0):
+            raise ValueError(f"a set-off time ({self.sets_off}) is for a chosen move, and not before the scene")
 
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict; the chosen move is an index into the verdicts."""
@@ -136,6 +140,7 @@ class SearchResult:
             "lead": self.lead.to_wire() if self.lead is not None else None,
             "halt": self.halt.to_wire() if self.halt is not None else None,
             "judged": self.judged,
+            "sets_off": self.sets_off,
         }
 
     @classmethod
@@ -149,8 +154,13 @@ class SearchResult:
         if not judged.is_integer() or judged < len(verdicts):
             raise f.fail("judged", f"expected a whole number of judgements, {len(verdicts)} or more, got {judged!r}")
         index = f.optional_number("chosen")
+        sets_off = f.optional_number("sets_off")
+        if sets_off is not None and (index is None or sets_off < 0.0):
+            raise f.fail(
+                "sets_off", f"expected no set-off time before the scene, nor without a chosen move, got {sets_off!r}"
+            )
         if index is None:
             return cls(None, verdicts, lead, halt, int(judged))
         if not index.is_integer() or not 0 <= index < len(verdicts):
             raise f.fail("chosen", f"expected the index of one of {len(verdicts)} verdicts, got {index!r}")
-        return cls(verdicts[int(index)], verdicts, lead, halt, int(judged))
+        return cls(verdicts[int(index)], verdicts, lead, halt, int(judged), sets_off)
