@@ -17,7 +17,8 @@ flow of Algorithm 2 and nothing more:
   perception's uncertainty sampled; a move that makes anything worse is never
   chosen), and sends its head start back as soon as it is found, which is written
   at once as an intention with ``head_start`` set;
-* the response is written to W.
+* the response is written to W; a move whose search ended sooner than the search
+  imagined it setting off is held until then.
 
 The chosen move becomes the robot's ``intention`` node (``move_to``, target,
 final pose, ``status: proposed``, ``in_time``, ``reason``; or ``stop``, its target
@@ -137,6 +138,9 @@ class Action(Agent):
         response, led = await self._respond(ctx, dangers, current, started)
         if isinstance(response, Send) and response.sets_off is not None:
             await self._until_set_off(ctx, response.sets_off)
+            world = self.g.find_node(WORLD)
+            if world is None or int(world.get("episode", 0)) != ctx.episode:
+                return  # the trial ended while the move was held
         self._act(ctx, dangers, response, led or current, led, started)
 
     async def _until_set_off(self, ctx: Context, sets_off: float) -> None:
