@@ -165,6 +165,23 @@ def test_verdicts_say_why_a_move_is_refused(scene: Scene) -> None:
     assert front.clear and front.arrival is not None and front.in_time(spec.dangers[0].time_to_collision)
 
 
+def test_a_bystanders_sampled_risk_refuses_a_move_the_endangered_persons_does_not(scene: Scene) -> None:
+    spec = SearchSpec((danger_of(scene),), {"person": (GAZE,)}, {})
+    front = RobotMove("ball", -0.46, 0.0, 0.0)
+    answer = serve_one(scene, spec.items(front, UNCERTAINTY)[0])
+    assert answer.risk is not None and answer.risk.person == "person"  # a joint risk names whose walk it is
+
+    def with_risk_of(person: str) -> Answer:
+        return replace(answer, risk=Risk(0.14, 2.0, (1.0, 0.5), "footstool", person))
+
+    own = judge(front, [with_risk_of("person")], spec)
+    assert own.clear and own.risk == pytest.approx(0.14) and own.safe(0.2)  # the endangered person's: kept
+    brought = judge(front, [with_risk_of("ada")], spec)
+    assert not brought.clear and brought.falls == (Fall(0, "ada", "footstool", (1.0, 0.5)),)
+    assert brought.reason == "ada, a bystander, may walk into footstool (sampled risk 0.14)"
+    assert judge(front, [with_risk_of("ada")]).clear  # without a spec there are no dangers to tell her from
+
+
 def ball_verdict(clear: bool, risk: float, fall_in: int | None = None, into: str | None = "ball") -> Verdict:
     """A verdict on a move to the ball (placed by its risk, so that verdicts differ), falling in walk set ``fall_in``."""
     falls = (Fall(fall_in, "person", into, (0.0, 0.0)),) if fall_in is not None else ()

@@ -13,7 +13,7 @@ There is one ANSWER per item of the request, in order::
     {"ok": true, "kind": "search", "result": SEARCH}
     {"ok": false, "error": "..."}
 
-with ``RISK = {"probability", "time", "point", "object"}``, present when the
+with ``RISK = {"probability", "time", "point", "object", "person"?}``, present when the
 item asked for its uncertainty to be sampled, and ``SEARCH`` a move search's
 verdicts and chosen move (:class:`~agents.caregiving.model.verdict.SearchResult`). :func:`decode` checks every field
 and raises :class:`~agents.caregiving.model.errors.ReplyError` on anything else.
@@ -86,6 +86,7 @@ def encode_risk(r: Risk) -> dict[str, Any]:
         "time": r.time,
         "point": list(r.point) if r.point else None,
         "object": r.obstacle,
+        **({"person": r.person} if r.person is not None else {}),
     }
 
 
@@ -125,6 +126,7 @@ def decode_risk(f: Fields) -> Risk:
         f.optional_number("time"),
         (point[0], point[1]) if point else None,
         f.string("object") if f.has("object") else None,
+        f.string("person") if f.has("person") else None,
     )
 
 

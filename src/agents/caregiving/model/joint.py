@@ -191,13 +191,18 @@ class JointImagination:
 
 
 def joint_risk(scene: Scene, joint: JointImagination, u: Uncertainty, falling: Collection[str] = ()) -> Risk:
-    """The likeliest collision over the sampled worlds, worst walk first, leaving out the people ``falling`` anyway.
+    """The likeliest collision over the sampled worlds, worst walk first, leaving out the people ``falling`` anyway;
+    it names whose walk it is.
 
     The walks are sampled as walked; the robot is left out, since it knows where it is and the
     nominal imagination already checks every step against it.
     """
     without_robot = scene.with_robot(None)
-    risks = [collision_risk(without_robot, w.as_imagination(), u) for w in joint.walks if w.walk.person not in falling]
+    risks = [
+        replace(collision_risk(without_robot, w.as_imagination(), u), person=w.walk.person)
+        for w in joint.walks
+        if w.walk.person not in falling
+    ]
     return max(risks, key=lambda r: r.probability, default=NO_RISK)
 
 

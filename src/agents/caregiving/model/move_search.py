@@ -211,8 +211,12 @@ def judge(
 
     A fall that ``falling`` names (``{bystander: object}``, or a spec's :meth:`SearchSpec.falling_in` the
     answer's walks) does not refuse the move. With ``margin``, a walk that passes the robot closer than it
-    allows refuses the move as a fall into the robot.
+    allows refuses the move as a fall into the robot. Given a spec, a sampled risk that is a bystander's
+    (someone none of its dangers is about) refuses the move as a fall of theirs: the risk a move may keep is
+    the endangered person's, and a bystander's is one it may bring. (Whether the robot as it is brings them
+    as much is not asked: the largest sampled risk of a walk set is all an answer holds.)
     """
+    endangered = {d.person for d in falling.dangers} if isinstance(falling, SearchSpec) else None
     arrival, risk, worst, refused = None, 0.0, "", ""
     falls: list[Fall] = []
     for k, a in enumerate(answers):
@@ -237,6 +241,12 @@ def judge(
             )
             continue
         sampled = a.risk or NO_RISK
+        if endangered and sampled.probability > 0.0 and sampled.person not in (None, *endangered):
+            falls.append(Fall(k, str(sampled.person), sampled.obstacle, sampled.point))
+            refused = refused or (
+                f"{sampled.person}, a bystander, may walk into {sampled.obstacle} (sampled risk {sampled.probability:.2f})"
+            )
+            continue
         if sampled.probability >= risk:
             risk, worst = sampled.probability, sampled.obstacle or ""
     if falls:

@@ -50,12 +50,14 @@ class Uncertainty:
 
 @dataclass(frozen=True)
 class Risk:
-    """Collision probability over the sampled worlds and the earliest sampled contact."""
+    """Collision probability over the sampled worlds and the earliest sampled contact; ``person``, whose
+    imagined walk it is, where several people's walks were sampled (a joint imagination's risk)."""
 
     probability: float
     time: float | None
     point: tuple[float, float] | None
     obstacle: str | None
+    person: str | None = None
 
 
 NO_RISK = Risk(0.0, None, None, None)
