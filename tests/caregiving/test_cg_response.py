@@ -177,7 +177,7 @@ def test_on_a_recorded_danger_the_response_sends_the_searchs_move_and_it_saves_t
 def test_the_searches_of_generated_candidates_time_a_candidate_by_their_sums() -> None:
     searched = Ask(spec(danger("ada", 2.0)), 1.0)
     again = Ask(spec(danger("ada", 2.0)), 1.0, moves=(UNDER_WAY,))
-    judging = JudgingTime(seconds=0.03, weight=0.5)
+    judging = JudgingTime(untimed=0.03, weight=0.5)
     judging.timed(again, SearchResult(None, (), judged=1), compute_ms=90.0)  # one whole imagination
     assert judging.seconds == pytest.approx(0.03)
     judging.timed(searched, SearchResult(None, (), judged=1), compute_ms=60.0)  # a clear first candidate

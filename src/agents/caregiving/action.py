@@ -54,7 +54,7 @@ from agents.caregiving.model.verdict import SearchResult, Verdict
 from wm import Event, Node
 
 from ..runtime import Agent, main, on
-from .context import Context, read_context
+from .context import Context, episode_of, read_context
 from .names import HAS_INTENTION, WORLD
 from .odometry import OdometryClock
 from .risk_options import add_risk_arguments, add_walking_arguments, size_error, walking
@@ -139,7 +139,7 @@ class Action(Agent):
         if isinstance(response, Send) and response.sets_off is not None:
             await self._until_set_off(ctx, response.sets_off)
             world = self.g.find_node(WORLD)
-            if world is None or int(world.get("episode", 0)) != ctx.episode:
+            if world is None or episode_of(world) != ctx.episode:
                 return  # the trial ended while the move was held
         self._act(ctx, dangers, response, led or current, led, started)
 

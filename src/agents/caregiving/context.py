@@ -131,7 +131,12 @@ def read_context(g: Graph) -> Context | None:
     ids[r.name] = r.id
     stamp = max([world.get("sim_time", 0.0)] + [n.get("stamp", 0.0) for n in g.nodes(PERSON)])
     scene = Scene(room.bounds, tuple(obstacles), tuple(people), robot, stamp)
-    return Context(scene, int(world.get("episode", 0)), ids, sigma, velocity, written)
+    return Context(scene, episode_of(world), ids, sigma, velocity, written)
+
+
+def episode_of(world: Node | None) -> int:
+    """The trial W's ``world`` node says is running (0 before the world has said)."""
+    return int(world.get("episode", 0)) if world is not None else 0
 
 
 def _pose(g: Graph, node: Node) -> tuple[float, float, float] | None:

@@ -25,6 +25,7 @@ from wm import Event, Node
 
 from ..messaging import MessageError
 from ..runtime import Agent, every, main, on
+from .context import episode_of
 from .names import HAS, INTENTION, ROBOT, WORLD
 
 
@@ -51,7 +52,7 @@ class Executor(Agent):
     async def dispatch(self, _events: list[Event]) -> None:
         """Send every proposed move that has not been sent yet."""
         world = self.g.find_node(WORLD)
-        episode = int(world.get("episode", 0)) if world else 0
+        episode = episode_of(world)
         for node in self.g.nodes(INTENTION):
             if node.get("status") != "proposed" or node.get("action") not in ("move_to", "stop"):
                 continue

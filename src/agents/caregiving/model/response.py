@@ -92,10 +92,15 @@ class JudgingTime:
     candidate's cost, and the robot set off on a move up to a second before it was imagined to.
     """
 
-    seconds: float = 0.03  # until a search has been timed
+    untimed: float = 0.03  # the estimate until a search has been timed
     weight: float = 0.3
     _ms: float = 0.0
     _judged: float = 0.0
+
+    @property
+    def seconds(self) -> float:
+        """The estimate now."""
+        return self._ms / self._judged / 1e3 if self._judged else self.untimed
 
     def timed(self, ask: Ask, found: SearchResult, compute_ms: float) -> None:
         """Take in the simulator's compute time for ``ask``, which ``found`` is the result of."""
@@ -104,7 +109,6 @@ class JudgingTime:
         keep = 1.0 - self.weight
         self._ms = keep * self._ms + compute_ms
         self._judged = keep * self._judged + found.judged
-        self.seconds = self._ms / self._judged / 1e3
 
 
 @dataclass(frozen=True)
