@@ -8,7 +8,9 @@ It keeps, all placed by an RT edge from the ``world`` node:
 * the ``robot``: size and limits, pose and speed from odometry;
 * a ``person`` node per confirmed person track: radius, eye height and the
   robot's generic model of people (fields of view, vertical gaze range), plus
-  the tracked velocity, position uncertainty, sensor stamp and write time;
+  the tracked velocity, position uncertainty, sensor stamp and write time, and
+  their walking speed: the model's, until their walk measures otherwise
+  (:mod:`agents.caregiving.walking_speed`);
 * an ``object`` node per confirmed object track: kind, shape, size, target flag.
 
 Poses and the other high-rate attributes are volatile. An object's pose and size
@@ -33,6 +35,7 @@ from ..runtime import Agent, main
 from .names import OBJECT, PERSON, ROBOT, WORLD
 from .tracking import PERSON as PERSON_TRACK
 from .tracking import Track, Tracker
+from .walking_speed import WalkingSpeed
 
 
 class Perception(Agent):
@@ -47,7 +50,11 @@ class Perception(Agent):
         parser.add_argument("--hfov-deg", type=float, help="people's horizontal field of view (default 120)")
         parser.add_argument("--vfov-deg", type=float, help="people's vertical field of view (default 40)")
         parser.add_argument("--gaze-deg", type=float, nargs=2, help="people's vertical gaze range (default 6 10)")
-        parser.add_argument("--walk-speed", type=float, help="assumed walking speed, m/s (default 0.5)")
+        parser.add_argument(
+            "--walk-speed",
+            type=float,
+            help="people's walking speed until their walk shows otherwise, m/s (default 0.5)",
+        )
         parser.add_argument("--forget", type=float, default=1.0, help="seconds before an unseen track is dropped")
         parser.add_argument(
             "--object-step",
@@ -75,6 +82,7 @@ class Perception(Agent):
         self.tracker = Tracker(max(sigma, 1e-3), forget=a.forget)
         self.episode: int | None = None
         self.nodes: dict[int, int] = {}  # track id -> node id
+        self.speeds: dict[int, WalkingSpeed] = {}  # person track id -> walking speed
         self.frames = 0
         self.subscribe(keys.frame(a.graph), self.on_frame)
         self.subscribe(keys.robot_state(a.graph), self.on_robot)
@@ -91,6 +99,7 @@ class Perception(Agent):
             g.update_node(WORLD, {"episode": trial, "sim_time": 0.0})
         self.tracker.reset()
         self.nodes.clear()
+        self.speeds.clear()
         self.episode = trial
         self.log.info("new episode", trial=trial)
 
@@ -150,6 +159,7 @@ class Perception(Agent):
                 if self.tracker.confirmed(t):
                     self._write(t, stamp, now)
             for t in gone:
+                self.speeds.pop(t.id, None)
                 node = self.nodes.pop(t.id, None)
                 if node is not None and g.find_node(node) is not None:
                     g.delete_node(node)
@@ -158,10 +168,13 @@ class Perception(Agent):
     def _write(self, t: Track, stamp: float, now: float) -> None:
         g = self.g
         sx, sy, height = t.size()
-        volatile = {"stamp": stamp, "last_seen": stamp, "written_at": now, "position_sigma": t.sigma}
+        volatile: dict[str, Any] = {"stamp": stamp, "last_seen": stamp, "written_at": now, "position_sigma": t.sigma}
         node = self.nodes.get(t.id)
         if t.kind == PERSON_TRACK:
             volatile.update(velocity=[t.vx, t.vy])
+            speed = self.speeds.setdefault(t.id, WalkingSpeed.of_model(self.walk_speed))
+            if (pace := speed.observe(t, self.tracker.window)) is not None:
+                volatile.update(speed=pace)
             if stamp - t.first <= self.tracker.window:  # the first second refines where the walk began
                 volatile.update(origin=list(t.origin(self.tracker.window)))
             if node is None:
@@ -172,7 +185,7 @@ class Perception(Agent):
                         "radius": sx / 2,
                         "eye_height": height,
                         "track_id": t.id,
-                        "speed": self.walk_speed,
+                        "speed": speed.written,
                         **self.person_model,
                         **volatile,
                     },

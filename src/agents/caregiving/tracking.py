@@ -4,7 +4,7 @@ Detections are associated to tracks of the same kind greedily, nearest first,
 within a gate around each track's predicted position. Static objects average
 every position they were seen at (their size estimate keeps the sensor's bias,
 which no averaging removes); people are fitted with a constant-velocity line
-over a short window, which gives position, velocity and its uncertainty.
+over a short window, which gives position, velocity and the uncertainty of both.
 A track is confirmed after a few detections and forgotten when unseen for a while.
 """
 
@@ -39,6 +39,8 @@ class Track:
     vx: float = 0.0
     vy: float = 0.0
     sigma: float = 0.0
+    # A person's velocity uncertainty per axis (m/s): infinite until three detections fit a line.
+    velocity_sigma: float = math.inf
 
     @property
     def hits(self) -> int:
@@ -141,15 +143,16 @@ class Tracker:
         t.heading = float(np.arctan2(np.sin(recent).mean(), np.cos(recent).mean()))
         if n < 3:
             t.x, t.y, t.vx, t.vy = float(data[-1, 1]), float(data[-1, 2]), 0.0, 0.0
-            t.sigma = self.sensor_sigma
+            t.sigma, t.velocity_sigma = self.sensor_sigma, math.inf
             return
         time = data[:, 0] - data[-1, 0]
         coef = _line(data, data[-1, 0])
         t.x, t.y = float(coef[0, 0]), float(coef[0, 1])
         t.vx, t.vy = float(coef[1, 0]), float(coef[1, 1])
-        # Variance of a least-squares line at its end point: sigma^2 (1/n + tbar^2 / Sxx).
-        sxx = float(((time - time.mean()) ** 2).sum())
-        t.sigma = self.sensor_sigma * math.sqrt(1 / n + time.mean() ** 2 / max(sxx, 1e-9))
+        # Variance of a least-squares line at its end point: sigma^2 (1/n + tbar^2 / Sxx); of its slope: sigma^2 / Sxx.
+        sxx = max(float(((time - time.mean()) ** 2).sum()), 1e-9)
+        t.sigma = self.sensor_sigma * math.sqrt(1 / n + time.mean() ** 2 / sxx)
+        t.velocity_sigma = self.sensor_sigma / math.sqrt(sxx)
 
 
 def _line(data: np.ndarray, at: float) -> np.ndarray:
