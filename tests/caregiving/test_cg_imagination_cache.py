@@ -10,6 +10,7 @@ from agents.caregiving.model.geometry import Circle
 from agents.caregiving.model.imagine import Imagination
 from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.scene import Obstacle, PersonState, Scene
+from agents.caregiving.model.uncertainty import Risk
 
 PERSON = PersonState("p", -2.0, 0.0, 0.0, 0.5, 0.25, 1.6, 2.0, 0.7, 0.1, 0.2)
 COUCH = Obstacle("couch", "couch", Circle(3.0, 0.0, 0.5), 0.8, target=True)
@@ -95,3 +96,13 @@ def test_a_walk_clear_by_less_than_the_tolerance_is_redone_once_things_move_that
     touching = Answer(imagination=replace(WALK, collided=True, min_clearance=-0.01))
     cache.store(KEY, footing(SCENE, "p", {}), touching)
     assert cache.lookup(KEY, footing(at(-1.5, 0.05), "p", {})) is not None  # risky already: the full tolerance
+
+
+def test_a_walk_the_person_has_walked_past_the_contact_of_is_imagined_again() -> None:
+    touching = replace(WALK, collided=True, collision_time=1.5, collision_point=(-1.1, 0.1), collision_object="ball")
+    sampled = Answer(imagination=WALK, risk=Risk(0.3, 1.5, (-1.1, 0.1), "ball"))
+    for answer in (Answer(imagination=touching), sampled):
+        cache = ImaginationCache(move_tol=0.1, reach=0.6, max_age=3.0)
+        cache.store(KEY, footing(SCENE, "p", {}), answer)
+        assert cache.lookup(KEY, footing(at(-1.5, 0.0), "p", {})) is not None  # 1 s walked: the touch is ahead
+        assert cache.lookup(KEY, footing(at(-1.0, 0.0), "p", {})) is None  # 2 s walked, and no fall

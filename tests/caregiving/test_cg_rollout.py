@@ -45,6 +45,19 @@ def test_head_on_contact_with_the_ball(rollout_cls) -> None:
 
 
 @pytest.mark.parametrize("rollout_cls", [NumpyRollout, BulletRollout.shared])
+def test_setting_off_away_from_what_one_stands_against_is_no_contact_until_one_comes_back(rollout_cls) -> None:
+    rollout = rollout_cls()
+    # Standing against the couch (the target just reached), walking off the other way: no fall over it.
+    away = rollout.walk([[2.82, 0.0], [0.8, 0.0]], 0.25, 0.7, [COUCH, BALL])
+    assert not away.collided and away.min_clearance > 0.0
+    # Walking on into it, or away and back to it, is a contact.
+    into = rollout.walk([[2.82, 0.0], [3.2, 0.0]], 0.25, 0.7, [COUCH])
+    assert into.collided and into.contact.time == 0.0
+    back = rollout.walk([[2.82, 0.0], [2.4, 0.0], [2.4, 0.8], [3.3, 0.8]], 0.25, 0.7, [COUCH])
+    assert back.collided and back.contact.time > 1.0
+
+
+@pytest.mark.parametrize("rollout_cls", [NumpyRollout, BulletRollout.shared])
 def test_miss_reports_closest_approach(rollout_cls) -> None:
     r = rollout_cls().walk([[-2.0, 0.5], [2.0, 0.5]], 0.25, 0.5, [BALL])
     assert not r.collided and r.contact is None

@@ -15,7 +15,9 @@ reused while
 * every body within ``reach`` of the imagined path, before or now (and the
   target wherever it is), moved less than ``move_tol`` and kept its size,
   orientation and sigma to ``size_tol``, and none appeared or vanished there;
-* it is younger than ``max_age`` simulated seconds.
+* it is younger than ``max_age`` simulated seconds;
+* the person has not walked as far as where it (or any sampled world of it) first touched something: they did
+  not fall there, so it no longer tells what lies ahead of them.
 
 A clear walk that passes something closer than ``move_tol`` is decided by less than that: for it, the
 person and the bodies near the walk may move only as far as its closest approach before it is imagined
@@ -108,6 +110,16 @@ def remaining(path: Sequence[Sequence[float]], walked: float) -> list[list[float
     return [start.tolist(), *pts[cum > walked].tolist()] if cum[-1] > walked else [pts[-1].tolist()] * 2
 
 
+def _walked_past_contact(answer: Answer, advance: float) -> bool:
+    """Whether the person has walked as far as where the imagined walk (nominal or a sampled world) first touched
+    something: they did not fall there, so the answer no longer tells what lies ahead of them. (Reused, its contact
+    would be reported as happening now, as one of a person who stopped at their target and is then imagined
+    setting off for another along the path they came by.)"""
+    im, risk = answer.imagination, answer.risk
+    times = (im.collision_time if im is not None else None, risk.time if risk is not None else None)
+    return any(t is not None and t <= advance for t in times) and advance > 0.0
+
+
 class ImaginationCache:
     """Answers of the simulator, reused while their inputs stay within tolerance (see the module docs)."""
 
@@ -139,6 +151,7 @@ class ImaginationCache:
             or not 0.0 <= now.time - e.footing.time <= self.max_age
             or self._differs(e.footing.person, now.person, math.inf)
             or self._bodies_changed(e, now, key[1], tol)
+            or _walked_past_contact(e.answer, advance)
         ):
             self.misses += 1
             return None

@@ -11,7 +11,9 @@ implementations of the :class:`Rollout` interface walk the same
 * :class:`NumpyRollout` evaluates exact planar signed distances in one vectorised
   call per obstacle.
 
-A contact is a step where the clearance (distance minus walker radius) is <= 0.
+A contact is a step where the clearance (distance minus walker radius) is <= 0, but for a touch at the start
+that the walker walks away from (:func:`contacts`): someone standing against the target they just reached
+does not fall over it by setting off for another.
 Past contact the two differ on purpose: PyBullet reports the 3D penetration depth
 (a low box may be left over its top), numpy the planar one; walks stop at the
 first contact, so their results agree.
@@ -82,6 +84,21 @@ def trajectory(path: ArrayLike, speed: float, dt: float = DT) -> tuple[FloatArra
     return times, resample_by_distance(pts, times * speed)
 
 
+def contacts(clear: np.ndarray) -> np.ndarray:
+    """Where each walk (a row of clearances, one per step) touches, leaving out a touch at the start that it walks
+    away from until the walk has come clear of it."""
+    touching = clear <= 0.0
+    if clear.shape[1] < 2:
+        return touching
+    leaving = touching[:, 0] & (clear[:, 1] >= clear[:, 0])
+    if not leaving.any():
+        return touching
+    # From the first step clear of it on, a walk that started by leaving it touches it again.
+    came_clear = np.cumsum(~touching[leaving], axis=1) > 0
+    touching[leaving] &= came_clear
+    return touching
+
+
 class Rollout(Protocol):
     """Anything that can walk a disc along a path among obstacles."""
 
@@ -107,6 +124,7 @@ class NumpyRollout:
         if not obstacles:
             return RolloutResult(None, math.inf, "", float(times[-1]), len(times))
         clear = self.clearances(points, radius, obstacles)
+        clear[(clear <= 0.0) & ~contacts(clear.T).T] = math.inf  # a touch walked away from is no contact, nor near
         touching = np.flatnonzero((clear <= 0.0).any(axis=1))
         last = int(touching[0]) if touching.size else len(times) - 1
         seen = clear[: last + 1]
@@ -240,6 +258,8 @@ class BulletRollout:
         bodies = self.place(obstacles)
         walker = self._walker(radius)
         bound = _aabb_lower_bounds(points, obstacles) - radius
+        start = self.clearances(points[:2], radius, obstacles)
+        leaving = set(np.flatnonzero((start[0] <= 0.0) & ~contacts(start.T)[:, 0]).tolist())
         best, closest, contact, k = math.inf, "", None, 0
         for k, (x, y) in enumerate(points):
             reach = best if math.isfinite(best) else _FAR
@@ -253,6 +273,10 @@ class BulletRollout:
                 if not hits:
                     continue
                 hit = min(hits, key=lambda h: h[8])
+                if j in leaving:
+                    if hit[8] <= 0.0:
+                        continue
+                    leaving.discard(j)
                 if hit[8] < best:
                     best, closest = hit[8], obstacles[j].name
                     if best <= 0.0:

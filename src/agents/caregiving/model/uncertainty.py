@@ -33,7 +33,7 @@ import numpy as np
 
 from .geometry import Box, Circle, bounding_radius, closest_boundary_point, polyline_length
 from .imagine import Imagination
-from .rollout import DT, trajectory
+from .rollout import DT, contacts, trajectory
 from .scene import ROBOT_KIND, Scene
 from .visibility import WALL_KIND
 
@@ -95,7 +95,7 @@ def collision_risk(scene: Scene, im: Imagination, u: Uncertainty, dt: float = DT
         scale = np.ones(n) if exact else 1.0 / rng.uniform(1 - u.size_error, 1 + u.size_error, n)
         offset = rng.normal(0.0, sigma, (n, 2))
         clear = _clearances(o.shape, walkers, offset, scale) - person.radius  # (n, steps)
-        touching = _contacts(clear)
+        touching = contacts(clear)
         idx = np.where(touching.any(axis=1), touching.argmax(axis=1), len(times))
         better = idx < first
         first[better], hit[better] = idx[better], j
@@ -107,20 +107,6 @@ def collision_risk(scene: Scene, im: Imagination, u: Uncertainty, dt: float = DT
     obstacle = unseen[int(hit[k])]
     point = closest_boundary_point(obstacle.shape, walkers[k, step])[0]
     return Risk(float(colliding.mean()), float(times[step]), (float(point[0]), float(point[1])), obstacle.name)
-
-
-def _contacts(clear: np.ndarray) -> np.ndarray:
-    """Where each sampled walk (a row of clearances) touches, leaving out a touch at the start that it walks away from."""
-    touching = clear <= 0.0
-    if clear.shape[1] < 2:
-        return touching
-    leaving = touching[:, 0] & (clear[:, 1] >= clear[:, 0])
-    if not leaving.any():
-        return touching
-    # From the first step clear of it on, a walk that started by leaving it touches it again.
-    came_clear = np.cumsum(~touching[leaving], axis=1) > 0
-    touching[leaving] &= came_clear
-    return touching
 
 
 def _reach(points: np.ndarray, radius: float) -> Callable[[Circle | Box, float], bool]:
