@@ -112,9 +112,8 @@ def remaining(path: Sequence[Sequence[float]], walked: float) -> list[list[float
 
 def _walked_past_contact(answer: Answer, advance: float) -> bool:
     """Whether the person has walked as far as where the imagined walk (nominal or a sampled world) first touched
-    something: they did not fall there, so the answer no longer tells what lies ahead of them. (Reused, its contact
-    would be reported as happening now, as one of a person who stopped at their target and is then imagined
-    setting off for another along the path they came by.)"""
+    something: they did not fall there, so the answer no longer tells what lies ahead of them (reused, its times
+    brought forward by the advance, its contact would be reported as happening now)."""
     im, risk = answer.imagination, answer.risk
     times = (im.collision_time if im is not None else None, risk.time if risk is not None else None)
     return any(t is not None and t <= advance for t in times) and advance > 0.0
