@@ -13,7 +13,7 @@ MODEL, RATE, NOISE = 0.5, 15.0, 0.05
 def _walk(speed: float, seed: int, seconds: float = 3.0) -> tuple[WalkingSpeed, list[tuple[float, float]]]:
     """Track a person walking a straight line at ``speed`` under sensor noise; the speed and what was written."""
     rng = np.random.default_rng(seed)
-    tracker, walking = Tracker(NOISE), WalkingSpeed.of_model(MODEL)
+    tracker, walking = Tracker(NOISE), WalkingSpeed(MODEL)
     heading, written = math.radians(30), []
     for k in range(int(seconds * RATE)):
         stamp = k / RATE
@@ -45,7 +45,7 @@ def test_a_person_walking_at_the_models_pace_keeps_it_exactly() -> None:
 def test_nobody_standing_is_given_a_pace_and_the_speed_changes_only_by_more_than_its_sigma() -> None:
     standing, written = _walk(0.0, 0)
     assert written == [] and standing.measured is None
-    walking = WalkingSpeed.of_model(MODEL)
+    walking = WalkingSpeed(MODEL)
     assert walking.update(0.9, math.inf, True) is None  # a line through two detections tells nothing
     assert walking.update(0.7, 0.04, True) == 0.7
     assert walking.update(0.72, 0.04, True) is None  # the mean moved 1 cm/s, less than a sigma

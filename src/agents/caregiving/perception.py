@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
+from collections import defaultdict
 from typing import Any
 
 from agents.caregiving import keys
@@ -82,7 +83,7 @@ class Perception(Agent):
         self.tracker = Tracker(max(sigma, 1e-3), forget=a.forget)
         self.episode: int | None = None
         self.nodes: dict[int, int] = {}  # track id -> node id
-        self.speeds: dict[int, WalkingSpeed] = {}  # person track id -> walking speed
+        self.speeds: defaultdict[int, WalkingSpeed] = defaultdict(lambda: WalkingSpeed(self.walk_speed))
         self.frames = 0
         self.subscribe(keys.frame(a.graph), self.on_frame)
         self.subscribe(keys.robot_state(a.graph), self.on_robot)
@@ -172,7 +173,7 @@ class Perception(Agent):
         node = self.nodes.get(t.id)
         if t.kind == PERSON_TRACK:
             volatile.update(velocity=[t.vx, t.vy])
-            speed = self.speeds.setdefault(t.id, WalkingSpeed.of_model(self.walk_speed))
+            speed = self.speeds[t.id]
             if (pace := speed.observe(t, self.tracker.window)) is not None:
                 volatile.update(speed=pace)
             if stamp - t.first <= self.tracker.window:  # the first second refines where the walk began

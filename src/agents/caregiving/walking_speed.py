@@ -12,7 +12,7 @@ instead. A person whose pace the sensors cannot tell from the model's keeps the 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from .model.guesses import WALKING_SPEED
 from .tracking import Track
@@ -26,14 +26,12 @@ class WalkingSpeed:
     """One track's walking speed: the model's until the fitted speeds, averaged, reject it."""
 
     model: float
-    written: float
+    written: float = field(init=False)  # the model's, until the person's walk rejects it
     _weighted: float = 0.0
     _weights: float = 0.0
 
-    @classmethod
-    def of_model(cls, speed: float) -> WalkingSpeed:
-        """A track not yet seen walking: the model's speed is what was written."""
-        return cls(speed, speed)
+    def __post_init__(self) -> None:
+        self.written = self.model
 
     @property
     def measured(self) -> float | None:

@@ -258,8 +258,10 @@ class BulletRollout:
         bodies = self.place(obstacles)
         walker = self._walker(radius)
         bound = _aabb_lower_bounds(points, obstacles) - radius
-        start = self.clearances(points[:2], radius, obstacles)
-        leaving = set(np.flatnonzero((start[0] <= 0.0) & ~contacts(start.T)[:, 0]).tolist())
+        leaving: set[int] = set()
+        if (bound[0] <= 0.0).any():  # only a walk that may start touching something can walk away from it
+            start = self.clearances(points[:2], radius, obstacles)
+            leaving = set(np.flatnonzero((start[0] <= 0.0) & ~contacts(start.T)[:, 0]).tolist())
         best, closest, contact, k = math.inf, "", None, 0
         for k, (x, y) in enumerate(points):
             reach = best if math.isfinite(best) else _FAR
