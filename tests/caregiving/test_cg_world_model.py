@@ -258,3 +258,17 @@ def test_a_world_begun_midway_walks_the_route_planned_where_the_walk_began() -> 
     assert tracks[True].shape == expected.shape
     assert np.abs(tracks[True] - expected).max() < 1e-9
     assert np.abs(tracks[False][: len(expected) // 2] - expected[: len(expected) // 2]).max() > 0.02
+
+
+def test_setting_off_away_from_what_one_stands_against_is_no_fall_walking_into_it_is() -> None:
+    """As in the rollouts: someone imagined standing 5 cm into the door they reached (a belief a few sigmas off), setting off for the couch,
+    does not fall over the door; someone standing against the ball and walking on into it falls at once."""
+    scene = load_scenario("two_people").scene()
+    visitor = replace(scene.person("visitor"), x=1.5, y=2.7, heading=-math.pi / 2)  # 5 cm into the door
+    person = replace(scene.person("person"), x=-0.31, y=0.0, heading=0.0)  # 5 cm into the ball, facing it
+    at_door = World(replace(scene, people=(visitor,)), [Walk("visitor", "couch", 0.0)])
+    assert at_door.walker("visitor").leaving == {"door": pytest.approx(-0.05)}
+    away = at_door.run()
+    assert not away.collided and away.arrival["visitor"] is not None and away.min_clearance["visitor"] > 0.0
+    into = World(replace(scene, people=(person,)), [Walk("person", "couch", 0.0)]).run()
+    assert [(c.obstacle, c.time) for c in into.collisions] == [("ball", pytest.approx(0.05))]

@@ -9,7 +9,11 @@ seen so far (their true gaze, the robot included); walls are always known. They
 re-plan whenever a new object comes into view, or a seen robot or person has
 moved into the rest of their way. The robot drives to commanded poses along a
 planned path with a trapezoidal speed profile, from the speed it has. Contacts are measured with exact planar geometry every 50 ms; a
-person who touches anything but their target stops there (they trip). The
+person who touches anything but their target stops there (they trip). As in the
+rollouts (:func:`~agents.caregiving.model.rollout.contacts`), a person who starts
+touching something and walks away from it does not touch it until they have come
+clear of it and come back: someone imagined standing against what they just reached
+does not fall over it by setting off. The
 :class:`Outcome` lists collisions (time, place, object) and closest approaches.
 
 :meth:`World.advance` steps the same way, but once the robot rests and one person
@@ -112,6 +116,9 @@ class _Walker:
     # was worked out, with the bound (see World._sees).
     travelled: float = 0.0
     unseen: dict[str, tuple[float, float, float, Hidden]] = field(default_factory=dict)
+    # The bodies the walker starts touching, with their clearance then: left out of contacts while the walker
+    # leaves them, until they come clear (see World._check_contacts).
+    leaving: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass
@@ -155,6 +162,13 @@ class World:
             if p.name in intents
         ]
         self._walker_named = {w.state.name: w for w in self._walkers}
+        for w in self._walkers:
+            w.leaving = {
+                o.name: c
+                for o in bodies
+                if o.name not in (w.state.name, w.target)
+                and (c := point_distance(o.shape, w.state.x, w.state.y) - w.state.radius) <= 0.0
+            }
         self.robot: RobotState = scene.robot
         self._speed = scene.robot.speed
         self._drive: _Drive | None = None
@@ -173,7 +187,8 @@ class World:
         """An independent copy of the world now (sharing the planner and its caches)."""
         twin = copy.copy(self)
         twin._walkers = [
-            replace(w, known=dict(w.known), track=list(w.track), unseen=dict(w.unseen)) for w in self._walkers
+            replace(w, known=dict(w.known), track=list(w.track), unseen=dict(w.unseen), leaving=dict(w.leaving))
+            for w in self._walkers
         ]
         twin._walker_named = {w.state.name: w for w in twin._walkers}
         twin._drive = replace(self._drive) if self._drive is not None else None
@@ -414,10 +429,19 @@ class World:
         """Record ``w``'s closest approach to anything ``around`` but their target, and a contact as a collision."""
         x, y, radius, target = w.state.x, w.state.y, w.state.radius, w.target
         nearest, clear = None, w.min_clearance
+        first_step = len(w.track) == 2
         for o in around:
             if o.name == target:
                 continue
             shape = o.shape
+            start = w.leaving.get(o.name)
+            if start is not None:
+                c = point_distance(shape, x, y) - radius
+                # Still touching what they started against: walking on into it at the first step counts,
+                # leaving it does not until they come clear of it.
+                if c <= 0.0 and not (first_step and c < start):
+                    continue
+                del w.leaving[o.name]
             # A body whose bounding circle keeps it at least the closest approach so far away can neither be
             # the new closest nor touch (the closest approach stays positive while the walker walks).
             if math.hypot(x - shape.x, y - shape.y) - bounding_radius(shape) - radius - 1e-9 >= clear:
@@ -464,11 +488,14 @@ class World:
 
     # -- the lone walker's steps in bulk ---------------------------------------------------------
     def _lone_walker(self) -> _Walker | None:
-        """The one person still walking, when the robot rests and so nothing else in the room moves."""
+        """The one person still walking, when the robot rests and so nothing else in the room moves, and they
+        are not leaving something they started against (whose contacts :meth:`_check_contacts` rules on)."""
         if self._drive is not None or self._speed != 0.0:
             return None
         walking = [w for w in self._walkers if w.status == "walking"]
-        return walking[0] if len(walking) == 1 and walking[0].route is not None else None
+        if len(walking) != 1 or walking[0].route is None or walking[0].leaving:
+            return None
+        return walking[0]
 
     def _glide(self, w: _Walker, until: float) -> bool:
         """Take ``w``'s steps up to ``until`` at once, stopping before a step whose look changes their plan.
