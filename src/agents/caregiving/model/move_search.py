@@ -378,6 +378,8 @@ class NoWorse:
     uncertainty: Uncertainty
     threshold: float
     robot: str | None
+    #: Called before the robot carrying on is first imagined: the search's spec must know who falls anyway.
+    prepare: Callable[[], object] = lambda: None
     _idle: dict[int, Verdict] = field(default_factory=dict)
 
     def __call__(self, verdict: Verdict) -> bool:
@@ -397,6 +399,7 @@ class NoWorse:
 
     def _idle_in(self, walk_set: int) -> Verdict:
         if walk_set not in self._idle:
+            self.prepare()
             item = self.spec.items(self.spec.current, self.uncertainty)[walk_set]
             margin = RobotMargin.of(self.robot, self.uncertainty)
             self._idle[walk_set] = judge(self.spec.current, [self.imagine(item)], self.spec, margin)
@@ -560,6 +563,7 @@ def search(
     no_worse = NoWorse(spec, imagine, uncertainty, threshold, scene.robot_name)
     settles = Settles(no_worse, idle_risk, settle_after_clear)
     judging_ = _Judging(scene, spec, imagine, uncertainty, judging, ahead, no_worse)
+    no_worse.prepare = judging_.know_falls_anyway
     if head_start is not None and moves is None and spec.current is None:
         judging_.send_lead = head_start
     judging_.in_order(pool, threshold, verdicts, settles)
@@ -584,6 +588,7 @@ def search(
         return SearchResult(chosen, tuple(verdicts), judged=slots, sets_off=sets_off)
     halt = None
     if chosen is None:
+        judging_.know_falls_anyway()
         at_end = judging_.spec_at(len(verdicts) + 1)
         braking, _ = judge_lead(at_end, None, imagine, uncertainty, scene.robot_name)
         halt = braking if no_worse.harmless(braking) else None
@@ -640,7 +645,11 @@ class _Judging:
         return replace(self.spec, delay=self.spec.delay + self.judging)
 
     def know_falls_anyway(self) -> bool:
-        """Imagine :func:`falls_anyway` into the spec, once; whether it found any."""
+        """Imagine :func:`falls_anyway` into the spec, once; whether it found any.
+
+        Only when a verdict needs it (:meth:`settled`): most searches meet no fall it could excuse, and it
+        imagines everyone to the end of their walk.
+        """
         if not self.knows_falls_anyway:
             self.knows_falls_anyway = True
             self.spec = replace(self.spec, falls_anyway=falls_anyway(self.spec, self.imagine, self.scene.robot_name))
@@ -665,8 +674,31 @@ class _Judging:
         if self.no_worse.harmless(lead):
             self.lead = lead
             send(lead)
-            self.know_falls_anyway()
-            self.read_off = driven_on(self.scene, self.spec, first, answers, self.uncertainty)
+            knew = self.knows_falls_anyway
+            read_off = driven_on(self.scene, self.spec, first, answers, self.uncertainty)
+            if read_off is not None and self.excusable(read_off, knew) and self.know_falls_anyway():
+                read_off = driven_on(self.scene, self.spec, first, answers, self.uncertainty)
+            self.read_off = read_off
+
+    def excusable(self, verdict: Verdict, knew: bool) -> bool:
+        """Whether ``verdict``, judged when who falls anyway was ``knew``n or not, has a fall that knowing it
+        could excuse: a bystander's into something other than the robot."""
+        if knew:
+            return False
+        endangered = {d.person for d in self.spec.dangers} | set(self.spec.falling)
+        robot = self.scene.robot_name
+        return any(f.obstacle is not None and f.obstacle != robot and f.person not in endangered for f in verdict.falls)
+
+    def settled(self, k: int, move: RobotMove | None, verdict: Verdict, knew: bool) -> Verdict:
+        """The k-th candidate's verdict as a search that knew who falls anyway from the start gives it.
+
+        One judged without knowing differs only where a bystander's fall or sampled risk refused it (a fall
+        that happens anyway neither ends an imagination nor counts in the sampled risk): then the robot as it
+        is is imagined, and if someone does fall anyway, the candidate is judged again.
+        """
+        if self.excusable(verdict, knew) and self.know_falls_anyway():
+            return judge_move(self.spec_at(k), move, self.imagine, self.uncertainty, self.scene.robot_name)
+        return verdict
 
     def in_order(
         self,
@@ -682,10 +714,10 @@ class _Judging:
         opening = list(islice(enumerate(moves, start=1), 2)) if self.send_lead is not None else []
         if len(opening) == 2:  # a head start is for a search that judges on past its first candidate
             self.consider_head_start(opening[0][1])
-        self.know_falls_anyway()
         positions = chain(opening, enumerate(moves, start=len(opening) + 1))
         judged: dict[int, Verdict] = {}
-        lent: dict[int, RobotMove | None] = {}  # the candidates the helper is judging, by position
+        # The candidates the helper is judging, by position, and whether who falls anyway was known when lent.
+        lent: dict[int, tuple[RobotMove | None, bool]] = {}
 
         def exchange(wait: bool = False) -> None:
             """Take the helper's verdicts, then lend it the next candidates up to :data:`AHEAD_DEPTH`.
@@ -698,8 +730,8 @@ class _Judging:
                 return
             for (owner, k), verdict in ahead.answers(wait):
                 if owner is self:
-                    move = lent.pop(k)
-                    judged[k] = verdict or self.judge(k, move)
+                    move, knew = lent.pop(k)
+                    judged[k] = self.settled(k, move, verdict, knew) if verdict else self.judge(k, move)
             while verdicts and ahead.outstanding < AHEAD_DEPTH:
                 k, move = next(positions, (0, None))
                 if k == 0:
@@ -707,7 +739,7 @@ class _Judging:
                 if not ahead.lend((self, k), self.scene, self.spec_at(k), move, self.uncertainty):
                     judged[k] = self.judge(k, move)
                     return
-                lent[k] = move
+                lent[k] = (move, self.knows_falls_anyway)
 
         def gather() -> bool:
             """Move the judged prefix into ``verdicts``; True once it ends with one that settles the search."""
@@ -734,7 +766,9 @@ class _Judging:
     def judge(self, k: int, move: RobotMove | None) -> Verdict:
         if k == 1 and self.read_off is not None:
             return self.read_off
-        return judge_move(self.spec_at(k), move, self.imagine, self.uncertainty, self.scene.robot_name)
+        knew = self.knows_falls_anyway
+        verdict = judge_move(self.spec_at(k), move, self.imagine, self.uncertainty, self.scene.robot_name)
+        return self.settled(k, move, verdict, knew)
 
 
 @dataclass(frozen=True)
