@@ -22,7 +22,11 @@ move. ``by_way`` splits each kind by whether a straight drive there comes into t
 person's way in time (``candidates.crossing_time``) and whether the robot reaches
 the pose before the person passes it.
 
-    python bench/bench_move_search.py [--delay S] [--judging S [S ...]] [--every] [--json PATH] [RUN ...]
+With ``--every-room``, the runs are one recorded run of each room and seed in ``docs/results/`` (shipped and
+held out) with a saveable trial.
+
+    python bench/bench_move_search.py [--delay S] [--judging S [S ...]] [--every] [--json PATH]
+        [--every-room | RUN ...]
 """
 
 from __future__ import annotations
@@ -34,6 +38,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
+from typing import Any
 
 import benchlib
 from agents.caregiving.model import candidates, move_search
@@ -78,10 +83,31 @@ class Case:
     at: float
 
 
+def recorded_scenario(recorded: dict[str, Any]) -> Scenario:
+    """The scenario a recorded run ran: its file, or the held-out room of that name when the file was elsewhere."""
+    name = Path(str(recorded.get("scenario_file", recorded["scenario"])))
+    if name.suffix and not name.exists():
+        name = RECORDED / "heldout" / name.name
+    return load_scenario(name)
+
+
+def every_room() -> list[str]:
+    """One recorded run (the first by name) of each room and seed with a saveable trial, shipped and held out."""
+    runs: dict[tuple[str, int], str] = {}
+    for path in sorted([*RECORDED.glob("*.json"), *RECORDED.glob("heldout/*.json")]):
+        recorded = json.loads(path.read_text())
+        trials = recorded.get("per_trial") if isinstance(recorded, dict) else None
+        if not trials or "seed" not in recorded or not any(t.get("saveable") for t in trials):
+            continue
+        room = Path(str(recorded.get("scenario_file", recorded.get("scenario")))).stem
+        runs.setdefault((room, int(recorded["seed"])), str(path.relative_to(RECORDED).with_suffix("")))
+    return [runs[k] for k in sorted(runs)]
+
+
 def cases(runs: list[str]) -> Iterator[Case]:
     for run in runs:
         recorded = json.loads((RECORDED / f"{run}.json").read_text())
-        scenario = load_scenario(recorded.get("scenario_file", recorded["scenario"]))
+        scenario = recorded_scenario(recorded)
         planner = GridPlanner(scenario.scene().bounds)
         for t in recorded["per_trial"]:
             if t["truly_risky"] and t["risk_at_time"] is not None:
@@ -223,9 +249,14 @@ def main() -> None:
     )
     p.add_argument("--every", action="store_true", help="judge every candidate of every danger, by kind")
     p.add_argument(
+        "--every-room", action="store_true", help="one recorded run of each room and seed in docs/results (no RUN)"
+    )
+    p.add_argument(
         "--head-start", action="store_true", help="send the first candidate as a head start when it is harmless"
     )
     args = p.parse_args()
+    if args.every_room:
+        args.runs = every_room()
     found = first_safe(args.runs, args.delay, args.judging[0], args.head_start)
     benchlib.print_table("Move search with perfect belief", list(found.items()))
     figures: dict[str, object] = {
