@@ -261,8 +261,9 @@ def test_a_world_begun_midway_walks_the_route_planned_where_the_walk_began() -> 
 
 
 def test_setting_off_away_from_what_one_stands_against_is_no_fall_walking_into_it_is() -> None:
-    """As in the rollouts: someone imagined standing 5 cm into the door they reached (a belief a few sigmas off), setting off for the couch,
-    does not fall over the door; someone standing against the ball and walking on into it falls at once."""
+    """As in the rollouts: someone imagined 5 cm into the door they reached (a belief a few sigmas off),
+    setting off for the couch, does not fall over the door; someone 5 cm into the ball and walking on into it
+    falls at once."""
     scene = load_scenario("two_people").scene()
     visitor = replace(scene.person("visitor"), x=1.5, y=2.7, heading=-math.pi / 2)  # 5 cm into the door
     person = replace(scene.person("person"), x=-0.31, y=0.0, heading=0.0)  # 5 cm into the ball, facing it

@@ -681,8 +681,9 @@ class _Judging:
             self.read_off = read_off
 
     def excusable(self, verdict: Verdict, knew: bool) -> bool:
-        """Whether ``verdict``, judged when who falls anyway was ``knew``n or not, has a fall that knowing it
-        could excuse: a bystander's into something other than the robot."""
+        """Whether ``verdict``, judged without knowing who falls anyway (``knew`` false), was refused for
+        something that knowing it could excuse: a bystander's fall into something other than the robot, or a
+        bystander's sampled risk."""
         if knew:
             return False
         endangered = {d.person for d in self.spec.dangers} | set(self.spec.falling)
