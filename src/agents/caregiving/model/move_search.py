@@ -588,9 +588,7 @@ def search(
         return SearchResult(chosen, tuple(verdicts), judged=slots, sets_off=sets_off)
     halt = None
     if chosen is None:
-        judging_.know_falls_anyway()
-        at_end = judging_.spec_at(len(verdicts) + 1)
-        braking, _ = judge_lead(at_end, None, imagine, uncertainty, scene.robot_name)
+        braking, _ = judging_.judged_as_lead(lambda: judging_.spec_at(len(verdicts) + 1), None)
         halt = braking if no_worse.harmless(braking) else None
         slots += 1
     return SearchResult(chosen, tuple(verdicts), judging_.lead, halt, slots, sets_off)
@@ -667,10 +665,7 @@ class _Judging:
         if send is None or first is None:
             return
         self.lead_judged = True
-        lead, answers = judge_lead(self.lead_sent(), first, self.imagine, self.uncertainty, self.scene.robot_name)
-        if not lead.clear and self.know_falls_anyway():
-            robot = self.scene.robot_name
-            lead, answers = judge_lead(self.lead_sent(), first, self.imagine, self.uncertainty, robot, answers)
+        lead, answers = self.judged_as_lead(self.lead_sent, first)
         if self.no_worse.harmless(lead):
             self.lead = lead
             send(lead)
@@ -679,6 +674,18 @@ class _Judging:
             if read_off is not None and self.excusable(read_off, knew) and self.know_falls_anyway():
                 read_off = driven_on(self.scene, self.spec, first, answers, self.uncertainty)
             self.read_off = read_off
+
+    def judged_as_lead(self, at: Callable[[], SearchSpec], move: RobotMove | None) -> tuple[Verdict, list[Answer]]:
+        """:func:`judge_lead` of ``move`` (``None``: braking) with the spec ``at()`` gives; one refused before who
+        falls anyway was known is judged again once it is, if someone does (only the walk sets whose imagination
+        ended in a fall now excused are imagined anew). The robot as it is only ever excuses falls, so one clear
+        without it is clear with it, on the same imaginations."""
+        knew = self.knows_falls_anyway
+        robot = self.scene.robot_name
+        verdict, answers = judge_lead(at(), move, self.imagine, self.uncertainty, robot)
+        if not knew and not verdict.clear and self.know_falls_anyway():
+            verdict, answers = judge_lead(at(), move, self.imagine, self.uncertainty, robot, answers)
+        return verdict, answers
 
     def excusable(self, verdict: Verdict, knew: bool) -> bool:
         """Whether ``verdict``, judged without knowing who falls anyway (``knew`` false), was refused for
@@ -698,8 +705,12 @@ class _Judging:
         is is imagined, and if someone does fall anyway, the candidate is judged again.
         """
         if self.excusable(verdict, knew) and self.know_falls_anyway():
-            return judge_move(self.spec_at(k), move, self.imagine, self.uncertainty, self.scene.robot_name)
+            return self.judged_at(k, move)
         return verdict
+
+    def judged_at(self, k: int, move: RobotMove | None) -> Verdict:
+        """:func:`judge_move` of ``move`` as the k-th candidate, with the spec as the search knows it now."""
+        return judge_move(self.spec_at(k), move, self.imagine, self.uncertainty, self.scene.robot_name)
 
     def in_order(
         self,
@@ -768,8 +779,7 @@ class _Judging:
         if k == 1 and self.read_off is not None:
             return self.read_off
         knew = self.knows_falls_anyway
-        verdict = judge_move(self.spec_at(k), move, self.imagine, self.uncertainty, self.scene.robot_name)
-        return self.settled(k, move, verdict, knew)
+        return self.settled(k, move, self.judged_at(k, move), knew)
 
 
 @dataclass(frozen=True)
