@@ -429,19 +429,18 @@ class World:
         """Record ``w``'s closest approach to anything ``around`` but their target, and a contact as a collision."""
         x, y, radius, target = w.state.x, w.state.y, w.state.radius, w.target
         nearest, clear = None, w.min_clearance
-        first_step = len(w.track) == 2
+        leaving = w.leaving
         for o in around:
             if o.name == target:
                 continue
             shape = o.shape
-            start = w.leaving.get(o.name)
-            if start is not None:
+            if leaving and (start := leaving.get(o.name)) is not None:
                 c = point_distance(shape, x, y) - radius
                 # Still touching what they started against: walking on into it at the first step counts,
                 # leaving it does not until they come clear of it.
-                if c <= 0.0 and not (first_step and c < start):
+                if c <= 0.0 and not (len(w.track) == 2 and c < start):
                     continue
-                del w.leaving[o.name]
+                del leaving[o.name]
             # A body whose bounding circle keeps it at least the closest approach so far away can neither be
             # the new closest nor touch (the closest approach stays positive while the walker walks).
             if math.hypot(x - shape.x, y - shape.y) - bounding_radius(shape) - radius - 1e-9 >= clear:
