@@ -13,7 +13,7 @@ again buys. The draws are seeded per trial, so two versions are compared on the
 same beliefs.
 
     python bench/bench_closed_loop.py [--draws N] [--look S] [--retry S] [--first-look-only]
-        [--no-sampled-risk] [--json PATH] [RUN ...]
+        [--no-sampled-risk] [--json PATH] [--every-room | RUN ...]
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import time
 from collections import Counter
 
 import benchlib
-from bench_move_search import RUNS, THRESHOLD, cases
+from bench_move_search import RUNS, THRESHOLD, cases, every_room
 from bench_move_search_noisy import add_belief_arguments
 from bridges.experiment.beliefs import Noise
 from bridges.experiment.closed_loop import Setup, closed_loop
@@ -70,7 +70,12 @@ def main() -> None:
     )
     p.add_argument("--first-look-only", action="store_true", help="act on the first look only, and drive its move on")
     p.add_argument("--no-sampled-risk", action="store_true", help="search without sampling uncertainty")
+    p.add_argument(
+        "--every-room", action="store_true", help="one recorded run of each room and seed in docs/results (no RUN)"
+    )
     args = p.parse_args()
+    if args.every_room:
+        args.runs = every_room()
     noise = Noise(sampled_risk=not args.no_sampled_risk)
     setup = Setup(args.delay, args.judging, args.look, args.retry, args.first_look_only, noise, THRESHOLD)
     found = closed_loops(args.runs, args.draws, setup)

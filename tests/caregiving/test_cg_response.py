@@ -24,6 +24,7 @@ from agents.caregiving.model.response import (
     UnderWay,
     drive,
     respond,
+    set_off_sooner,
 )
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.service import serve_one
@@ -172,6 +173,52 @@ def test_on_a_recorded_danger_the_response_sends_the_searchs_move_and_it_saves_t
     assert isinstance(response, Send) and plain.chosen is not None
     assert response.chosen == plain.chosen and not response.unsaved
     assert saved_in_truth(trial, 0.55, planner, DELAY, JUDGING, plain)
+
+
+def test_a_move_judged_again_to_set_off_sooner_goes_out_with_its_new_verdict_when_it_still_saves() -> None:
+    held = Send(safe(NEW, risk=0.1), sets_off=0.6)
+    sooner = SearchResult(safe(NEW, risk=0.05), (safe(NEW, risk=0.05),), judged=1, sets_off=0.1)
+    now = spec(danger("ann", 2.0))
+    script = Script(Asked(sooner))
+    assert drive(set_off_sooner(held, now, 0.9, POLICY), script) == Send(sooner.chosen, sets_off=0.1)
+    (ask,) = script.asks
+    assert ask.spec is now and ask.moves == (NEW,) and ask.idle_risk == 0.9 and not ask.head_start
+
+
+@pytest.mark.parametrize(
+    "again",
+    [
+        falls(NEW, "ball"),  # refused now
+        Verdict(NEW, True, 0.3, 1.0, "everyone imagined walks clear"),  # clear and halving the risk, but not safe
+    ],
+    ids=["refused", "no_longer_safe"],
+)
+def test_a_move_that_no_longer_does_what_it_was_chosen_for_sooner_stays_held(again: Verdict) -> None:
+    held = Send(safe(NEW, risk=0.1), sets_off=0.6)
+    chosen = again if again.clear else None
+    judged = SearchResult(chosen, (again,), judged=1, sets_off=0.1 if chosen else None)
+    assert drive(set_off_sooner(held, spec(danger("ann", 2.0)), 1.0, POLICY), Script(Asked(judged))) is held
+    assert drive(set_off_sooner(held, spec(danger("ann", 2.0)), 1.0, POLICY), Script(Asked(None))) is held
+
+
+def test_a_first_search_timed_too_slow_sends_its_move_sooner_and_it_still_saves_the_person() -> None:
+    """On the recorded danger, a search imagining 30 ms a candidate (the estimate before any search is timed)
+    chooses a move it imagines setting off late; judged again to set off after one judgement at this machine's
+    8 ms, the same move is still chosen, sets off sooner, and saves the person in the truth."""
+    trial, planner, scene, spec_now = recorded_case("paper_experiment1", 2024, 50, 0.55)
+    imagine = partial(serve_one, scene)
+    untimed = search(scene, spec_now, imagine, EXACT, THRESHOLD, 24, judging=0.03)
+    assert untimed.chosen is not None and untimed.sets_off is not None
+    sooner: list[SearchResult] = []
+
+    def run(ask: Ask) -> Asked:
+        sooner.append(ask.item(DELAY, EXACT, THRESHOLD, 24, 0.008).run(scene, imagine, None))
+        return Asked(sooner[-1])
+
+    sent = drive(set_off_sooner(Send(untimed.chosen, sets_off=untimed.sets_off), spec_now, 1.0, POLICY), run)
+    assert sent.chosen.move == untimed.chosen.move and sent.chosen is not untimed.chosen
+    assert sent.sets_off == pytest.approx(DELAY + 0.008) and sent.sets_off < untimed.sets_off
+    assert saved_in_truth(trial, 0.55, planner, DELAY, 0.008, sooner[0])
 
 
 def test_the_searches_of_generated_candidates_time_a_candidate_by_their_sums() -> None:

@@ -31,11 +31,14 @@ from __future__ import annotations
 import argparse
 import asyncio
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Generator
+from dataclasses import replace
 from itertools import count
+from typing import TypeVar
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
+from agents.caregiving.model.move_search import SearchSpec
 from agents.caregiving.model.response import (
     Ask,
     Asked,
@@ -47,6 +50,7 @@ from agents.caregiving.model.response import (
     Send,
     UnderWay,
     respond,
+    set_off_sooner,
 )
 from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.uncertainty import Uncertainty
@@ -67,6 +71,8 @@ from .robot_intentions import (
     search_spec,
     write_intention,
 )
+
+T = TypeVar("T")
 
 
 class Action(Agent):
@@ -135,13 +141,33 @@ class Action(Agent):
             return
         started = time.perf_counter()
         current = move_under_way(self.g)
-        response, led = await self._respond(ctx, dangers, current, started)
+        spec = search_spec(self.g, ctx, dangers, current, walking(self.args))
+        response, led = await self._respond(ctx, spec, dangers, current, started)
         if isinstance(response, Send) and response.sets_off is not None:
-            await self._until_set_off(ctx, response.sets_off)
+            response = await self._sooner(ctx, spec, dangers, response, response.sets_off, led or current)
+            await self._until_set_off(ctx, response.sets_off or 0.0)
             world = self.g.find_node(WORLD)
             if world is None or episode_of(world) != ctx.episode:
                 return  # the trial ended while the move was held
         self._act(ctx, dangers, response, led or current, led, started)
+
+    async def _sooner(
+        self, ctx: Context, spec: SearchSpec, dangers: Dangers, send: Send, sets_off: float, under_way: Node | None
+    ) -> Send:
+        """``send``, or its move judged again to set off now (:func:`set_off_sooner`) when its search ended more
+        than two candidates' estimated cost before ``sets_off``, the moment it imagined the move setting off.
+
+        Only a move that protects every endangered person is judged again; braking is sent as found.
+        """
+        early = sets_off - self._delay(ctx) - DT
+        if early <= 2 * self.judging.seconds * self.clock.rate(self.g) or send.braking or send.unsaved:
+            return send
+        now = replace(spec, current=move_of(under_way, ctx) if under_way is not None else None)
+        idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
+        judged = await self._drive(ctx, set_off_sooner(send, now, idle_risk, self._policy(ctx)))
+        if judged is not send:
+            self.log.info("move sent sooner", was_held_ms=round(early * 1e3, 1), risk=round(judged.chosen.risk, 2))
+        return judged
 
     async def _until_set_off(self, ctx: Context, sets_off: float) -> None:
         """Wait until a move written now would reach the world no sooner than its search imagined it setting
@@ -158,7 +184,7 @@ class Action(Agent):
             await asyncio.sleep(early / self.clock.rate(self.g))
 
     async def _respond(
-        self, ctx: Context, dangers: Dangers, current: Node | None, started: float
+        self, ctx: Context, spec: SearchSpec, dangers: Dangers, current: Node | None, started: float
     ) -> tuple[Response, Node | None]:
         """Run :func:`respond`, each search it asks for by the simulator; also the head start written, if any."""
         self.rpc_ms = self.sim_ms = 0.0
@@ -179,18 +205,27 @@ class Action(Agent):
             else None
         )
         responding = respond(
-            search_spec(self.g, ctx, dangers, current, walking(self.args)),
-            {p: e.get("probability", 1.0) for p, (e, _) in dangers.items()},
-            under_way,
-            Policy(self.args.risk_threshold, self.args.samples, ctx.scene.robot_name),
+            spec, {p: e.get("probability", 1.0) for p, (e, _) in dangers.items()}, under_way, self._policy(ctx)
         )
+        return await self._drive(ctx, responding, lead, lambda: led is not None), led
+
+    async def _drive(
+        self,
+        ctx: Context,
+        protocol: Generator[Ask, Asked, T],
+        lead: Callable[[Verdict], None] | None = None,
+        led: Callable[[], bool] = lambda: False,
+    ) -> T:
+        """Run a protocol of :mod:`~agents.caregiving.model.response` to its end, each search it asks for by the
+        simulator; a head start found on the way goes to ``lead``, and ``led`` tells whether one was written."""
         try:
-            ask = next(responding)
+            ask = next(protocol)
             while True:
                 found = await self._search(ctx, ask, lead if ask.head_start else None)
-                ask = responding.send(Asked(found, led is not None))
+                ask = protocol.send(Asked(found, led()))
         except StopIteration as done:
-            return done.value, led
+            ended: T = done.value
+            return ended
 
     def _act(
         self,
@@ -279,6 +314,9 @@ class Action(Agent):
         if ask.moves is None:
             self.tried += found.verdicts
         return found
+
+    def _policy(self, ctx: Context) -> Policy:
+        return Policy(self.args.risk_threshold, self.args.samples, ctx.scene.robot_name)
 
     def _delay(self, ctx: Context) -> float:
         """When a move decided now would reach the world, in simulated seconds after the context.

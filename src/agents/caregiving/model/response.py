@@ -39,8 +39,9 @@ from __future__ import annotations
 
 from collections.abc import Callable, Generator, Mapping
 from dataclasses import dataclass, replace
+from typing import TypeVar
 
-from .move_search import HEAD_START_RISK, SearchItem, SearchSpec, gives_up, holds, replaces
+from .move_search import HEAD_START_RISK, SearchItem, SearchSpec, gives_up, holds, replaces, standing
 from .robot_moves import RobotMove
 from .uncertainty import Uncertainty
 from .verdict import SearchResult, Verdict
@@ -218,12 +219,38 @@ def respond(
     return Send(chosen, again, unsaved, sets_off=found.sets_off if found is not None else None)
 
 
-def drive(responding: Responding, run: Callable[[Ask], Asked]) -> Response:
-    """Run the protocol to its response, each search with ``run`` (in process: benches and tests)."""
+def set_off_sooner(send: Send, spec: SearchSpec, idle_risk: float, policy: Policy) -> Generator[Ask, Asked, Send]:
+    """``send``'s move judged again to set off as soon as one judgement allows, for a search that ended well
+    before the moment it imagined the move setting off (its estimate of a candidate's cost was too high, as
+    it is before any search has been timed).
+
+    ``spec`` is the search's, with the robot's move under way now as its ``current`` (a head start sent on the
+    way, if one was). The move goes out sooner, with its new verdict and set-off time, when it is still chosen
+    (:func:`~agents.caregiving.model.move_search.choose`), safe if it was safe, and of no worse a
+    :func:`~agents.caregiving.model.move_search.standing`; otherwise ``send`` stands, to be held as it was.
+    """
+    chosen = send.chosen
+    found = (yield Ask(spec, idle_risk, (chosen.move,))).found
+    sooner = found.chosen if found is not None else None
+    if found is None or sooner is None or found.sets_off is None:
+        return send
+    if chosen.safe(policy.threshold) and not sooner.safe(policy.threshold):
+        return send
+    if standing(sooner, policy.robot)[0] > standing(chosen, policy.robot)[0]:
+        return send
+    return replace(send, chosen=sooner, sets_off=found.sets_off)
+
+
+T = TypeVar("T")
+
+
+def drive(responding: Generator[Ask, Asked, T], run: Callable[[Ask], Asked]) -> T:
+    """Run a protocol (:func:`respond`, :func:`set_off_sooner`) to its end, each search with ``run`` (in process:
+    benches and tests)."""
     try:
         ask = next(responding)
         while True:
             ask = responding.send(run(ask))
     except StopIteration as done:
-        response: Response = done.value
-        return response
+        ended: T = done.value
+        return ended
