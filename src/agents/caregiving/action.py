@@ -17,8 +17,9 @@ flow of Algorithm 2 and nothing more:
   perception's uncertainty sampled; a move that makes anything worse is never
   chosen), and sends its head start back as soon as it is found, which is written
   at once as an intention with ``head_start`` set;
-* the response is written to W; a move whose search ended sooner than the search
-  imagined it setting off is held until then.
+* the response is written to W; a move whose search ended well before the moment
+  it imagined the move setting off is judged once more, to set off now, and sent
+  at once if it still does what it was chosen for; otherwise it is held until then.
 
 The chosen move becomes the robot's ``intention`` node (``move_to``, target,
 final pose, ``status: proposed``, ``in_time``, ``reason``; or ``stop``, its target
@@ -165,8 +166,11 @@ class Action(Agent):
         now = replace(spec, current=move_of(under_way, ctx) if under_way is not None else None)
         idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
         judged = await self._drive(ctx, set_off_sooner(send, now, idle_risk, self._policy(ctx)))
-        if judged is not send:
-            self.log.info("move sent sooner", was_held_ms=round(early * 1e3, 1), risk=round(judged.chosen.risk, 2))
+        self.log.info(
+            "move judged again to set off sooner",
+            sent=judged is not send,
+            hold_ms=round(early * 1e3, 1),
+        )
         return judged
 
     async def _until_set_off(self, ctx: Context, sets_off: float) -> None:
