@@ -7,13 +7,14 @@ lasts, and keeps, doubts or replaces the move under way. This bench runs
 on ``--draws`` draws of every saveable trial, from the moment the run first saw
 its danger, and counts the draws where nobody touches anything (``saved``), those
 where someone walks into the robot (``into_robot``), the looks, the commands sent
-to the robot, the candidates judged and the responses by kind. ``--first-look-only``
+to the robot, the candidates judged and the responses by kind. ``--belief-noise`` draws the beliefs with one
+of the sensor model's errors alone (or none), which shows what each costs. ``--first-look-only``
 acts on the first look alone and drives its move on, which shows what looking
 again buys. The draws are seeded per trial, so two versions are compared on the
 same beliefs.
 
     python bench/bench_closed_loop.py [--draws N] [--look S] [--retry S] [--first-look-only]
-        [--no-sampled-risk] [--json PATH] [--every-room | RUN ...]
+        [--no-sampled-risk] [--belief-noise KIND] [--json PATH] [--every-room | RUN ...]
 """
 
 from __future__ import annotations
@@ -26,6 +27,16 @@ from bench_move_search import RUNS, THRESHOLD, cases, every_room
 from bench_move_search_noisy import add_belief_arguments
 from bridges.experiment.beliefs import Noise
 from bridges.experiment.closed_loop import Setup, closed_loop
+
+#: The sensor model's errors a belief can be drawn with: factors of the objects' position sigma, the size error
+#: bound, and the people's position and heading sigmas.
+BELIEF_NOISE = {
+    "all": (1.0, 1.0, 1.0),
+    "none": (0.0, 0.0, 0.0),
+    "people": (0.0, 0.0, 1.0),
+    "object-positions": (1.0, 0.0, 0.0),
+    "object-sizes": (0.0, 1.0, 0.0),
+}
 
 
 def closed_loops(runs: list[str], draws: int, setup: Setup) -> dict[str, object]:
@@ -71,12 +82,18 @@ def main() -> None:
     p.add_argument("--first-look-only", action="store_true", help="act on the first look only, and drive its move on")
     p.add_argument("--no-sampled-risk", action="store_true", help="search without sampling uncertainty")
     p.add_argument(
+        "--belief-noise",
+        choices=sorted(BELIEF_NOISE),
+        default="all",
+        help="which of the sensor model's errors the beliefs are drawn with (default: all; none: the exact scene)",
+    )
+    p.add_argument(
         "--every-room", action="store_true", help="one recorded run of each room and seed in docs/results (no RUN)"
     )
     args = p.parse_args()
     if args.every_room:
         args.runs = every_room()
-    noise = Noise(sampled_risk=not args.no_sampled_risk)
+    noise = Noise(*BELIEF_NOISE[args.belief_noise], sampled_risk=not args.no_sampled_risk)
     setup = Setup(args.delay, args.judging, args.look, args.retry, args.first_look_only, noise, THRESHOLD)
     found = closed_loops(args.runs, args.draws, setup)
     benchlib.report_draws(
@@ -90,6 +107,7 @@ def main() -> None:
             "retry": args.retry,
             "first_look_only": args.first_look_only,
             "sampled_risk": noise.sampled_risk,
+            "belief_noise": args.belief_noise,
         },
         found,
     )

@@ -6,6 +6,7 @@ danger, the robot starting one world step later and 20 ms later per candidate ju
 """
 
 import math
+from dataclasses import replace
 from functools import partial
 
 import pytest
@@ -30,7 +31,9 @@ from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.verdict import Fall, Verdict
+from bridges.experiment.beliefs import perception_uncertainty
 from bridges.experiment.oracle import saves, world_at
+from bridges.experiment.perfect_belief import saved_in_truth
 
 NOISY_SLOW_ROBOT = HELD_OUT / "noisy_slow_robot.yaml"
 HURRIED_WALKER = HELD_OUT / "hurried_walker.yaml"
@@ -52,6 +55,23 @@ def test_a_swerve_saves_a_person_who_grazes_the_obstacle_walking_round_the_stand
     # Without the swerves, none of the next candidates the search would judge saves the person in time.
     plain = [m for m in candidates(scene, spec.dangers)][2:8]
     assert not any(saves(world_at(trial, 0.65 + DELAY + JUDGING * (k + 3), planner), m) for k, m in enumerate(plain))
+
+
+def test_a_first_stand_off_clear_but_passed_too_close_gets_swerves_that_clear_the_obstacle_by_more() -> None:
+    """The box room at seed 11, trial 12: the person walks round the robot behind the box clear of it, but so close
+    that in 39 % of the worlds perception's noise allows they touch it. A swerve widens the detour: the search
+    sends it with no sampled risk, and it saves the person in the truth."""
+    trial, planner, scene, spec = recorded_case("box_obstacle", 11, 12, 0.65)
+    uncertainty = perception_uncertainty(scene, trial.sensors, 0.65, 12)
+    result = search(scene, spec, partial(serve_one, scene), uncertainty, THRESHOLD, 24, judging=JUDGING)
+
+    first = result.verdicts[0]
+    assert first.move is not None and first.clear and not first.safe(THRESHOLD) and not first.falls
+    assert first.near is not None and first.near.obstacle == spec.dangers[0].obstacle
+    shifted = swerves(scene, spec.dangers[0], first.move, first)
+    assert shifted and swerves(scene, spec.dangers[0], first.move, replace(first, near=None)) == []
+    assert result.chosen is not None and result.chosen.move in shifted and result.chosen.risk < first.risk
+    assert saved_in_truth(trial, 0.65, planner, DELAY, JUDGING, result)
 
 
 @pytest.fixture(scope="module")
@@ -110,10 +130,11 @@ def test_the_swerves_come_third_and_no_candidate_repeats(paper: tuple[Scene, Dan
     assert with_swerves[:2] == plain[:2] and with_swerves[2 : 2 + len(shifted)] == shifted
 
 
-def test_a_verdicts_falls_survive_the_wire() -> None:
+def test_a_verdicts_falls_and_sampled_contact_survive_the_wire() -> None:
     v = Verdict(RobotMove("ball", 1.0, 2.0, 0.5), False, 0.1, 3.0, "why", (Fall(1, "ann", "ball", (0.5, 0.25)),))
     stuck = Verdict(None, False, 1.0, None, "stuck", (Fall(0, "ann", None, None),))
-    for verdict in (v, stuck):
+    near = Verdict(RobotMove("ball", 1.0, 2.0, 0.5), True, 0.3, 3.0, "close", near=Fall(1, "ann", "ball", (0.5, 0.2)))
+    for verdict in (v, stuck, near):
         assert Verdict.from_fields(Fields(verdict.to_wire(), "verdict", ReplyError)) == verdict
     with pytest.raises(ReplyError, match=r"verdict.falls\[0\].walk_set"):
         Verdict.from_fields(

@@ -305,10 +305,12 @@ def swerves(scene: Scene, danger: Danger, move: RobotMove, verdict: Verdict) -> 
     A robot standing past the obstacle makes a person who sees it walk round it; when that detour is too
     tight, they graze the obstacle on the side they pass it. The same stand-off moved towards that side
     widens the detour. The graze may be at any gaze class: at the one found risky, or, when the move
-    clears that one, at another, where the person still passes the obstacle on the same side. Nothing
-    when nobody grazed the obstacle of the danger, or the touch was head-on.
+    clears that one, at another, where the person still passes the obstacle on the same side. A move that
+    clears the obstacle with a sampled risk of touching it (``verdict.near``) passes too close on that side
+    as well. Nothing when nobody grazed the obstacle of the danger, or the touch was head-on.
     """
-    fall = next((f for f in verdict.falls if f.person == danger.person and f.obstacle == danger.obstacle), None)
+    touches = [*verdict.falls, *([verdict.near] if verdict.near else [])]
+    fall = next((f for f in touches if f.person == danger.person and f.obstacle == danger.obstacle), None)
     if (
         fall is None
         or fall.point is None

@@ -219,6 +219,7 @@ def judge(
     endangered = {d.person for d in falling.dangers} if isinstance(falling, SearchSpec) else None
     arrival, risk, worst, refused = None, 0.0, "", ""
     falls: list[Fall] = []
+    near: Fall | None = None
     for k, a in enumerate(answers):
         if a.joint is None:
             return Verdict(move, False, 1.0, None, f"not imagined: {a.error}")
@@ -249,11 +250,13 @@ def judge(
             continue
         if sampled.probability >= risk:
             risk, worst = sampled.probability, sampled.obstacle or ""
+            touching = sampled.probability > 0.0 and sampled.person is not None
+            near = Fall(k, str(sampled.person), sampled.obstacle, sampled.point) if touching else None
     if falls:
         # A move refused in the first walk set (the gaze class found risky) was not imagined in the others.
         return Verdict(move, False, 1.0 if falls[0].walk_set == 0 else risk, arrival, refused, tuple(falls))
     reason = f"everyone imagined walks clear; sampled risk {risk:.2f}" + (f" ({worst})" if risk > 0 else "")
-    return Verdict(move, True, risk, arrival, reason)
+    return Verdict(move, True, risk, arrival, reason, near=near)
 
 
 def _excused(falling: Mapping[str, str] | SearchSpec | None, joint: JointImagination) -> Mapping[str, str]:

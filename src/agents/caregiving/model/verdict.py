@@ -53,7 +53,8 @@ class Verdict:
 
     ``falls`` holds the first fall of each walk set imagined that is not clear (a move refused in the
     first set is not imagined in the others). ``risk`` is sampled over the sets that are clear: 1.0 when
-    the first is not.
+    the first is not. ``near`` is where a clear move's largest sampled risk lies: the walk set, whose walk,
+    what they may touch and the earliest sampled contact (``None`` when no risk was sampled).
     """
 
     move: RobotMove | None
@@ -62,6 +63,7 @@ class Verdict:
     arrival: float | None
     reason: str
     falls: tuple[Fall, ...] = ()
+    near: Fall | None = None
 
     def safe(self, threshold: float) -> bool:
         """Clear in every walk set, and the sampled risk under ``threshold``."""
@@ -89,6 +91,7 @@ class Verdict:
             "arrival": self.arrival,
             "reason": self.reason,
             "falls": [fall.to_wire() for fall in self.falls],
+            "near": self.near.to_wire() if self.near else None,
         }
 
     @classmethod
@@ -101,6 +104,7 @@ class Verdict:
             f.optional_number("arrival"),
             f.string("reason"),
             tuple(Fall.from_fields(fall) for fall in f.children("falls", [])),
+            Fall.from_fields(near) if (near := f.optional_child("near")) is not None else None,
         )
 
 
