@@ -143,17 +143,20 @@ class Action(Agent):
         started = time.perf_counter()
         current = move_under_way(self.g)
         spec = search_spec(self.g, ctx, dangers, current, walking(self.args))
-        response, led = await self._respond(ctx, spec, dangers, current, started)
+        idle_risks = {p: e.get("probability", 1.0) for p, (e, _) in dangers.items()}
+        response, led = await self._respond(ctx, spec, idle_risks, dangers, current, started)
         if isinstance(response, Send) and response.sets_off is not None:
-            response = await self._sooner(ctx, spec, dangers, response, response.sets_off, led or current)
-            await self._until_set_off(ctx, response.sets_off or 0.0)
+            response = await self._sooner(
+                ctx, spec, max(idle_risks.values()), response, response.sets_off, led or current
+            )
+            await self._until_set_off(ctx, response.sets_off)
             world = self.g.find_node(WORLD)
             if world is None or episode_of(world) != ctx.episode:
                 return  # the trial ended while the move was held
         self._act(ctx, dangers, response, led or current, led, started)
 
     async def _sooner(
-        self, ctx: Context, spec: SearchSpec, dangers: Dangers, send: Send, sets_off: float, under_way: Node | None
+        self, ctx: Context, spec: SearchSpec, idle_risk: float, send: Send, sets_off: float, under_way: Node | None
     ) -> Send:
         """``send``, or its move judged again to set off now (:func:`set_off_sooner`) when its search ended more
         than two candidates' estimated cost before ``sets_off``, the moment it imagined the move setting off.
@@ -164,7 +167,6 @@ class Action(Agent):
         if early <= 2 * self.judging.seconds * self.clock.rate(self.g) or send.braking or send.unsaved:
             return send
         now = replace(spec, current=move_of(under_way, ctx) if under_way is not None else None)
-        idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
         judged = await self._drive(ctx, set_off_sooner(send, now, idle_risk, self._policy(ctx)))
         self.log.info(
             "move judged again to set off sooner",
@@ -173,7 +175,7 @@ class Action(Agent):
         )
         return judged
 
-    async def _until_set_off(self, ctx: Context, sets_off: float) -> None:
+    async def _until_set_off(self, ctx: Context, sets_off: float | None) -> None:
         """Wait until a move written now would reach the world no sooner than its search imagined it setting
         off, ``sets_off`` simulated seconds after the context, give or take one world step (the world takes a
         command at its next step).
@@ -182,13 +184,21 @@ class Action(Agent):
         estimate of a candidate's cost; a search that ends sooner than that would otherwise send the robot
         on its way before the moment its move was judged for, into a room where people are elsewhere.
         """
+        if sets_off is None:
+            return
         early = sets_off - self._delay(ctx) - DT
         if early > 0.0:
             self.log.info("move held", until_s=round(sets_off, 3), held_ms=round(early * 1e3, 1))
             await asyncio.sleep(early / self.clock.rate(self.g))
 
     async def _respond(
-        self, ctx: Context, spec: SearchSpec, dangers: Dangers, current: Node | None, started: float
+        self,
+        ctx: Context,
+        spec: SearchSpec,
+        idle_risks: dict[str, float],
+        dangers: Dangers,
+        current: Node | None,
+        started: float,
     ) -> tuple[Response, Node | None]:
         """Run :func:`respond`, each search it asks for by the simulator; also the head start written, if any."""
         self.rpc_ms = self.sim_ms = 0.0
@@ -208,9 +218,7 @@ class Action(Agent):
             if current is not None
             else None
         )
-        responding = respond(
-            spec, {p: e.get("probability", 1.0) for p, (e, _) in dangers.items()}, under_way, self._policy(ctx)
-        )
+        responding = respond(spec, idle_risks, under_way, self._policy(ctx))
         return await self._drive(ctx, responding, lead, lambda: led is not None), led
 
     async def _drive(
