@@ -146,9 +146,7 @@ class Action(Agent):
         idle_risks = {p: e.get("probability", 1.0) for p, (e, _) in dangers.items()}
         response, led = await self._respond(ctx, spec, idle_risks, dangers, current, started)
         if isinstance(response, Send) and response.sets_off is not None:
-            response = await self._sooner(
-                ctx, spec, max(idle_risks.values()), response, response.sets_off, led or current
-            )
+            response = await self._sooner(ctx, spec, max(idle_risks.values()), response, led or current)
             await self._until_set_off(ctx, response.sets_off)
             world = self.g.find_node(WORLD)
             if world is None or episode_of(world) != ctx.episode:
@@ -156,14 +154,14 @@ class Action(Agent):
         self._act(ctx, dangers, response, led or current, led, started)
 
     async def _sooner(
-        self, ctx: Context, spec: SearchSpec, idle_risk: float, send: Send, sets_off: float, under_way: Node | None
+        self, ctx: Context, spec: SearchSpec, idle_risk: float, send: Send, under_way: Node | None
     ) -> Send:
         """``send``, or its move judged again to set off now (:func:`set_off_sooner`) when its search ended more
-        than two candidates' estimated cost before ``sets_off``, the moment it imagined the move setting off.
+        than two candidates' estimated cost before the moment it imagined the move setting off.
 
         Only a move that protects every endangered person is judged again; braking is sent as found.
         """
-        early = sets_off - self._delay(ctx) - DT
+        early = self._early(ctx, send.sets_off)
         if early <= 2 * self.judging.seconds * self.clock.rate(self.g) or send.braking or send.unsaved:
             return send
         now = replace(spec, current=move_of(under_way, ctx) if under_way is not None else None)
@@ -184,12 +182,15 @@ class Action(Agent):
         estimate of a candidate's cost; a search that ends sooner than that would otherwise send the robot
         on its way before the moment its move was judged for, into a room where people are elsewhere.
         """
-        if sets_off is None:
-            return
-        early = sets_off - self._delay(ctx) - DT
-        if early > 0.0:
+        early = self._early(ctx, sets_off)
+        if sets_off is not None and early > 0.0:
             self.log.info("move held", until_s=round(sets_off, 3), held_ms=round(early * 1e3, 1))
             await asyncio.sleep(early / self.clock.rate(self.g))
+
+    def _early(self, ctx: Context, sets_off: float | None) -> float:
+        """How many simulated seconds before ``sets_off`` (after the context) a move written now would reach the
+        world, give or take one world step; 0 without a set-off time."""
+        return sets_off - self._delay(ctx) - DT if sets_off is not None else 0.0
 
     async def _respond(
         self,
