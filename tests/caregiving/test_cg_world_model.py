@@ -179,6 +179,8 @@ def test_advancing_in_bulk_ends_as_stepping_does(scenario: str) -> None:
             assert bulk.robot_seen == pytest.approx(stepped.robot_seen, abs=1e-9)
             for p in s.people:
                 assert np.allclose(bulk.walker(p.name).track, stepped.walker(p.name).track, atol=1e-9, rtol=0)
+                # The length walked bounds when a thing out of sight can show (World._sees): step by step.
+                assert bulk.walker(p.name).travelled == pytest.approx(stepped.walker(p.name).travelled, abs=1e-9)
             checked += 1
             bulk_steps += bulk.steps
             single_steps += round(stepped.time / stepped.dt)
