@@ -41,13 +41,13 @@ from pathlib import Path
 from typing import Any
 
 import benchlib
-from agents.caregiving.model import candidates, move_search
+from agents.caregiving.model import candidates, judging, move_search
 from agents.caregiving.model.candidates import Danger
-from agents.caregiving.model.move_search import SearchSpec
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.robot_moves import RobotMove, robot_fits
 from agents.caregiving.model.scenario import Scenario, load_scenario
 from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
 from bridges.experiment.perfect_belief import perfect_belief_spec, saved_in_truth
@@ -208,7 +208,7 @@ def every_candidate(runs: list[str], delay: float) -> dict[str, object]:
         alone = replace(spec, dangers=(danger,))
         verdicts = []
         for kind, m, until, in_the_way in kinds(scene, danger, delay):
-            ok = move_search.judge_move(alone, m, partial(serve_one, scene), EXACT, scene.robot_name).safe(THRESHOLD)
+            ok = judging.judge_move(alone, m, partial(serve_one, scene), EXACT, scene.robot_name).safe(THRESHOLD)
             verdicts.append((kind, ok))
             reached = candidates.drive_time(scene, m.x, m.y) < until - delay
             way = (

@@ -44,7 +44,7 @@ from functools import partial
 import numpy as np
 
 import benchlib
-from agents.caregiving.model import move_search
+from agents.caregiving.model import move_choice, move_search
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.world_model import World
 from bench_move_search import RUNS, THRESHOLD, cases
@@ -137,7 +137,7 @@ def main() -> None:
     p.add_argument(
         "--settle-after-clear",
         type=int,
-        default=move_search.SETTLE_AFTER_CLEAR,
+        default=move_choice.SETTLE_AFTER_CLEAR,
         help="candidates judged past the first clear move before settling (default: %(default)s; 24: never)",
     )
     p.add_argument("--object-scale", type=float, default=1.0, help="times the noise drawn on objects' positions")

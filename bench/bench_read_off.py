@@ -1,8 +1,8 @@
 """The first candidate after a head start: its verdict read off the head start's imagination, against judged again.
 
 After a head start is sent, the search's first candidate is the head start's own move driven on, and
-its verdict is read off the head start's answers (``move_search.driven_on``) instead of imagined
-again (``move_search.judge_move``). For each truly risky trial of the runs named (the ``wm experiment``
+its verdict is read off the head start's answers (``judging.driven_on``) instead of imagined
+again (``judging.judge_move``). For each truly risky trial of the runs named (the ``wm experiment``
 JSON files in ``docs/results/``), at the moment the run first saw the danger, with perfect belief and
 the risk sampled as the action agent samples it round the scenario's sensor model, the head start is
 judged; where it is harmless, the first candidate is both judged and read off. The bench counts the
@@ -23,7 +23,8 @@ from typing import TypeVar
 import benchlib
 from agents.caregiving.model.candidates import candidates
 from agents.caregiving.model.imagine import planner_for
-from agents.caregiving.model.move_search import NoWorse, driven_on, judge_lead, judge_move
+from agents.caregiving.model.judging import driven_on, judge_lead, judge_move
+from agents.caregiving.model.move_choice import NoWorse
 from agents.caregiving.model.service import serve_one
 from bench_move_search import THRESHOLD, cases, search_spec
 from bridges.experiment.beliefs import perception_uncertainty

@@ -6,10 +6,10 @@ later and 20 ms later per candidate judged.
 
 from pathlib import Path
 
-from agents.caregiving.model.move_search import SearchSpec
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import Scenario, load_scenario
 from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.uncertainty import Uncertainty
 from bridges.experiment.perfect_belief import perfect_belief_spec
 from bridges.world.bridge import trial_for

@@ -18,17 +18,12 @@ from agents.caregiving.model.candidates import candidates
 from agents.caregiving.model.imagine_reply import Answer, ImagineReply
 from agents.caregiving.model.imagine_request import JointItem
 from agents.caregiving.model.joint import imagine_joint
-from agents.caregiving.model.move_search import (
-    NoWorse,
-    SearchItem,
-    SearchSpec,
-    driven_on,
-    judge_lead,
-    judge_move,
-    search,
-)
+from agents.caregiving.model.judging import driven_on, judge_lead, judge_move
+from agents.caregiving.model.move_choice import NoWorse
+from agents.caregiving.model.move_search import SearchItem, search
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.service import item_from_wire, serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import Verdict

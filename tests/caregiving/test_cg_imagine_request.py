@@ -7,8 +7,9 @@ import pytest
 from agents.caregiving.model.candidates import Danger
 from agents.caregiving.model.errors import RequestError
 from agents.caregiving.model.imagine_request import JointItem, PersonItem
-from agents.caregiving.model.move_search import SearchItem, SearchSpec
+from agents.caregiving.model.move_search import SearchItem
 from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.service import item_from_wire
 from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.world_model import Walk

@@ -16,10 +16,11 @@ from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.imagine_request import JointItem
 from agents.caregiving.model.judge_ahead import JudgeAhead
-from agents.caregiving.model.move_search import SearchSpec, search
+from agents.caregiving.model.move_search import search
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import SearchResult, Verdict

@@ -14,23 +14,14 @@ from agents.caregiving.model.guesses import unguessed_walks
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.imagine_reply import Answer, decode_answer, encode_answer
 from agents.caregiving.model.imagine_request import JointItem, uncertainty_to_wire
-from agents.caregiving.model.move_search import (
-    NoWorse,
-    SearchSpec,
-    Settles,
-    choose,
-    falls_anyway,
-    gives_up,
-    holds,
-    judge,
-    judge_move,
-    replaces,
-    search,
-)
+from agents.caregiving.model.judging import falls_anyway, judge, judge_move
+from agents.caregiving.model.move_choice import NoWorse, Settles, choose, gives_up, holds, replaces
+from agents.caregiving.model.move_search import search
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.robot_moves import RobotMove, robot_fits
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Risk, Uncertainty
 from agents.caregiving.model.verdict import Fall, SearchResult, Verdict

@@ -10,7 +10,7 @@ import pytest
 from recorded_cases import DELAY, EXACT, JUDGING, THRESHOLD, recorded_case
 
 from agents.caregiving.model.candidates import Danger
-from agents.caregiving.model.move_search import SearchSpec, search
+from agents.caregiving.model.move_search import search
 from agents.caregiving.model.response import (
     Ask,
     Asked,
@@ -27,6 +27,7 @@ from agents.caregiving.model.response import (
     set_off_sooner,
 )
 from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.verdict import Fall, SearchResult, Verdict
 from bridges.experiment.perfect_belief import saved_in_truth

@@ -25,10 +25,12 @@ from agents.caregiving.model.candidates import (
 from agents.caregiving.model.errors import ReplyError
 from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.imagine import imagine_person
-from agents.caregiving.model.move_search import NoWorse, SearchSpec, search
+from agents.caregiving.model.move_choice import NoWorse
+from agents.caregiving.model.move_search import search
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.verdict import Fall, Verdict
 from bridges.experiment.beliefs import perception_uncertainty

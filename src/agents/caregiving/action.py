@@ -39,7 +39,6 @@ from typing import TypeVar
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
-from agents.caregiving.model.move_search import SearchSpec
 from agents.caregiving.model.response import (
     Ask,
     Asked,
@@ -54,6 +53,7 @@ from agents.caregiving.model.response import (
     set_off_sooner,
 )
 from agents.caregiving.model.rollout import DT
+from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import SearchResult, Verdict
 from wm import Event, Node

@@ -3,7 +3,7 @@
 Algorithm 1 leaves each person's guessed walks in W as ``has_intention`` edges
 (risky ones with their path, collision point, object and time to collision);
 the robot's own moves are ``intention`` nodes linked ``robot -has-> intention``.
-These functions turn the first into the :class:`~agents.caregiving.model.move_search.SearchSpec`
+These functions turn the first into the :class:`~agents.caregiving.model.search_spec.SearchSpec`
 the search takes, and the search's choice back into an intention node, so that
 the action agent is only the flow of Algorithm 2.
 """
@@ -16,9 +16,9 @@ from collections.abc import Mapping
 
 from agents.caregiving.model.candidates import Danger
 from agents.caregiving.model.guesses import DEFAULT_WALKING, Walking, unguessed_walks
-from agents.caregiving.model.move_search import SearchSpec
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.scene import PersonState
+from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.verdict import Verdict
 from agents.caregiving.model.visibility import GazeClass, gaze_classes
 from agents.caregiving.model.world_model import Walk

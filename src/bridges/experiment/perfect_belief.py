@@ -14,10 +14,10 @@ from collections.abc import Sequence
 
 from agents.caregiving.model.candidates import Danger
 from agents.caregiving.model.imagine import imagine_person
-from agents.caregiving.model.move_search import SearchSpec
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import Scenario
 from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.verdict import SearchResult
 from agents.caregiving.model.visibility import WALL_KIND, gaze_classes
 from agents.caregiving.model.world_model import Outcome, Walk, World

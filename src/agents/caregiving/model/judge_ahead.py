@@ -5,7 +5,7 @@ candidates in order and stops at the first safe one. On a machine with a second
 core, once the first candidate has failed, it judges the next one in order itself
 and lends the helper the ones after it, then reads the verdicts in candidate
 order; after a head start is sent, the first verdict is read off the head
-start's (:func:`~agents.caregiving.model.move_search.driven_on`), so that happens
+start's (:func:`~agents.caregiving.model.judging.driven_on`), so that happens
 at once. Every candidate is judged with exactly the inputs it would have in a
 lone search (scene, walks, the robot's start delay), so the verdicts and the
 chosen move are those of the lone search; only the wall time differs.

@@ -11,8 +11,8 @@ return value is the :class:`Response`.
 The steps, in order:
 
 * a move under way is judged again from the robot's current state first; it is
-  kept while it :func:`~agents.caregiving.model.move_search.holds`, and kept for
-  one more look while it does not :func:`~agents.caregiving.model.move_search.gives_up`;
+  kept while it :func:`~agents.caregiving.model.move_choice.holds`, and kept for
+  one more look while it does not :func:`~agents.caregiving.model.move_choice.gives_up`;
 * otherwise one search protects every endangered person, the candidates of all
   their dangers interleaved. A robot at rest does not stand idle while it judges:
   when every danger is at least even odds
@@ -25,13 +25,13 @@ The steps, in order:
 * when no single move keeps everyone safe, each danger is searched alone, most
   urgent first, and the first move found is sent with the people it leaves unsaved;
 * a new move replaces the one under way only when it
-  :func:`~agents.caregiving.model.move_search.replaces` it;
+  :func:`~agents.caregiving.model.move_choice.replaces` it;
 * when none is found: a head start ends in braking (when the search found braking
   harmless), and a move under way that walks someone into the robot or leaves
   them stuck is braked if braking ranks clearly above carrying on.
 
 No search chooses a move whose imagination shows a fall that would not happen
-without it (:class:`~agents.caregiving.model.move_search.NoWorse`): the robot never
+without it (:class:`~agents.caregiving.model.move_choice.NoWorse`): the robot never
 causes a collision its imagination can see.
 """
 
@@ -41,8 +41,10 @@ from collections.abc import Callable, Generator, Mapping
 from dataclasses import dataclass, replace
 from typing import TypeVar
 
-from .move_search import HEAD_START_RISK, SearchItem, SearchSpec, gives_up, holds, replaces, standing
+from .move_choice import gives_up, holds, replaces, standing
+from .move_search import HEAD_START_RISK, SearchItem
 from .robot_moves import RobotMove
+from .search_spec import SearchSpec
 from .uncertainty import Uncertainty
 from .verdict import SearchResult, Verdict
 
@@ -226,8 +228,8 @@ def set_off_sooner(send: Send, spec: SearchSpec, idle_risk: float, policy: Polic
 
     ``spec`` is the search's, with the robot's move under way now as its ``current`` (a head start sent on the
     way, if one was). The move goes out sooner, with its new verdict and set-off time, when it is still chosen
-    (:func:`~agents.caregiving.model.move_search.choose`), safe if it was safe, and of no worse a
-    :func:`~agents.caregiving.model.move_search.standing`; otherwise ``send`` stands, to be held as it was.
+    (:func:`~agents.caregiving.model.move_choice.choose`), safe if it was safe, and of no worse a
+    :func:`~agents.caregiving.model.move_choice.standing`; otherwise ``send`` stands, to be held as it was.
     """
     chosen = send.chosen
     found = (yield Ask(spec, idle_risk, (chosen.move,))).found

@@ -13,7 +13,7 @@ A request is a msgpack map ``{"items": [ITEM, ...], "scene": SCENE?}``. An ITEM 
   (:func:`agents.caregiving.model.move_search.search`), each candidate (or each of ``moves``, when
   given) judged here with the joint items above, in order, up to the first safe one; a head start
   it finds on the way goes to the caller's ``head_start`` function at once;
-  ``SPEC`` is a :class:`~agents.caregiving.model.move_search.SearchSpec` in its wire form;
+  ``SPEC`` is a :class:`~agents.caregiving.model.search_spec.SearchSpec` in its wire form;
 
 with ``uncertainty = {"size_error", "sigma": {name: metres}, "samples", "seed"}``. The
 items are typed values in :mod:`agents.caregiving.model.imagine_request` (person and

@@ -1,0 +1,220 @@
+"""Judging one robot move: its joint imaginations folded into a :class:`~agents.caregiving.model.verdict.Verdict`.
+
+:func:`judge_move` imagines a move at every walk set of a :class:`SearchSpec` (the first alone
+when it already refuses the move), :func:`judge_lead` judges it as a head start, with the
+dangers' own falls let happen, and :func:`driven_on` reads a head start's own move off its
+imaginations. :func:`judge` folds the answers: a walk that is not clear refuses the move, and so
+does a pass closer to the robot than the :class:`RobotMargin` or a bystander's sampled risk.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
+from functools import partial
+
+from .imagine_reply import Answer, joint_answer
+from .imagine_request import JointItem
+from .joint import JointImagination, WalkOutcome
+from .robot_moves import RobotMove
+from .scene import Scene
+from .search_spec import SearchSpec
+from .uncertainty import NO_RISK, Uncertainty
+from .verdict import Fall, Verdict
+from .world_model import Walk
+
+#: Sigmas of perception's error in a person's position that the robot keeps clear of them when they cannot
+#: keep clear of it themselves (see :class:`RobotMargin`).
+MARGIN_SIGMAS = 2.0
+
+#: Answers one joint item (see :mod:`agents.caregiving.model.service`); the search's only way to imagine.
+Imagine = Callable[[JointItem], Answer]
+
+
+@dataclass(frozen=True)
+class RobotMargin:
+    """How near the robot may come to a person while it drives, or stands where they do not know it to be.
+
+    Perception may hold a person up to :data:`MARGIN_SIGMAS` sigmas of their position off, so an imagined
+    pass closer than that may be a touch in truth. Someone who knows where the resting robot stands walks
+    round it by their own plan, wherever they really are, and is not held to the margin.
+    """
+
+    robot: str
+    sigma: Mapping[str, float]
+
+    @classmethod
+    def of(cls, robot: str | None, uncertainty: Uncertainty) -> RobotMargin | None:
+        """The margin of ``robot`` under perception's ``uncertainty``; None for a scene without a robot."""
+        return cls(robot, uncertainty.sigma) if robot is not None else None
+
+    def too_close(self, walk: WalkOutcome) -> bool:
+        """Whether the walk passes the robot closer than the margin for that person."""
+        return walk.robot_clearance < MARGIN_SIGMAS * self.sigma.get(walk.walk.person, 0.0)
+
+
+def judge(
+    move: RobotMove | None,
+    answers: list[Answer],
+    falling: Mapping[str, str] | SearchSpec | None = None,
+    margin: RobotMargin | None = None,
+) -> Verdict:
+    """Fold a move's answers (one per walk set) into a verdict; the first walk that is not clear says why.
+
+    A fall that ``falling`` names (``{bystander: object}``, or a spec's :meth:`SearchSpec.falling_in` the
+    answer's walks) does not refuse the move. With ``margin``, a walk that passes the robot closer than it
+    allows refuses the move as a fall into the robot. Given a spec, a sampled risk that is a bystander's
+    (someone none of its dangers is about) refuses the move as a fall of theirs: the risk a move may keep is
+    the endangered person's, and a bystander's is one it may bring. (Whether the robot as it is brings them
+    as much is not asked: the largest sampled risk of a walk set is all an answer holds.)
+    """
+    endangered = {d.person for d in falling.dangers} if isinstance(falling, SearchSpec) else None
+    arrival, risk, worst, refused = None, 0.0, "", ""
+    falls: list[Fall] = []
+    near: Fall | None = None
+    for k, a in enumerate(answers):
+        if a.joint is None:
+            return Verdict(move, False, 1.0, None, f"not imagined: {a.error}")
+        if not a.joint.robot_reachable:
+            return Verdict(move, False, 1.0, None, "the robot cannot reach the pose")
+        arrival = a.joint.robot_arrival if arrival is None else arrival
+        excused = _excused(falling, a.joint)
+        w = next((w for w in a.joint.walks if not w.fine_given(excused)), None)
+        if w is not None:
+            falls.append(Fall(k, w.walk.person, w.collision_object if w.collided else None, w.collision_point))
+            what = f"into {w.collision_object}" if w.collided else "stuck"
+            refused = refused or f"{w.walk.person} walks {what} at gaze {math.degrees(w.walk.gaze):.0f} deg"
+            continue
+        if margin is not None and (close := next((w for w in a.joint.walks if margin.too_close(w)), None)):
+            falls.append(Fall(k, close.walk.person, margin.robot, None))
+            gap = f"{close.robot_clearance * 100:.0f} cm"
+            refused = (
+                refused
+                or f"{close.walk.person} passes {gap} from the robot at gaze {math.degrees(close.walk.gaze):.0f} deg"
+            )
+            continue
+        sampled = a.risk or NO_RISK
+        if endangered and sampled.probability > 0.0 and sampled.person not in (None, *endangered):
+            falls.append(Fall(k, str(sampled.person), sampled.obstacle, sampled.point))
+            refused = refused or (
+                f"{sampled.person}, a bystander, may walk into {sampled.obstacle} (sampled risk {sampled.probability:.2f})"
+            )
+            continue
+        if sampled.probability >= risk:
+            risk, worst = sampled.probability, sampled.obstacle or ""
+            touching = sampled.probability > 0.0 and sampled.person is not None
+            near = Fall(k, str(sampled.person), sampled.obstacle, sampled.point) if touching else None
+    if falls:
+        # A move refused in the first walk set (the gaze class found risky) was not imagined in the others.
+        return Verdict(move, False, 1.0 if falls[0].walk_set == 0 else risk, arrival, refused, tuple(falls))
+    reason = f"everyone imagined walks clear; sampled risk {risk:.2f}" + (f" ({worst})" if risk > 0 else "")
+    return Verdict(move, True, risk, arrival, reason, near=near)
+
+
+def _excused(falling: Mapping[str, str] | SearchSpec | None, joint: JointImagination) -> Mapping[str, str]:
+    """The falls that do not refuse a move in ``joint``'s walk set."""
+    if isinstance(falling, SearchSpec):
+        return falling.falling_in(w.walk for w in joint.walks)
+    return falling or {}
+
+
+def falls_anyway(spec: SearchSpec, imagine: Imagine, robot: str | None) -> tuple[tuple[Walk, str], ...]:
+    """The bystanders who walk into something in the first walk set with the robot as it is, the dangers' and
+    ``falling``'s own falls let happen: each one's walk and what they walk into (see :class:`SearchSpec`).
+
+    Such a fall happens whatever the robot does, so it must not refuse every move that saves someone else.
+    Walking into the robot is not among them: that one the robot can undo by moving.
+    """
+    if not spec.bystanders:
+        return ()
+    let_fall = spec.letting_dangers_fall()
+    joint = imagine(replace(let_fall.items(spec.current, None)[0], until_first_fall=False)).joint
+    if joint is None:
+        return ()
+    return tuple(
+        (w.walk, w.collision_object)
+        for w in joint.walks
+        if w.collision_object is not None and w.walk.person not in let_fall.falling and w.collision_object != robot
+    )
+
+
+def judge_move(
+    spec: SearchSpec, move: RobotMove | None, imagine: Imagine, uncertainty: Uncertainty, robot: str | None
+) -> Verdict:
+    """Judge one move (``None``: braking): the first walk set alone (most fail there), then the others if clear.
+
+    Everyone imagined is held to the :class:`RobotMargin` of ``robot`` (the scene's robot) under ``uncertainty``.
+    """
+    items = spec.items(move, uncertainty)
+    return _judged_in_turn(spec, move, [partial(imagine, item) for item in items], uncertainty, robot)
+
+
+def _judged_in_turn(
+    spec: SearchSpec,
+    move: RobotMove | None,
+    answers: Sequence[Callable[[], Answer]],
+    uncertainty: Uncertainty,
+    robot: str | None,
+) -> Verdict:
+    """:func:`judge_move`, with each walk set's answer got by calling ``answers[k]``, only when it is needed."""
+    margin = RobotMargin.of(robot, uncertainty)
+    first = [answers[0]()]
+    verdict = judge(move, first, spec, margin)
+    if not verdict.clear or len(answers) == 1:
+        return verdict
+    return judge(move, first + [answer() for answer in answers[1:]], spec, margin)
+
+
+def judge_lead(
+    spec: SearchSpec,
+    move: RobotMove | None,
+    imagine: Imagine,
+    uncertainty: Uncertainty,
+    robot: str | None,
+    before: Sequence[Answer] = (),
+) -> tuple[Verdict, list[Answer]]:
+    """Judge ``move`` as a head start (or, ``None``, braking at its end): at every walk set, the dangers' own
+    falls let happen. Returns the verdict and the answers, one per walk set.
+
+    The falls the dangers foresee happen with the robot idle too; what matters of a head start is
+    whether anyone else falls, or anyone walks into the robot, before a better move replaces it.
+    No risk is sampled: a head start is driven only while the search looks for a safe move.
+    ``before`` are answers of the same move judged with fewer falls excused: each one where no fall is
+    excused now is the imagination it would be again (it stops at the same fall), and is kept.
+    """
+    excused = spec.letting_dangers_fall()
+    answers = [
+        before[k] if k < len(before) and not _excuses_more(before[k], item.falling) else imagine(item)
+        for k, item in enumerate(excused.items(move, None))
+    ]
+    return judge(move, answers, excused, RobotMargin.of(robot, uncertainty)), answers
+
+
+def _excuses_more(answer: Answer, falling: Mapping[str, str]) -> bool:
+    """Whether ``falling`` excuses a fall of ``answer``'s imagination (or it has none to tell)."""
+    if answer.joint is None:
+        return True
+    return any(w.collided and falling.get(w.walk.person) == w.collision_object for w in answer.joint.walks)
+
+
+def driven_on(
+    scene: Scene, spec: SearchSpec, move: RobotMove, lead: Sequence[Answer], uncertainty: Uncertainty
+) -> Verdict | None:
+    """The verdict :func:`judge_move` gives the head start's own move driven on, read off the head start's answers.
+
+    Driven on, the robot does just what it does in the head start's imagination, and so does everyone:
+    the two imaginations part only where the head start lets a danger's own fall happen and goes on, and
+    the move's judgement stops (:meth:`JointImagination.stopped_at_first_fall`). The risk is sampled round
+    the same walks. None when that cannot be read off (see there).
+    """
+    answers: list[Callable[[], Answer]] = []
+    for a in lead:
+        if a.joint is None:
+            return None
+        excused = _excused(spec, a.joint)
+        stopped = a.joint.stopped_at_first_fall(excused)
+        if stopped is None:
+            return None
+        answers.append(partial(joint_answer, scene, stopped, uncertainty, excused))
+    return _judged_in_turn(spec, move, answers, uncertainty, scene.robot_name)

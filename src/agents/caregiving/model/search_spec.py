@@ -1,0 +1,154 @@
+"""What a move search must protect, and the walk sets every move is imagined with.
+
+A :class:`SearchSpec` names the dangers (each endangered person's risky walk), the gaze
+classes to imagine them at, the bystanders walking alongside, and the robot's state (the
+move under way, a head start sent). It travels to the simulator in its wire form
+(:mod:`agents.caregiving.model.move_search`), and :meth:`SearchSpec.items` turns one move into
+the simulator items that judge it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from .candidates import Danger
+from .fields import Fields
+from .imagine_request import MAX_DELAY, JointItem, falling_from_fields
+from .joint import walk_from_fields, walk_to_wire
+from .robot_moves import RobotMove
+from .uncertainty import Uncertainty
+from .world_model import Walk
+
+
+@dataclass(frozen=True)
+class SearchSpec:
+    """What a search must protect: the dangers, every gaze class to imagine their people at, and the bystanders.
+
+    ``gazes`` maps each endangered person to the gaze pitches (one per gaze class) their walk is imagined at;
+    ``bystanders`` are the other people's walks, imagined alongside so that a move never trips them: each
+    bystander's first walk is their likeliest, in every walk set; a later walk of the same bystander is one
+    they may be on instead, imagined in a walk set of its own (see :meth:`walk_sets`).
+    ``falling`` names the bystanders who walk into something with the robot as it is (their danger is not
+    searched now, say because no move saved them a moment ago), and what they walk into: a move is not
+    refused for that same fall, only for one it would cause.
+    ``falls_anyway`` pairs a bystander's walk with what they walk into on it with the robot as it is, the
+    search finds (see :func:`~agents.caregiving.model.judging.falls_anyway`): in a walk set where they walk it, a move is not refused for that
+    fall either.
+    ``current`` is the move the robot is driving now (if any), which it keeps for ``delay`` seconds.
+    ``lead`` is a head start the search sent (see :func:`~agents.caregiving.model.move_search.search`), driven for ``lead_for`` seconds after that.
+    """
+
+    dangers: tuple[Danger, ...]
+    gazes: dict[str, tuple[float, ...]]
+    known: dict[str, tuple[str, ...]]
+    bystanders: tuple[Walk, ...] = ()
+    current: RobotMove | None = None
+    delay: float = 0.0
+    falling: dict[str, str] = field(default_factory=dict)
+    lead: RobotMove | None = None
+    lead_for: float = 0.0
+    falls_anyway: tuple[tuple[Walk, str], ...] = ()
+
+    def falling_in(self, walks: Iterable[Walk]) -> dict[str, str]:
+        """The falls that do not refuse a move in a walk set of ``walks``: ``falling``'s, and ``falls_anyway``'s
+        where the bystander walks that walk."""
+        on = set(walks)
+        return {**self.falling, **{w.person: hit for w, hit in self.falls_anyway if w in on}}
+
+    def letting_dangers_fall(self) -> SearchSpec:
+        """The spec with the dangers' own falls let happen too, as they do with the robot idle."""
+        return replace(self, falling={**self.falling, **{d.person: d.obstacle for d in self.dangers}})
+
+    def walk_sets(self) -> list[tuple[Walk, ...]]:
+        """The sets of walks to imagine each move with: every gaze class of each endangered person in turn, with
+        every bystander on their likeliest walk; then each other walk a bystander may be on, in a set of its own
+        with the endangered people at the gaze found risky."""
+        first = {
+            d.person: Walk(d.person, d.target, self.gazes[d.person][0], self.known.get(d.person, ()))
+            for d in self.dangers
+        }
+        likeliest: dict[str, Walk] = {}
+        others: list[Walk] = []
+        for w in self.bystanders:
+            if w.person in likeliest:
+                others.append(w)
+            else:
+                likeliest[w.person] = w
+        sets = []
+        for d in self.dangers:
+            for gaze in self.gazes[d.person][1 if sets else 0 :]:
+                walks = dict(first)
+                walks[d.person] = Walk(d.person, d.target, gaze, self.known.get(d.person, ()))
+                sets.append(tuple(walks.values()) + tuple(likeliest.values()))
+        for w in others:
+            sets.append(tuple(first.values()) + tuple({**likeliest, w.person: w}.values()))
+        return sets
+
+    def items(self, move: RobotMove | None, uncertainty: Uncertainty | None) -> list[JointItem]:
+        """The simulator items that judge one move, one per walk set, each ending at the first fall that refuses it
+        (``uncertainty`` None: no risk sampled)."""
+        return [
+            JointItem(
+                walks,
+                move,
+                self.current,
+                self.delay,
+                uncertainty,
+                True,
+                self.falling_in(walks),
+                self.lead,
+                self.lead_for,
+            )
+            for walks in self.walk_sets()
+        ]
+
+    def to_wire(self) -> dict[str, Any]:
+        """A msgpack-friendly dict."""
+        return {
+            "dangers": [d.to_wire() for d in self.dangers],
+            "gazes": {p: list(g) for p, g in self.gazes.items()},
+            "known": {p: list(k) for p, k in self.known.items()},
+            "bystanders": [walk_to_wire(w) for w in self.bystanders],
+            "current": self.current.to_wire() if self.current else None,
+            "delay": self.delay,
+            "falling": dict(self.falling),
+            "lead": self.lead.to_wire() if self.lead else None,
+            "lead_for": self.lead_for,
+            "falls_anyway": [{"walk": walk_to_wire(w), "object": hit} for w, hit in self.falls_anyway],
+        }
+
+    @classmethod
+    def from_fields(cls, f: Fields) -> SearchSpec:
+        """Parse :meth:`to_wire` output nested in a larger message; every endangered person needs a gaze."""
+        dangers = tuple(Danger.from_fields(d) for d in f.children("dangers"))
+        if not dangers:
+            raise f.fail("dangers", "expected at least one danger")
+        gazes_f, known_f = f.child("gazes"), f.child("known", {})
+        gazes: dict[str, tuple[float, ...]] = {}
+        for d in dangers:
+            values = gazes_f.numbers(d.person)
+            if not values or not all(-math.pi / 2 <= g <= math.pi / 2 for g in values):
+                raise gazes_f.fail(d.person, "expected one or more pitches in [-pi/2, pi/2] rad")
+            gazes[d.person] = values
+        bystanders = tuple(walk_from_fields(w) for w in f.children("bystanders", []))
+        anyway = []
+        for fall in f.children("falls_anyway", []):
+            walk = walk_from_fields(fall.child("walk"))
+            if walk not in bystanders:
+                raise fall.fail("walk", "expected one of the bystanders' walks")
+            anyway.append((walk, fall.string("object")))
+        return cls(
+            dangers,
+            gazes,
+            {p: known_f.strings(p) for p in known_f.keys()},
+            bystanders,
+            RobotMove.optional_from(f, "current"),
+            f.number("delay", 0.0, non_negative=True, at_most=MAX_DELAY),
+            falling_from_fields(f.child("falling", {}), {w.person for w in bystanders}),
+            RobotMove.optional_from(f, "lead"),
+            f.number("lead_for", 0.0, non_negative=True, at_most=MAX_DELAY),
+            tuple(anyway),
+        )
