@@ -517,9 +517,10 @@ class World:
         headings, lengths = [], []
         hx, hy, heading = s.x, s.y, s.heading
         for x, y in zip(xs.tolist(), ys.tolist(), strict=True):
-            heading = math.atan2(y - hy, x - hx) if math.hypot(x - hx, y - hy) > 1e-9 else heading
+            length = math.hypot(x - hx, y - hy)
+            heading = math.atan2(y - hy, x - hx) if length > 1e-9 else heading
             headings.append(heading)
-            lengths.append(math.hypot(x - hx, y - hy))
+            lengths.append(length)
             hx, hy = x, y
         # The poses the person looks from: where they stand before each step.
         look_x = np.concatenate(([s.x], xs[:-1]))
@@ -570,8 +571,8 @@ class World:
             w.robot_clearance = min(w.robot_clearance, float(clear[:last, robot_column].min()))
         w.walked = float(walked[last - 1])
         w.state = s.moved(float(xs[last - 1]), float(ys[last - 1]), headings[last - 1])
-        for length in lengths[:last]:  # step by step, as the polygonal line through where they stood
-            w.travelled += length
+        for step_length in lengths[:last]:  # step by step, as the polygonal line through where they stood
+            w.travelled += step_length
         w.track.extend(zip(xs[:last].tolist(), ys[:last].tolist(), strict=True))
         end = starts[last - 1] + self.dt
         if w.walked >= route.length - 1e-9:
