@@ -36,12 +36,10 @@ from agents.caregiving.model.judging import judge_move
 from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.verdict import Verdict
-from agents.caregiving.model.world_model import World
 from bench_move_search import THRESHOLD, Case, cases
-from bridges.experiment.beliefs import Noise
-from bridges.experiment.closed_loop import Perception
-from bridges.experiment.oracle import saving_moves, world_at
-from bridges.experiment.perfect_belief import spec_on
+from bridges.experiment.beliefs import perception_uncertainty
+from bridges.experiment.oracle import saving_moves
+from bridges.experiment.perfect_belief import perfect_belief_spec
 
 
 def refusal(verdict: Verdict, spec: SearchSpec, robot: str | None) -> str:
@@ -58,19 +56,15 @@ def refusal(verdict: Verdict, spec: SearchSpec, robot: str | None) -> str:
 
 def classify(case: Case, delay: float, judging: float, max_moves: int) -> tuple[str, int]:
     """The class of one lost trial (see the module documentation), and how many moves save it commanded late."""
-    idle = World.from_scenario(case.trial, planner=case.planner)
-    idle.run(60.0)
-    truth = world_at(case.trial, case.at, case.planner)
-    perception = Perception(case.trial.sensors, Noise(0.0, 0.0, 0.0), (case.index, 0))
-    scene = perception.belief(truth.scene(), case.at, 0)
-    spec = spec_on(scene, idle, truth, delay, any_class=True)
-    if spec is None:
+    found = perfect_belief_spec(case.trial, case.at, case.planner, delay, any_class=True)
+    if found is None:
         return "no danger", 0
+    scene, spec = found
     commanded = delay + 2 * judging
     saving = saving_moves(case.trial, case.at + commanded, case.planner)
     if not saving:
         return "late", 0
-    uncertainty = perception.uncertainty(scene, case.at, 0)
+    uncertainty = perception_uncertainty(scene, case.trial.sensors, case.at, 0)  # as the loop's first look
     at = replace(spec, delay=commanded)
     verdicts = [
         judge_move(at, move, partial(serve_one, scene), uncertainty, scene.robot_name) for move in saving[:max_moves]

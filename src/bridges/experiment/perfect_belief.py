@@ -26,18 +26,18 @@ from .oracle import commanded, world_at
 
 
 def perfect_belief_spec(
-    trial: Scenario, at: float, planner: GridPlanner, delay: float
+    trial: Scenario, at: float, planner: GridPlanner, delay: float, any_class: bool = False
 ) -> tuple[Scene, SearchSpec] | None:
     """The exact scene at ``at`` and the spec of its dangers, the robot starting ``delay`` s later; None if none.
 
     Each endangered person knows the objects (and the robot) they have truly seen by then, as the intention
-    agent's ``knows`` edges would hold them.
+    agent's ``knows`` edges would hold them. ``any_class`` is :func:`spec_on`'s.
     """
     idle = World.from_scenario(trial, planner=planner)
     idle.run(60.0)
     now = world_at(trial, at, planner)
     scene = now.scene()
-    spec = spec_on(scene, idle, now, delay)
+    spec = spec_on(scene, idle, now, delay, any_class=any_class)
     return (scene, spec) if spec is not None else None
 
 
