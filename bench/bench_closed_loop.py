@@ -10,11 +10,12 @@ where someone walks into the robot (``into_robot``), the looks, the commands sen
 to the robot, the candidates judged and the responses by kind. ``--belief-noise`` draws the beliefs with one
 of the sensor model's errors alone (or none), which shows what each costs. ``--first-look-only``
 acts on the first look alone and drives its move on, which shows what looking
-again buys. The draws are seeded per trial, so two versions are compared on the
+again buys. ``--known-gaze`` judges moves at each endangered person's true gaze alone, as no
+sensor could, which shows what the gaze classes cost. The draws are seeded per trial, so two versions are compared on the
 same beliefs.
 
     python bench/bench_closed_loop.py [--draws N] [--look S] [--retry S] [--first-look-only]
-        [--no-sampled-risk] [--belief-noise KIND] [--json PATH] [--every-room | RUN ...]
+        [--no-sampled-risk] [--known-gaze] [--belief-noise KIND] [--json PATH] [--every-room | RUN ...]
 """
 
 from __future__ import annotations
@@ -81,6 +82,7 @@ def main() -> None:
     )
     p.add_argument("--first-look-only", action="store_true", help="act on the first look only, and drive its move on")
     p.add_argument("--no-sampled-risk", action="store_true", help="search without sampling uncertainty")
+    p.add_argument("--known-gaze", action="store_true", help="judge moves at the people's true gaze alone")
     p.add_argument(
         "--belief-noise",
         choices=sorted(BELIEF_NOISE),
@@ -94,7 +96,9 @@ def main() -> None:
     if args.every_room:
         args.runs = every_room()
     noise = Noise(*BELIEF_NOISE[args.belief_noise], sampled_risk=not args.no_sampled_risk)
-    setup = Setup(args.delay, args.judging, args.look, args.retry, args.first_look_only, noise, THRESHOLD)
+    setup = Setup(
+        args.delay, args.judging, args.look, args.retry, args.first_look_only, noise, THRESHOLD, args.known_gaze
+    )
     found = closed_loops(args.runs, args.draws, setup)
     benchlib.report_draws(
         "Algorithm 2 in a closed loop",
@@ -108,6 +112,7 @@ def main() -> None:
             "first_look_only": args.first_look_only,
             "sampled_risk": noise.sampled_risk,
             "belief_noise": args.belief_noise,
+            "known_gaze": args.known_gaze,
         },
         found,
     )

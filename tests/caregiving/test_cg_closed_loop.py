@@ -2,16 +2,20 @@
 
 Seed 2024's trial 50, from the moment the live run first saw its danger, on one drawn sequence of beliefs:
 acting on the first look alone, the robot's move fails in the truth; looking again every half second, as the
-action agent does, the response replaces it and the person is saved.
+action agent does, the response replaces it and the person is saved. And on the exact scene with no delay, a
+robot that knew the person's gaze saves one the gaze classes lose.
 """
 
 import pytest
-from recorded_cases import JUDGING, THRESHOLD
+from recorded_cases import HELD_OUT, JUDGING, THRESHOLD
 
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.world_model import World
 from bridges.experiment.beliefs import Noise
 from bridges.experiment.closed_loop import Setup, closed_loop
+from bridges.experiment.oracle import world_at
+from bridges.experiment.perfect_belief import spec_on
 from bridges.world.bridge import trial_for
 
 SEED, INDEX, AT, DRAW = 2024, 50, 0.6, 1
@@ -51,3 +55,39 @@ def test_the_same_seed_draws_the_same_loop(case) -> None:
         again.judged,
         again.responses,
     )
+
+
+KNOWN_GAZE_SEED, KNOWN_GAZE_INDEX, KNOWN_GAZE_AT = 5, 3, 0.65  # the office series, a run of docs/results/heldout
+
+
+def exact_and_at_once(known_gaze: bool) -> Setup:
+    """The exact scene, no sampled risk, no delay: the loop judges on the truth but for the person's gaze."""
+    return Setup(0.0, 0.0, 0.5, 0.5, False, Noise(0.0, 0.0, 0.0, sampled_risk=False), THRESHOLD, known_gaze)
+
+
+@pytest.fixture(scope="module")
+def office_case() -> tuple:
+    scenario = load_scenario(HELD_OUT / "office_series.yaml")
+    return trial_for(scenario, KNOWN_GAZE_SEED, KNOWN_GAZE_INDEX), GridPlanner(scenario.scene().bounds)
+
+
+def test_a_move_judged_at_the_gaze_classes_can_fail_where_the_true_gaze_saves(office_case) -> None:
+    trial, planner = office_case
+    by_class = closed_loop(trial, KNOWN_GAZE_AT, planner, (KNOWN_GAZE_INDEX, 0), exact_and_at_once(False))
+    known = closed_loop(trial, KNOWN_GAZE_AT, planner, (KNOWN_GAZE_INDEX, 0), exact_and_at_once(True))
+    assert by_class.commands >= 1 and by_class.truth.outcome().collisions
+    assert known.commands >= 1 and known.truth.outcome().collisions == ()
+
+
+def test_the_true_gaze_alone_is_what_a_known_gaze_spec_judges_at(office_case) -> None:
+    trial, planner = office_case
+    idle = World.from_scenario(trial, planner=planner)
+    idle.run(60.0)
+    now = world_at(trial, KNOWN_GAZE_AT, planner)
+    spec = spec_on(now.scene(), idle, now, 0.0, known_gaze=True)
+    assert spec is not None
+    assert spec.gazes == {d.person: (idle.walker(d.person).gaze,) for d in spec.dangers}
+    by_class = spec_on(now.scene(), idle, now, 0.0)
+    assert by_class is not None and len(next(iter(by_class.gazes.values()))) > 1
+    with pytest.raises(ValueError, match="true gaze alone"):
+        spec_on(now.scene(), idle, now, 0.0, any_class=True, known_gaze=True)

@@ -55,7 +55,9 @@ HORIZON = 10.0
 class Setup:
     """How the loop runs: the robot's start ``delay`` after a look and ``judging`` seconds more per judgement,
     seconds between ``look``s at a danger and before a ``retry`` of one no move removed, whether only the first
-    look acts, the belief's ``noise``, and the risk ``threshold`` a move must stay under."""
+    look acts, the belief's ``noise``, and the risk ``threshold`` a move must stay under. With ``known_gaze``
+    the search judges each move at the endangered people's true gaze alone (see
+    :func:`~bridges.experiment.perfect_belief.spec_on`), which no sensor tells."""
 
     delay: float
     judging: float
@@ -64,6 +66,7 @@ class Setup:
     first_look_only: bool
     noise: Noise
     threshold: float = 0.2
+    known_gaze: bool = False
 
 
 @dataclass
@@ -124,7 +127,7 @@ def _look(
     loop: Loop, scene: Scene, uncertainty: Uncertainty, idle: World, now: float, policy: Policy, setup: Setup
 ) -> None:
     """One look: Algorithm 1's danger on ``scene``, Algorithm 2's response to it, carried out in the truth."""
-    spec = spec_on(scene, idle, loop.truth, setup.delay, any_class=True)
+    spec = spec_on(scene, idle, loop.truth, setup.delay, any_class=not setup.known_gaze, known_gaze=setup.known_gaze)
     if spec is None:
         return
     loop.looks += 1

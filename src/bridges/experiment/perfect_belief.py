@@ -48,6 +48,7 @@ def spec_on(
     delay: float,
     any_class: bool = False,
     people: Sequence[str] | None = None,
+    known_gaze: bool = False,
 ) -> SearchSpec | None:
     """The spec of the dangers Algorithm 1 finds on ``scene`` (exact or believed) for the people who fall in ``idle``
     (or for ``people``: on a belief, someone who falls in no truth may seem to, a false alarm).
@@ -55,8 +56,12 @@ def spec_on(
     ``idle`` is the trial run to its end with the robot idle, ``now`` the truth at the scene's moment (what each
     person has seen so far). Each person's walk is imagined at their true gaze, or, with ``any_class``, at the
     first of their gaze classes (the nearest the true gaze first) whose walk collides: on a belief, the true
-    gaze may show no danger where another class does, as Algorithm 1 would find.
+    gaze may show no danger where another class does, as Algorithm 1 would find. With ``known_gaze``, moves are
+    judged at each person's true gaze alone, not at every gaze class: a robot that knew how far ahead each person
+    looks, which shows what not knowing it costs.
     """
+    if any_class and known_gaze:
+        raise ValueError("a danger found at any gaze class is not one judged at the true gaze alone")
     # What the intention agent's ``knows`` edges can hold: the objects and the robot.
     objects = {o.name for o in scene.obstacles if o.kind != WALL_KIND} | {scene.robot_name}
     dangers: list[Danger] = []
@@ -76,7 +81,10 @@ def spec_on(
         else:
             continue
         dangers.append(danger)
-        gazes[name] = (gaze, *(g for g in order if g != gaze)) if any_class else order
+        if known_gaze:
+            gazes[name] = (walker.gaze,)
+        else:
+            gazes[name] = (gaze, *(g for g in order if g != gaze)) if any_class else order
         known[name] = seen
     if not dangers:
         return None
