@@ -10,9 +10,9 @@ where someone walks into the robot (``into_robot``), the looks, the commands sen
 to the robot, the candidates judged and the responses by kind. ``--belief-noise`` draws the beliefs with one
 of the sensor model's errors alone (or none), which shows what each costs. ``--first-look-only``
 acts on the first look alone and drives its move on, which shows what looking
-again buys. ``--known-gaze`` judges moves at each endangered person's true gaze alone, as no
-sensor could, which shows what the gaze classes cost. The draws are seeded per trial, so two versions are compared on the
-same beliefs.
+again buys. ``--known-gaze`` judges moves at each endangered person's true gaze
+alone, as no sensor could, which shows what the gaze classes cost. The draws are
+seeded per trial, so two versions are compared on the same beliefs.
 
     python bench/bench_closed_loop.py [--draws N] [--look S] [--retry S] [--first-look-only]
         [--no-sampled-risk] [--known-gaze] [--belief-noise KIND] [--json PATH] [--every-room | RUN ...]
