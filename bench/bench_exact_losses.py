@@ -39,7 +39,7 @@ from agents.caregiving.model.verdict import Verdict
 from bench_move_search import THRESHOLD, Case, cases
 from bridges.experiment.beliefs import perception_uncertainty
 from bridges.experiment.oracle import saving_moves
-from bridges.experiment.perfect_belief import perfect_belief_spec
+from bridges.experiment.perfect_belief import Gazes, perfect_belief_spec
 
 
 def refusal(verdict: Verdict, spec: SearchSpec, robot: str | None) -> str:
@@ -56,7 +56,7 @@ def refusal(verdict: Verdict, spec: SearchSpec, robot: str | None) -> str:
 
 def classify(case: Case, delay: float, judging: float, max_moves: int) -> tuple[str, int]:
     """The class of one lost trial (see the module documentation), and how many moves save it commanded late."""
-    found = perfect_belief_spec(case.trial, case.at, case.planner, delay, any_class=True)
+    found = perfect_belief_spec(case.trial, case.at, case.planner, delay, Gazes.ANY_CLASS)
     if found is None:
         return "no danger", 0
     scene, spec = found

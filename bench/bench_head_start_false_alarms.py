@@ -33,7 +33,7 @@ from bench_move_search import RECORDED, THRESHOLD
 from bench_move_search_noisy import add_belief_arguments
 from bridges.experiment.beliefs import Noise, belief, perception_uncertainty
 from bridges.experiment.oracle import world_at
-from bridges.experiment.perfect_belief import outcome_in_truth, spec_on
+from bridges.experiment.perfect_belief import Gazes, outcome_in_truth, spec_on
 from bridges.world.bridge import trial_for
 
 RUNS = (
@@ -77,7 +77,7 @@ def false_alarms(runs: list[str], draws: int, delay: float, judging: float, all_
             for k in range(draws):
                 beliefs += 1
                 scene = belief(now.scene(), trial.sensors, at, Noise(), rng, origins)
-                spec = spec_on(scene, idle, now, delay, any_class=True, people=walking)
+                spec = spec_on(scene, idle, now, delay, Gazes.ANY_CLASS, people=walking)
                 if spec is None:
                     continue
                 flagged += 1

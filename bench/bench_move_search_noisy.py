@@ -50,7 +50,7 @@ from agents.caregiving.model.world_model import World
 from bench_move_search import RUNS, THRESHOLD, cases
 from bridges.experiment.beliefs import Noise, belief, search_uncertainty
 from bridges.experiment.oracle import world_at
-from bridges.experiment.perfect_belief import outcome_in_truth, spec_on
+from bridges.experiment.perfect_belief import Gazes, outcome_in_truth, spec_on
 
 
 def add_belief_arguments(p: argparse.ArgumentParser, runs: Sequence[str], drawn_per: str, delay: float) -> None:
@@ -88,7 +88,7 @@ def noisy_search(
         for k in range(draws):
             beliefs += 1
             scene = belief(now.scene(), sensors, case.at, noise, rng, origins)
-            spec = spec_on(scene, idle, now, delay, any_class=True)
+            spec = spec_on(scene, idle, now, delay, Gazes.ANY_CLASS)
             if spec is None:
                 continue
             flagged += 1

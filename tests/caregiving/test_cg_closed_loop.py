@@ -15,7 +15,7 @@ from agents.caregiving.model.world_model import World
 from bridges.experiment.beliefs import Noise
 from bridges.experiment.closed_loop import Setup, closed_loop
 from bridges.experiment.oracle import world_at
-from bridges.experiment.perfect_belief import spec_on
+from bridges.experiment.perfect_belief import Gazes, spec_on
 from bridges.world.bridge import trial_for
 
 SEED, INDEX, AT, DRAW = 2024, 50, 0.6, 1
@@ -84,10 +84,11 @@ def test_the_true_gaze_alone_is_what_a_known_gaze_spec_judges_at(office_case) ->
     idle = World.from_scenario(trial, planner=planner)
     idle.run(60.0)
     now = world_at(trial, KNOWN_GAZE_AT, planner)
-    spec = spec_on(now.scene(), idle, now, 0.0, known_gaze=True)
+    spec = spec_on(now.scene(), idle, now, 0.0, Gazes.TRUE_GAZE)
     assert spec is not None
     assert spec.gazes == {d.person: (idle.walker(d.person).gaze,) for d in spec.dangers}
     by_class = spec_on(now.scene(), idle, now, 0.0)
     assert by_class is not None and len(next(iter(by_class.gazes.values()))) > 1
-    with pytest.raises(ValueError, match="true gaze alone"):
-        spec_on(now.scene(), idle, now, 0.0, any_class=True, known_gaze=True)
+    any_class = spec_on(now.scene(), idle, now, 0.0, Gazes.ANY_CLASS)
+    assert any_class is not None
+    assert {p: set(g) for p, g in any_class.gazes.items()} == {p: set(g) for p, g in by_class.gazes.items()}

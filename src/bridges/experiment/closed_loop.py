@@ -43,7 +43,7 @@ from agents.caregiving.model.world_model import World
 
 from .beliefs import SAMPLES, Noise, belief, search_uncertainty
 from .oracle import world_at
-from .perfect_belief import spec_on
+from .perfect_belief import Gazes, spec_on
 
 #: Moves a search judges at most, as the action agent's default.
 MAX_MOVES = 24
@@ -57,7 +57,7 @@ class Setup:
     seconds between ``look``s at a danger and before a ``retry`` of one no move removed, whether only the first
     look acts, the belief's ``noise``, and the risk ``threshold`` a move must stay under. With ``known_gaze``
     the search judges each move at the endangered people's true gaze alone (see
-    :func:`~bridges.experiment.perfect_belief.spec_on`), which no sensor tells."""
+    :class:`~bridges.experiment.perfect_belief.Gazes`), which no sensor tells."""
 
     delay: float
     judging: float
@@ -127,7 +127,8 @@ def _look(
     loop: Loop, scene: Scene, uncertainty: Uncertainty, idle: World, now: float, policy: Policy, setup: Setup
 ) -> None:
     """One look: Algorithm 1's danger on ``scene``, Algorithm 2's response to it, carried out in the truth."""
-    spec = spec_on(scene, idle, loop.truth, setup.delay, any_class=not setup.known_gaze, known_gaze=setup.known_gaze)
+    gazes = Gazes.TRUE_GAZE if setup.known_gaze else Gazes.ANY_CLASS
+    spec = spec_on(scene, idle, loop.truth, setup.delay, gazes)
     if spec is None:
         return
     loop.looks += 1

@@ -11,6 +11,7 @@ them. This separates what the move search can do from what perception's noise co
 from __future__ import annotations
 
 from collections.abc import Sequence
+from enum import Enum
 
 from agents.caregiving.model.candidates import Danger
 from agents.caregiving.model.imagine import imagine_person
@@ -25,19 +26,32 @@ from agents.caregiving.model.world_model import Outcome, Walk, World
 from .oracle import commanded, world_at
 
 
+class Gazes(Enum):
+    """The gaze each person's danger is found at, and the gazes their moves are judged at."""
+
+    #: Found at the true gaze; judged at every gaze class, the nearest the true gaze first.
+    CLASSES = "classes"
+    #: Found at the first gaze class whose walk collides, the nearest the true gaze first, as Algorithm 1 would
+    #: find it on a belief where the true gaze shows no danger; judged at every class, that one first.
+    ANY_CLASS = "any-class"
+    #: Found and judged at the true gaze alone: a robot that knew how far ahead each person looks, which shows
+    #: what not knowing it costs.
+    TRUE_GAZE = "true-gaze"
+
+
 def perfect_belief_spec(
-    trial: Scenario, at: float, planner: GridPlanner, delay: float, any_class: bool = False
+    trial: Scenario, at: float, planner: GridPlanner, delay: float, gazes: Gazes = Gazes.CLASSES
 ) -> tuple[Scene, SearchSpec] | None:
     """The exact scene at ``at`` and the spec of its dangers, the robot starting ``delay`` s later; None if none.
 
     Each endangered person knows the objects (and the robot) they have truly seen by then, as the intention
-    agent's ``knows`` edges would hold them. ``any_class`` is :func:`spec_on`'s.
+    agent's ``knows`` edges would hold them. ``gazes`` is :func:`spec_on`'s.
     """
     idle = World.from_scenario(trial, planner=planner)
     idle.run(60.0)
     now = world_at(trial, at, planner)
     scene = now.scene()
-    spec = spec_on(scene, idle, now, delay, any_class=any_class)
+    spec = spec_on(scene, idle, now, delay, gazes)
     return (scene, spec) if spec is not None else None
 
 
@@ -46,29 +60,24 @@ def spec_on(
     idle: World,
     now: World,
     delay: float,
-    any_class: bool = False,
+    gazes: Gazes = Gazes.CLASSES,
     people: Sequence[str] | None = None,
-    known_gaze: bool = False,
 ) -> SearchSpec | None:
     """The spec of the dangers Algorithm 1 finds on ``scene`` (exact or believed) for the people who fall in ``idle``
     (or for ``people``: on a belief, someone who falls in no truth may seem to, a false alarm).
 
     ``idle`` is the trial run to its end with the robot idle, ``now`` the truth at the scene's moment (what each
-    person has seen so far). Each person's walk is imagined at their true gaze, or, with ``any_class``, at the
-    first of their gaze classes (the nearest the true gaze first) whose walk collides: on a belief, the true
-    gaze may show no danger where another class does, as Algorithm 1 would find. With ``known_gaze``, moves are
-    judged at each person's true gaze alone, not at every gaze class: a robot that knew how far ahead each person
-    looks, which shows what not knowing it costs.
+    person has seen so far). ``gazes`` says at which gaze each person's walk is imagined, and at which their
+    moves are judged (:class:`Gazes`).
     """
-    if any_class and known_gaze:
-        raise ValueError("a danger found at any gaze class is not one judged at the true gaze alone")
+    any_class = gazes is Gazes.ANY_CLASS
     # What the intention agent's ``knows`` edges can hold: the objects and the robot.
     objects = {o.name for o in scene.obstacles if o.kind != WALL_KIND} | {scene.robot_name}
     dangers: list[Danger] = []
-    gazes: dict[str, tuple[float, ...]] = {}
+    judged_at: dict[str, tuple[float, ...]] = {}
     known: dict[str, tuple[str, ...]] = {}
     for name in [c.person for c in idle.outcome().collisions] if people is None else people:
-        if name in gazes:
+        if name in judged_at:
             continue
         walker = idle.walker(name)
         seen = tuple(sorted(objects & now.walker(name).known.keys()))
@@ -81,17 +90,17 @@ def spec_on(
         else:
             continue
         dangers.append(danger)
-        if known_gaze:
-            gazes[name] = (walker.gaze,)
+        if gazes is Gazes.TRUE_GAZE:
+            judged_at[name] = (walker.gaze,)
         else:
-            gazes[name] = (gaze, *(g for g in order if g != gaze)) if any_class else order
+            judged_at[name] = (gaze, *(g for g in order if g != gaze)) if any_class else order
         known[name] = seen
     if not dangers:
         return None
     # The others walk to their true targets beside them, as the action agent imagines them on their likeliest walk.
-    others = (now.walker(name) for name in now.walking() if name not in gazes)
+    others = (now.walker(name) for name in now.walking() if name not in judged_at)
     bystanders = tuple(Walk(w.state.name, w.target, w.gaze, tuple(sorted(objects & w.known.keys()))) for w in others)
-    return SearchSpec(tuple(dangers), gazes, known, bystanders, None, delay)
+    return SearchSpec(tuple(dangers), judged_at, known, bystanders, None, delay)
 
 
 def outcome_in_truth(
