@@ -97,7 +97,14 @@ def main() -> None:
         args.runs = every_room()
     noise = Noise(*BELIEF_NOISE[args.belief_noise], sampled_risk=not args.no_sampled_risk)
     setup = Setup(
-        args.delay, args.judging, args.look, args.retry, args.first_look_only, noise, THRESHOLD, args.known_gaze
+        delay=args.delay,
+        judging=args.judging,
+        look=args.look,
+        retry=args.retry,
+        first_look_only=args.first_look_only,
+        noise=noise,
+        threshold=THRESHOLD,
+        known_gaze=args.known_gaze,
     )
     found = closed_loops(args.runs, args.draws, setup)
     benchlib.report_draws(

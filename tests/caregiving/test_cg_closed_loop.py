@@ -29,7 +29,15 @@ def case() -> tuple:
 
 
 def setup(first_look_only: bool) -> Setup:
-    return Setup(START_DELAY, JUDGING, 0.5, 0.5, first_look_only, Noise(), THRESHOLD)
+    return Setup(
+        delay=START_DELAY,
+        judging=JUDGING,
+        look=0.5,
+        retry=0.5,
+        first_look_only=first_look_only,
+        noise=Noise(),
+        threshold=THRESHOLD,
+    )
 
 
 def test_acting_on_the_first_look_alone_loses_the_person(case) -> None:
@@ -62,7 +70,16 @@ KNOWN_GAZE_SEED, KNOWN_GAZE_INDEX, KNOWN_GAZE_AT = 5, 3, 0.65  # the office seri
 
 def exact_and_at_once(known_gaze: bool) -> Setup:
     """The exact scene, no sampled risk, no delay: the loop judges on the truth but for the person's gaze."""
-    return Setup(0.0, 0.0, 0.5, 0.5, False, Noise(0.0, 0.0, 0.0, sampled_risk=False), THRESHOLD, known_gaze)
+    return Setup(
+        delay=0.0,
+        judging=0.0,
+        look=0.5,
+        retry=0.5,
+        first_look_only=False,
+        noise=Noise(0.0, 0.0, 0.0, sampled_risk=False),
+        threshold=THRESHOLD,
+        known_gaze=known_gaze,
+    )
 
 
 @pytest.fixture(scope="module")

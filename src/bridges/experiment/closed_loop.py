@@ -51,7 +51,7 @@ MAX_MOVES = 24
 HORIZON = 10.0
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Setup:
     """How the loop runs: the robot's start ``delay`` after a look and ``judging`` seconds more per judgement,
     seconds between ``look``s at a danger and before a ``retry`` of one no move removed, whether only the first
