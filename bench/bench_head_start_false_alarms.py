@@ -28,11 +28,10 @@ from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import Scenario, load_scenario
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.verdict import SearchResult
-from agents.caregiving.model.world_model import World
 from bench_move_search import RECORDED, THRESHOLD
 from bench_move_search_noisy import add_belief_arguments
 from bridges.experiment.beliefs import Noise, belief, perception_uncertainty
-from bridges.experiment.oracle import world_at
+from bridges.experiment.oracle import idle_run, world_at
 from bridges.experiment.perfect_belief import Gazes, outcome_in_truth, spec_on
 from bridges.world.bridge import trial_for
 
@@ -69,8 +68,7 @@ def false_alarms(runs: list[str], draws: int, delay: float, judging: float, all_
                 continue
             alarms += 1
             trial, at = trial_for(scenario, recorded["seed"], t["index"]), t["risk_at_time"]
-            idle = World.from_scenario(trial, planner=planner)
-            idle.run(60.0)
+            idle = idle_run(trial, planner)
             now = world_at(trial, at, planner)
             walking = list(now.walking())
             rng, origins = np.random.default_rng([t["index"], draws]), np.random.default_rng([t["index"], draws, 1])

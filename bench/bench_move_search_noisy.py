@@ -46,10 +46,9 @@ import numpy as np
 import benchlib
 from agents.caregiving.model import move_choice, move_search
 from agents.caregiving.model.service import serve_one
-from agents.caregiving.model.world_model import World
 from bench_move_search import RUNS, THRESHOLD, cases
 from bridges.experiment.beliefs import Noise, belief, search_uncertainty
-from bridges.experiment.oracle import world_at
+from bridges.experiment.oracle import idle_run, world_at
 from bridges.experiment.perfect_belief import Gazes, outcome_in_truth, spec_on
 
 
@@ -80,8 +79,7 @@ def noisy_search(
     for case in cases(runs):
         if not case.saveable:
             continue
-        idle = World.from_scenario(case.trial, planner=case.planner)
-        idle.run(60.0)
+        idle = idle_run(case.trial, case.planner)
         now = world_at(case.trial, case.at, case.planner)
         rng, origins = np.random.default_rng([case.index, draws]), np.random.default_rng([case.index, draws, 1])
         sensors = case.trial.sensors

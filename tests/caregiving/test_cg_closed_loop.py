@@ -11,10 +11,9 @@ from recorded_cases import HELD_OUT, JUDGING, THRESHOLD
 
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import load_scenario
-from agents.caregiving.model.world_model import World
 from bridges.experiment.beliefs import Noise
 from bridges.experiment.closed_loop import Setup, closed_loop
-from bridges.experiment.oracle import world_at
+from bridges.experiment.oracle import idle_run, world_at
 from bridges.experiment.perfect_belief import Gazes, spec_on
 from bridges.world.bridge import trial_for
 
@@ -98,8 +97,7 @@ def test_a_move_judged_at_the_gaze_classes_can_fail_where_the_true_gaze_saves(of
 
 def test_the_true_gaze_alone_is_what_a_known_gaze_spec_judges_at(office_case) -> None:
     trial, planner = office_case
-    idle = World.from_scenario(trial, planner=planner)
-    idle.run(60.0)
+    idle = idle_run(trial, planner)
     now = world_at(trial, KNOWN_GAZE_AT, planner)
     spec = spec_on(now.scene(), idle, now, 0.0, Gazes.TRUE_GAZE)
     assert spec is not None

@@ -42,7 +42,7 @@ from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.world_model import World
 
 from .beliefs import SAMPLES, Noise, belief, search_uncertainty
-from .oracle import world_at
+from .oracle import idle_run, world_at
 from .perfect_belief import Gazes, spec_on
 
 #: Moves a search judges at most, as the action agent's default.
@@ -107,8 +107,7 @@ class Perception:
 def closed_loop(trial: Scenario, at: float, planner: GridPlanner, seed: tuple[int, ...], setup: Setup) -> Loop:
     """Run ``trial`` in a closed loop from ``at`` (when the danger showed), its beliefs drawn from ``seed``; the
     returned loop's truth has run to its end."""
-    idle = World.from_scenario(trial, planner=planner)
-    idle.run(60.0)
+    idle = idle_run(trial, planner)
     loop = Loop(world_at(trial, at, planner))
     perception = Perception(trial.sensors, setup.noise, seed)
     policy = Policy(setup.threshold, SAMPLES, trial.scene().robot_name)

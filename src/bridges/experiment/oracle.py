@@ -51,6 +51,13 @@ class OracleVerdict:
     move: RobotMove | None
 
 
+def idle_run(trial: Scenario, planner: GridPlanner) -> World:
+    """The ground truth of ``trial`` run to its end with the robot idle: who falls, and each walker's gaze."""
+    world = World.from_scenario(trial, planner=planner)
+    world.run(60.0)
+    return world
+
+
 def world_at(trial: Scenario, at: float, planner: GridPlanner) -> World:
     """The ground truth of ``trial`` stepped to time ``at`` (or to its end, if sooner)."""
     world = World.from_scenario(trial, planner=planner)

@@ -23,7 +23,7 @@ from agents.caregiving.model.verdict import SearchResult
 from agents.caregiving.model.visibility import WALL_KIND, gaze_classes
 from agents.caregiving.model.world_model import Outcome, Walk, World
 
-from .oracle import commanded, world_at
+from .oracle import commanded, idle_run, world_at
 
 
 class Gazes(Enum):
@@ -47,8 +47,7 @@ def perfect_belief_spec(
     Each endangered person knows the objects (and the robot) they have truly seen by then, as the intention
     agent's ``knows`` edges would hold them. ``gazes`` is :func:`spec_on`'s.
     """
-    idle = World.from_scenario(trial, planner=planner)
-    idle.run(60.0)
+    idle = idle_run(trial, planner)
     now = world_at(trial, at, planner)
     scene = now.scene()
     spec = spec_on(scene, idle, now, delay, gazes)
