@@ -15,8 +15,10 @@ from agents.caregiving.model.candidates import (
     Danger,
     beyond_poses,
     candidates,
+    covers_farther_back,
     crossing_time,
     crossings,
+    ordered_moves,
     standoffs,
 )
 from agents.caregiving.model.move_search import search
@@ -76,3 +78,37 @@ def test_the_poses_past_the_obstacle_are_the_last_crossings() -> None:
     past = [m for m in crossing if m in beyond_poses(scene, danger)]
     assert past and crossing[-len(past) :] == past
     assert set(past) <= set(candidates(scene, spec.dangers))
+
+
+def test_the_covers_farther_back_come_right_after_the_obstacles_stand_offs() -> None:
+    _, _, scene, spec = recorded_case(HELD_OUT / "face_to_face.yaml", 419, 12, 0.55)
+    danger = spec.dangers[0]
+    own = set(standoffs(scene, danger, danger.obstacle))
+    moves = list(ordered_moves(scene, danger))
+    first_other = next(k for k, m in enumerate(moves) if m not in own)
+    covers = list(covers_farther_back(scene, danger))
+
+    assert covers and moves[first_other : first_other + len(covers)] == covers
+    assert set(covers) <= set(beyond_poses(scene, danger, (0.0,)))
+    assert all(crossing_time(scene, danger, m, 0.0) is not None for m in covers)
+
+
+def test_a_cover_farther_back_saves_where_no_stand_off_or_path_pose_does() -> None:
+    """Face to face at seed 419, trial 12: a toy lies on the resident's way to the sofa.
+
+    No stand-off of the toy and no pose on the resident's path before it saves them. A robot straight on
+    their way farther past the toy does: they plan round it while still short of the toy, and the detour
+    clears the toy too. Tried after every path pose and crossing, it came past the search's 24 candidates.
+    """
+    at = 0.55
+    trial, planner, scene, spec = recorded_case(HELD_OUT / "face_to_face.yaml", 419, 12, at)
+    danger = spec.dangers[0]
+
+    result = search(
+        scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 24, judging=JUDGING, head_start=lambda lead: None
+    )
+
+    assert result.chosen is not None and result.chosen.safe(THRESHOLD)
+    assert result.chosen.move in beyond_poses(scene, danger, (0.0,))
+    assert not any(v.safe(THRESHOLD) for v in result.verdicts if v.move in standoffs(scene, danger, danger.obstacle))
+    assert saved_in_truth(trial, at, planner, DELAY, JUDGING, result)
