@@ -19,22 +19,23 @@ would hit, where and when. The robot's moves are ``move_to`` a pose:
   anywhere along it, makes them plan their walk anew, and the new route may miss the obstacle.
 
 :func:`ordered_moves` yields them lazily in the order the search tries them:
-the stand-offs straight behind the obstacle and straight in front of it along
-the person's way (a robot there is in view, and the detour around it also clears
-the obstacle; over 50 dangers of four scenarios the first of them removed the
-danger in 18 of the 28 the search could remove); then the covers farther back,
-nearest first (where a closed loop on exact beliefs lost trials to saving moves it
-never judged, these stood there most often, 0.5-0.9 m past the touch, where the
-stand-off straight behind stands too near the obstacle); then the other stand-offs
-around the obstacle; then the path poses, those where the robot has the most seconds in hand first; then the
-crossings, soonest crossed first (the stand-offs, then the poses past the
-obstacle); then the stand-offs around the other objects by distance to the
-collision point. Two cheap tests prune before any imagination: the robot must fit at the pose, and a
-straight drive (the travel-time lower bound, from the robot's current speed),
-started when the robot would start on that candidate, must come within
-:data:`REACH` of it before the person passes it (path poses) or before the
-collision (stand-offs), or, for a crossing or a cover farther back, must come into the
-person's way before the collision (:func:`crossing_time`). :func:`candidates` interleaves the dangers'
+the stand-offs around the obstacle, straight behind it and straight in front of
+it along the person's way first (a robot there is in view, and the detour around
+it also clears the obstacle; over 50 dangers of four scenarios the first of them
+removed the danger in 18 of the 28 the search could remove); then the covers
+farther back, nearest first (where a closed loop on exact beliefs lost trials to
+saving moves it never judged, these stood there most often, 0.5-0.9 m past the
+touch, where the stand-off straight behind stands too near the obstacle); then
+the path poses, those where the robot has the most seconds in hand first; then
+the crossings, soonest crossed first (the
+stand-offs, then the poses past the obstacle); then the stand-offs around the
+other objects by distance to the collision point. Two cheap tests prune before
+any imagination: the robot must fit at the pose, and a straight drive (the
+travel-time lower bound, from the robot's current speed), started when the robot
+would start on that candidate, must come within :data:`REACH` of it before the
+person passes it (path poses) or before the collision (stand-offs), or, for a
+crossing or a cover farther back, must come into the person's way before the
+collision (:func:`crossing_time`). :func:`candidates` interleaves the dangers'
 orders and puts the :func:`swerves` of the first candidate third, once its verdict is in.
 """
 
@@ -43,7 +44,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, replace
-from itertools import islice
 from typing import Any
 
 import numpy as np
@@ -303,11 +303,9 @@ def _by_kind(scene: Scene, danger: Danger, start: Callable[[], float]) -> Iterat
 
     deadline = danger.time_to_collision
     # Stand-offs need an object that stays put: a person walking into another person gets path poses first.
-    obstacle = standoffs(scene, danger, danger.obstacle) if _stays_put(scene, danger.obstacle) else []
-    own = (m for m in obstacle if reachable(m, deadline))
-    yield from islice(own, 2)  # straight behind and straight in front of it, when the robot can reach them
+    if _stays_put(scene, danger.obstacle):
+        yield from (m for m in standoffs(scene, danger, danger.obstacle) if reachable(m, deadline))
     yield from covers_farther_back(scene, danger, start)
-    yield from own
     # Seconds the robot has in hand at each path pose: the more, the likelier the person sees it in time.
     slack = [
         (until - drive_time(scene, m.x, m.y), k, m, until) for k, (m, until) in enumerate(path_poses(scene, danger))
