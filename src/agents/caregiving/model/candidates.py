@@ -27,15 +27,14 @@ farther back, nearest first (where a closed loop on exact beliefs lost trials to
 saving moves it never judged, these stood there most often, 0.5-0.9 m past the
 touch, where the stand-off straight behind stands too near the obstacle); then
 the path poses, those where the robot has the most seconds in hand first; then
-the crossings, soonest crossed first (the
-stand-offs, then the poses past the obstacle); then the stand-offs around the
-other objects by distance to the collision point. Two cheap tests prune before
-any imagination: the robot must fit at the pose, and a straight drive (the
-travel-time lower bound, from the robot's current speed), started when the robot
-would start on that candidate, must come within :data:`REACH` of it before the
-person passes it (path poses) or before the collision (stand-offs), or, for a
-crossing or a cover farther back, must come into the person's way before the
-collision (:func:`crossing_time`). :func:`candidates` interleaves the dangers'
+the crossings, soonest crossed first (the stand-offs, then the poses past the
+obstacle); then the stand-offs around the other objects by distance to the
+collision point. Two cheap tests prune before any imagination: the robot must
+fit at the pose, and a straight drive (the travel-time lower bound, from the
+robot's current speed), started when the robot would start on that candidate,
+must come within :data:`REACH` of it before the person passes it (path poses) or
+before the collision (stand-offs), or, for a crossing or a cover farther back,
+must come into the person's way before the collision (:func:`crossing_time`). :func:`candidates` interleaves the dangers'
 orders and puts the :func:`swerves` of the first candidate third, once its verdict is in.
 """
 
@@ -199,9 +198,7 @@ def crossings(scene: Scene, danger: Danger, start: Callable[[], float] = lambda:
     names += [o.name for o in other_objects(scene, danger)]
     now = start()
     for moves in ([m for name in names for m in standoffs(scene, danger, name)], beyond_poses(scene, danger)):
-        timed = [
-            (t, k, m) for k, m in enumerate(moves) if (t := crossing_time(scene, danger, m, now, route)) is not None
-        ]
+        timed = _crossing_in_time(scene, danger, moves, now, route)
         yield from (m for _, _, m in sorted(timed, key=lambda c: (c[0], c[1])) if robot_fits(scene, m))
 
 
@@ -210,10 +207,21 @@ def covers_farther_back(scene: Scene, danger: Danger, start: Callable[[], float]
     nearest first, whose drive comes into the person's way before the collision (:func:`crossing_time`); the
     robot must fit at the pose."""
     route = route_ahead(scene, danger)
-    now = start()
-    for move in beyond_poses(scene, danger, (0.0,)):
-        if crossing_time(scene, danger, move, now, route) is not None and robot_fits(scene, move):
-            yield move
+    if route is None:
+        return
+    straight_past = beyond_poses(scene, danger, (0.0,))
+    yield from (
+        m for _, _, m in _crossing_in_time(scene, danger, straight_past, start(), route) if robot_fits(scene, m)
+    )
+
+
+def _crossing_in_time(
+    scene: Scene, danger: Danger, moves: Sequence[RobotMove], now: float, route: tuple[FloatArray, FloatArray]
+) -> list[tuple[float, int, RobotMove]]:
+    """The ``moves`` whose straight drive, started ``now`` s from the scene's time, comes into the person's way
+    before the collision (:func:`crossing_time` on ``route``), in order, each with when it does and its place
+    in ``moves``."""
+    return [(t, k, m) for k, m in enumerate(moves) if (t := crossing_time(scene, danger, m, now, route)) is not None]
 
 
 def path_poses(scene: Scene, danger: Danger) -> Iterator[tuple[RobotMove, float]]:
