@@ -26,6 +26,7 @@ MOVE = RobotMove("ball", -0.5, 0.1, math.pi)
         PersonItem(WALK, U),
         JointItem((WALK, Walk("bob", "door", 0.1)), MOVE, RobotMove("couch", 1.0, 2.0, 0.0), 0.3, U),
         JointItem((WALK,), None),
+        JointItem((WALK, Walk("bob", "door", 0.1)), MOVE, uncertainty=U, anyway={"bob": 0.25}),
         SearchItem(
             SearchSpec((Danger("person", "couch", ((0, 0), (1, 0)), (0.5, 0.0), "ball", 2.0),), {"person": (0.1,)}, {}),
             U,
@@ -49,6 +50,8 @@ def test_an_item_survives_the_wire(item: PersonItem | JointItem | SearchItem) ->
         ({**JointItem((WALK,), MOVE).to_wire(), "delay": 60.0}, "request.delay"),
         ({**PersonItem(WALK, U).to_wire(), "uncertainty": {"samples": -1}}, "request.uncertainty.samples"),
         ({**PersonItem(WALK).to_wire(), "gaze": 3.0}, "request.gaze: expected a pitch"),
+        ({**JointItem((WALK,), MOVE).to_wire(), "anyway": {"bob": 0.2}}, "request.anyway.bob: expected one of"),
+        ({**JointItem((WALK,), MOVE).to_wire(), "anyway": {"person": 1.5}}, "request.anyway.person"),
     ],
 )
 def test_a_malformed_item_names_its_bad_field(wire: dict[str, object], message: str) -> None:

@@ -14,7 +14,7 @@ from agents.caregiving.model.guesses import unguessed_walks
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.imagine_reply import Answer, decode_answer, encode_answer
 from agents.caregiving.model.imagine_request import JointItem, uncertainty_to_wire
-from agents.caregiving.model.judging import falls_anyway, judge, judge_move
+from agents.caregiving.model.judging import as_it_is, judge, judge_move
 from agents.caregiving.model.move_choice import NoWorse, Settles, choose, gives_up, holds, replaces
 from agents.caregiving.model.move_search import search
 from agents.caregiving.model.planner import GridPlanner
@@ -495,6 +495,14 @@ def test_a_search_finds_for_itself_who_falls_with_the_robot_as_it_is_and_lets_no
     with pytest.raises(RequestError, match=r"falls_anyway\[0\]\.walk"):
         SearchSpec.from_fields(Fields(stray, "spec", RequestError))
 
+    at_risk = replace(spec, risks_anyway=((to_door, 0.25),))
+    assert SearchSpec.from_fields(Fields(at_risk.to_wire(), "spec", RequestError)) == at_risk
+    assert at_risk.anyway_in([to_door]) == {"visitor": 0.25}
+    assert at_risk.anyway_in([Walk("visitor", "couch", GAZE)]) == {}
+    too_likely = replace(spec, risks_anyway=((to_door, 1.5),)).to_wire()
+    with pytest.raises(RequestError, match=r"risks_anyway\[0\]\.risk"):
+        SearchSpec.from_fields(Fields(too_likely, "spec", RequestError))
+
 
 @pytest.mark.parametrize(("visitor_heads_for", "falls_anyway_first"), [("couch", False), ("door", True)])
 def test_the_robot_as_it_is_is_imagined_only_when_a_bystanders_fall_refuses_a_move(
@@ -526,6 +534,6 @@ def test_the_robot_as_it_is_is_imagined_only_when_a_bystanders_fall_refuses_a_mo
     assert len(robot_as_it_is) == falls_anyway_first and len(sent_after) == 1
     assert all(k < sent_after[0] for k in robot_as_it_is)
     plain = partial(serve_one, scene)
-    told = replace(spec, falls_anyway=falls_anyway(spec, plain, scene.robot_name))
+    told = as_it_is(spec, plain, scene, UNCERTAINTY)
     assert bool(told.falls_anyway) == falls_anyway_first
     assert lazy == search(scene, told, plain, UNCERTAINTY, 0.2, 32, judging=0.02, head_start=lambda lead: None)

@@ -51,16 +51,21 @@ class Answer:
 
 
 def joint_answer(
-    scene: Scene, joint: JointImagination, uncertainty: Uncertainty | None, falling: Mapping[str, str]
+    scene: Scene,
+    joint: JointImagination,
+    uncertainty: Uncertainty | None,
+    falling: Mapping[str, str],
+    anyway: Mapping[str, float] | None = None,
 ) -> Answer:
     """A joint item's answer: the imagination, and the risk sampled round it when the item asks for one.
 
     A move whose nominal imagination already fails (for a fall ``falling`` does not name) is refused whatever
-    the sampled risk: none is sampled.
+    the sampled risk: none is sampled. ``anyway`` holds bystanders' sampled risks with the robot as it is,
+    which the risk leaves out where the move does not raise them (see :func:`joint_risk`).
     """
     if uncertainty is None or not joint.safe_given(falling):
         return Answer(joint=joint)
-    return Answer(joint=joint, risk=joint_risk(scene, joint, uncertainty, falling))
+    return Answer(joint=joint, risk=joint_risk(scene, joint, uncertainty, falling, anyway))
 
 
 @dataclass(frozen=True)

@@ -78,7 +78,9 @@ class JointItem:
     With ``until_first_fall`` the imagination ends when the first person falls (a search needs no more
     to refuse the move): the others' walks are then reported as still ``walking``. ``falling`` names the
     people whose fall into a given object happens anyway (``{person: object}``): that fall neither ends
-    the imagination nor stops the risk from being sampled for the others.
+    the imagination nor stops the risk from being sampled for the others. ``anyway`` holds bystanders'
+    sampled risks with the robot as it is (``{person: probability}``): the risk sampled leaves out a walk
+    whose risk the move does not raise.
     """
 
     walks: tuple[Walk, ...]
@@ -90,10 +92,11 @@ class JointItem:
     falling: Mapping[str, str] = field(default_factory=dict)
     lead: RobotMove | None = None
     lead_for: float = 0.0
+    anyway: Mapping[str, float] = field(default_factory=dict)
 
     def to_wire(self) -> dict[str, Any]:
         """``{"kind": "joint", "walks", "move", "current", "delay", "until_first_fall", "falling", "lead",
-        "lead_for", "uncertainty"?}``."""
+        "lead_for", "anyway", "uncertainty"?}``."""
         out: dict[str, Any] = {
             "kind": "joint",
             "walks": [walk_to_wire(w) for w in self.walks],
@@ -104,6 +107,7 @@ class JointItem:
             "falling": dict(self.falling),
             "lead": self.lead.to_wire() if self.lead else None,
             "lead_for": self.lead_for,
+            "anyway": dict(self.anyway),
         }
         if self.uncertainty is not None:
             out["uncertainty"] = uncertainty_to_wire(self.uncertainty)
@@ -116,6 +120,7 @@ class JointItem:
         walks = tuple(walk_from_fields(w) for w in f.children("walks"))
         if not walks:
             raise f.fail("walks", "expected at least one walk")
+        people = {w.person for w in walks}
         return cls(
             walks,
             RobotMove.optional_from(f, "move"),
@@ -123,16 +128,24 @@ class JointItem:
             f.number("delay", 0.0, non_negative=True, at_most=MAX_DELAY),
             uncertainty,
             f.boolean("until_first_fall", False),
-            falling_from_fields(f.child("falling", {}), {w.person for w in walks}),
+            falling_from_fields(f.child("falling", {}), people),
             RobotMove.optional_from(f, "lead"),
             f.number("lead_for", 0.0, non_negative=True, at_most=MAX_DELAY),
+            risks_from_fields(f.child("anyway", {}), people),
         )
 
 
 def falling_from_fields(f: Fields, people: set[str]) -> dict[str, str]:
     """``{person: object}`` for some of ``people``."""
-    falling = {person: f.string(person) for person in f.keys()}
-    for person in falling:
-        if person not in people:
-            raise f.fail(person, f"expected one of {sorted(people)}")
-    return falling
+    return {_one_of(f, person, people): f.string(person) for person in f.keys()}
+
+
+def risks_from_fields(f: Fields, people: set[str]) -> dict[str, float]:
+    """``{person: probability}`` for some of ``people``."""
+    return {_one_of(f, person, people): f.number(person, non_negative=True, at_most=1.0) for person in f.keys()}
+
+
+def _one_of(f: Fields, person: str, people: set[str]) -> str:
+    if person not in people:
+        raise f.fail(person, f"expected one of {sorted(people)}")
+    return person

@@ -190,18 +190,38 @@ class JointImagination:
         )
 
 
-def joint_risk(scene: Scene, joint: JointImagination, u: Uncertainty, falling: Collection[str] = ()) -> Risk:
+def walk_risks(scene: Scene, joint: JointImagination, u: Uncertainty, falling: Collection[str] = ()) -> dict[str, Risk]:
+    """Each person's sampled risk round their walk as walked, leaving out the people ``falling`` anyway.
+
+    The robot is left out of the sampled worlds, since it knows where it is and the nominal imagination
+    already checks every step against it.
+    """
+    without_robot = scene.with_robot(None)
+    return {
+        w.walk.person: replace(collision_risk(without_robot, w.as_imagination(), u), person=w.walk.person)
+        for w in joint.walks
+        if w.walk.person not in falling
+    }
+
+
+def joint_risk(
+    scene: Scene,
+    joint: JointImagination,
+    u: Uncertainty,
+    falling: Collection[str] = (),
+    anyway: Mapping[str, float] | None = None,
+) -> Risk:
     """The likeliest collision over the sampled worlds, worst walk first, leaving out the people ``falling`` anyway;
     it names whose walk it is.
 
-    The walks are sampled as walked; the robot is left out, since it knows where it is and the
-    nominal imagination already checks every step against it.
+    ``anyway`` holds bystanders' sampled risks with the robot as it is (``{person: probability}``): a walk whose
+    risk is no higher than that is left out too, a risk the robot does not bring.
     """
-    without_robot = scene.with_robot(None)
+    anyway = anyway or {}
     risks = [
-        replace(collision_risk(without_robot, w.as_imagination(), u), person=w.walk.person)
-        for w in joint.walks
-        if w.walk.person not in falling
+        r
+        for person, r in walk_risks(scene, joint, u, falling).items()
+        if person not in anyway or r.probability > anyway[person]
     ]
     return max(risks, key=lambda r: r.probability, default=NO_RISK)
 

@@ -16,13 +16,12 @@ from functools import partial
 
 from .imagine_reply import Answer, joint_answer
 from .imagine_request import JointItem
-from .joint import JointImagination, WalkOutcome
+from .joint import JointImagination, WalkOutcome, walk_risks
 from .robot_moves import RobotMove
 from .scene import Scene
 from .search_spec import SearchSpec
 from .uncertainty import NO_RISK, Uncertainty
 from .verdict import Fall, Verdict
-from .world_model import Walk
 
 #: Sigmas of perception's error in a person's position that the robot keeps clear of them when they cannot
 #: keep clear of it themselves (see :class:`RobotMargin`).
@@ -119,23 +118,33 @@ def _excused(falling: Mapping[str, str] | SearchSpec | None, joint: JointImagina
     return falling or {}
 
 
-def falls_anyway(spec: SearchSpec, imagine: Imagine, robot: str | None) -> tuple[tuple[Walk, str], ...]:
-    """The bystanders who walk into something in the first walk set with the robot as it is, the dangers' and
-    ``falling``'s own falls let happen: each one's walk and what they walk into (see :class:`SearchSpec`).
+def as_it_is(spec: SearchSpec, imagine: Imagine, scene: Scene, uncertainty: Uncertainty) -> SearchSpec:
+    """``spec`` told what befalls the bystanders with the robot as it is, the dangers' and ``falling``'s own falls
+    let happen, in the first walk set: each one's walk and what they walk into on it (``falls_anyway``), and
+    the others' sampled risks under ``uncertainty`` (``risks_anyway``, those over zero).
 
-    Such a fall happens whatever the robot does, so it must not refuse every move that saves someone else.
-    Walking into the robot is not among them: that one the robot can undo by moving.
+    Such a fall happens whatever the robot does, so it must not refuse every move that saves someone else,
+    and such a risk refuses only a move that raises it. Walking into the robot is not among the falls: that
+    one the robot can undo by moving.
     """
     if not spec.bystanders:
-        return ()
+        return spec
     let_fall = spec.letting_dangers_fall()
     joint = imagine(replace(let_fall.items(spec.current, None)[0], until_first_fall=False)).joint
     if joint is None:
-        return ()
-    return tuple(
+        return spec
+    bystanders = {w.person for w in spec.bystanders} - set(let_fall.falling)
+    falls = tuple(
         (w.walk, w.collision_object)
         for w in joint.walks
-        if w.collision_object is not None and w.walk.person not in let_fall.falling and w.collision_object != robot
+        if w.collision_object is not None and w.walk.person in bystanders and w.collision_object != scene.robot_name
+    )
+    walking = {w.walk.person: w.walk for w in joint.walks if w.walk.person in bystanders and not w.collided}
+    risks = walk_risks(scene, joint, uncertainty, {w.walk.person for w in joint.walks} - set(walking))
+    return replace(
+        spec,
+        falls_anyway=falls,
+        risks_anyway=tuple((walking[p], r.probability) for p, r in risks.items() if r.probability > 0.0),
     )
 
 
@@ -216,5 +225,6 @@ def driven_on(
         stopped = a.joint.stopped_at_first_fall(excused)
         if stopped is None:
             return None
-        answers.append(partial(joint_answer, scene, stopped, uncertainty, excused))
+        anyway = spec.anyway_in(w.walk for w in a.joint.walks)
+        answers.append(partial(joint_answer, scene, stopped, uncertainty, excused, anyway))
     return _judged_in_turn(spec, move, answers, uncertainty, scene.robot_name)

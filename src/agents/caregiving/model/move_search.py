@@ -21,7 +21,7 @@ from .candidates import candidates
 from .fields import Fields
 from .imagine_reply import Answer
 from .imagine_request import MAX_DELAY, uncertainty_from_fields, uncertainty_to_wire
-from .judging import Imagine, driven_on, falls_anyway, judge_lead, judge_move
+from .judging import Imagine, as_it_is, driven_on, judge_lead, judge_move
 from .move_choice import SETTLE_AFTER_CLEAR, NoWorse, Settles, choose
 from .robot_moves import RobotMove
 from .scene import Scene
@@ -64,7 +64,7 @@ def search(
     Each candidate is imagined with the robot starting ``judging`` seconds later than the one before, since
     the move is sent only once the search has judged it: the k-th candidate (from 1) after
     ``spec.delay + judging * k``. The result holds every verdict and the move to send (see :func:`choose`).
-    A bystander's fall that happens with the robot as it is (:func:`falls_anyway`, imagined before any
+    A bystander's fall that happens with the robot as it is (:func:`as_it_is`, imagined before any
     candidate, but after a head start that no such fall could refuse is sent) refuses no move; the chosen
     move's reason names it.
     ``moves`` replaces the generated candidates (to judge the move under way again, for instance; ``None``
@@ -169,21 +169,22 @@ class _Judging:
         return replace(self.spec, delay=self.spec.delay + self.judging)
 
     def know_falls_anyway(self) -> bool:
-        """Imagine :func:`falls_anyway` into the spec, once; whether it found any.
+        """Imagine the robot as it is into the spec (:func:`as_it_is`), once; whether a bystander falls or runs a
+        sampled risk then.
 
         Only when a verdict needs it (:meth:`settled`): most searches meet no fall it could excuse, and it
         imagines everyone to the end of their walk.
         """
         if not self.knows_falls_anyway:
             self.knows_falls_anyway = True
-            self.spec = replace(self.spec, falls_anyway=falls_anyway(self.spec, self.imagine, self.scene.robot_name))
+            self.spec = as_it_is(self.spec, self.imagine, self.scene, self.uncertainty)
             self.no_worse.spec = self.spec
-        return bool(self.spec.falls_anyway)
+        return bool(self.spec.falls_anyway or self.spec.risks_anyway)
 
     def consider_head_start(self, first: RobotMove | None) -> None:
         """Judge the first candidate as a head start, and send it if it is harmless.
 
-        It is judged before :func:`falls_anyway` is imagined, which only excuses falls: a head start clear
+        It is judged before :func:`as_it_is` is imagined, which only excuses falls: a head start clear
         without it is clear with it, on the same imaginations (no risk is sampled), and goes out one
         imagination sooner. One that is not clear is judged again if some bystander does fall anyway.
         """

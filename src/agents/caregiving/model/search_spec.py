@@ -35,8 +35,11 @@ class SearchSpec:
     searched now, say because no move saved them a moment ago), and what they walk into: a move is not
     refused for that same fall, only for one it would cause.
     ``falls_anyway`` pairs a bystander's walk with what they walk into on it with the robot as it is, the
-    search finds (see :func:`~agents.caregiving.model.judging.falls_anyway`): in a walk set where they walk it, a move is not refused for that
+    search finds (see :func:`~agents.caregiving.model.judging.as_it_is`): in a walk set where they walk it, a move is not refused for that
     fall either.
+    ``risks_anyway`` pairs a bystander's walk with its sampled risk with the robot as it is (see
+    :func:`~agents.caregiving.model.judging.as_it_is`): in a walk set where they walk it, their risk
+    refuses a move only where the move raises it.
     ``current`` is the move the robot is driving now (if any), which it keeps for ``delay`` seconds.
     ``lead`` is a head start the search sent (see :func:`~agents.caregiving.model.move_search.search`), driven for ``lead_for`` seconds after that.
     """
@@ -51,12 +54,18 @@ class SearchSpec:
     lead: RobotMove | None = None
     lead_for: float = 0.0
     falls_anyway: tuple[tuple[Walk, str], ...] = ()
+    risks_anyway: tuple[tuple[Walk, float], ...] = ()
 
     def falling_in(self, walks: Iterable[Walk]) -> dict[str, str]:
         """The falls that do not refuse a move in a walk set of ``walks``: ``falling``'s, and ``falls_anyway``'s
         where the bystander walks that walk."""
         on = set(walks)
         return {**self.falling, **{w.person: hit for w, hit in self.falls_anyway if w in on}}
+
+    def anyway_in(self, walks: Iterable[Walk]) -> dict[str, float]:
+        """The bystanders' sampled risks with the robot as it is, in a walk set of ``walks``."""
+        on = set(walks)
+        return {w.person: risk for w, risk in self.risks_anyway if w in on}
 
     def letting_dangers_fall(self) -> SearchSpec:
         """The spec with the dangers' own falls let happen too, as they do with the robot idle."""
@@ -101,6 +110,7 @@ class SearchSpec:
                 self.falling_in(walks),
                 self.lead,
                 self.lead_for,
+                self.anyway_in(walks),
             )
             for walks in self.walk_sets()
         ]
@@ -118,6 +128,7 @@ class SearchSpec:
             "lead": self.lead.to_wire() if self.lead else None,
             "lead_for": self.lead_for,
             "falls_anyway": [{"walk": walk_to_wire(w), "object": hit} for w, hit in self.falls_anyway],
+            "risks_anyway": [{"walk": walk_to_wire(w), "risk": risk} for w, risk in self.risks_anyway],
         }
 
     @classmethod
@@ -134,12 +145,17 @@ class SearchSpec:
                 raise gazes_f.fail(d.person, "expected one or more pitches in [-pi/2, pi/2] rad")
             gazes[d.person] = values
         bystanders = tuple(walk_from_fields(w) for w in f.children("bystanders", []))
-        anyway = []
-        for fall in f.children("falls_anyway", []):
-            walk = walk_from_fields(fall.child("walk"))
+
+        def bystander(entry: Fields) -> Walk:
+            walk = walk_from_fields(entry.child("walk"))
             if walk not in bystanders:
-                raise fall.fail("walk", "expected one of the bystanders' walks")
-            anyway.append((walk, fall.string("object")))
+                raise entry.fail("walk", "expected one of the bystanders' walks")
+            return walk
+
+        falls = tuple((bystander(e), e.string("object")) for e in f.children("falls_anyway", []))
+        risks = tuple(
+            (bystander(e), e.number("risk", non_negative=True, at_most=1.0)) for e in f.children("risks_anyway", [])
+        )
         return cls(
             dangers,
             gazes,
@@ -150,5 +166,6 @@ class SearchSpec:
             falling_from_fields(f.child("falling", {}), {w.person for w in bystanders}),
             RobotMove.optional_from(f, "lead"),
             f.number("lead_for", 0.0, non_negative=True, at_most=MAX_DELAY),
-            tuple(anyway),
+            falls,
+            risks,
         )

@@ -99,7 +99,7 @@ def serve(scene: Scene, item: Item, serving: Serving = PLAIN) -> Answer:
         until_first_fall=item.until_first_fall,
         falling=item.falling,
     )
-    return joint_answer(scene, joint, item.uncertainty, item.falling)
+    return joint_answer(scene, joint, item.uncertainty, item.falling, item.anyway)
 
 
 def serve_item(scene: Scene, item: object, serving: Serving = PLAIN) -> Answer:
