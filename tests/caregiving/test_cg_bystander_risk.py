@@ -32,6 +32,7 @@ def test_a_bystanders_risk_the_move_does_not_raise_refuses_no_move() -> None:
 
     result = search(scene, spec, imagine, uncertainty, THRESHOLD, 24, judging=JUDGING, head_start=lambda lead: None)
     assert result.chosen is not None and result.chosen.safe(THRESHOLD)
+    assert result.chosen.reason.endswith(f"sampled risk with the robot as it is too: ben {told.risks_anyway[0][1]:.2f}")
     assert saved_in_truth(trial, AT, planner, DELAY, JUDGING, result)
 
     # Not told Ben's risk with the robot as it is, the same move is refused for it.

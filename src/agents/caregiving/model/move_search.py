@@ -66,7 +66,7 @@ def search(
     ``spec.delay + judging * k``. The result holds every verdict and the move to send (see :func:`choose`).
     A bystander's fall that happens with the robot as it is (:func:`as_it_is`, imagined before any
     candidate, but after a head start that no such fall could refuse is sent) refuses no move; the chosen
-    move's reason names it.
+    move's reason names it. So does a bystander's sampled risk then, which refuses only a move that raises it.
     ``moves`` replaces the generated candidates (to judge the move under way again, for instance; ``None``
     among them judges braking to a stop from the robot's current state). With
     ``ahead``, a helper process judges candidates meanwhile (same verdicts, less wall time).
@@ -105,6 +105,9 @@ def search(
     if chosen is not None and spec.falls_anyway:
         anyway = ", ".join(f"{w.person} into {hit}" for w, hit in spec.falls_anyway)
         chosen = _noted(verdicts, chosen, f"falls with the robot as it is too: {anyway}")
+    if chosen is not None and spec.risks_anyway:
+        risks = ", ".join(f"{w.person} {risk:.2f}" for w, risk in spec.risks_anyway)
+        chosen = _noted(verdicts, chosen, f"sampled risk with the robot as it is too: {risks}")
     slots = len(verdicts) + judging_.lead_judged - (judging_.read_off is not None)
     sets_off = None
     if chosen is not None:
