@@ -89,7 +89,7 @@ def search(
     no_worse = NoWorse(spec, imagine, uncertainty, threshold, scene.robot_name)
     settles = Settles(no_worse, idle_risk, settle_after_clear)
     judging_ = _Judging(scene, spec, imagine, uncertainty, judging, ahead, no_worse)
-    no_worse.prepare = judging_.know_falls_anyway
+    no_worse.prepare = judging_.know_as_it_is
     if head_start is not None and moves is None and spec.current is None:
         judging_.send_lead = head_start
     judging_.in_order(pool, threshold, verdicts, settles)
@@ -144,14 +144,14 @@ class _Judging:
     """
 
     scene: Scene
-    spec: SearchSpec  # with its falls_anyway once know_falls_anyway has run
+    spec: SearchSpec  # with its falls_anyway and risks_anyway once know_as_it_is has run
     imagine: Imagine
     uncertainty: Uncertainty
     judging: float
     ahead: JudgeAhead | None
     no_worse: NoWorse  # tells a harmless head start, and shares the spec
     send_lead: Callable[[Verdict], None] | None = None  # sends a head start, until one is decided on
-    knows_falls_anyway: bool = False
+    knows_as_it_is: bool = False
     lead: Verdict | None = None  # the head start sent
     lead_judged: bool = False  # whether a head start was judged (sent or not): it took the first slot
     read_off: Verdict | None = None  # the first candidate's verdict, read off the head start's (see driven_on)
@@ -171,15 +171,15 @@ class _Judging:
         """The spec with the robot starting when a head start is sent: after its own judgement."""
         return replace(self.spec, delay=self.spec.delay + self.judging)
 
-    def know_falls_anyway(self) -> bool:
+    def know_as_it_is(self) -> bool:
         """Imagine the robot as it is into the spec (:func:`as_it_is`), once; whether a bystander falls or runs a
         sampled risk then.
 
         Only when a verdict needs it (:meth:`settled`): most searches meet no fall it could excuse, and it
         imagines everyone to the end of their walk.
         """
-        if not self.knows_falls_anyway:
-            self.knows_falls_anyway = True
+        if not self.knows_as_it_is:
+            self.knows_as_it_is = True
             self.spec = as_it_is(self.spec, self.imagine, self.scene, self.uncertainty)
             self.no_worse.spec = self.spec
         return bool(self.spec.falls_anyway or self.spec.risks_anyway)
@@ -187,7 +187,7 @@ class _Judging:
     def consider_head_start(self, first: RobotMove | None) -> None:
         """Judge the first candidate as a head start, and send it if it is harmless.
 
-        It is judged before :func:`as_it_is` is imagined, which only excuses falls: a head start clear
+        It is judged before :func:`as_it_is` is imagined, which only excuses falls and risks: a head start clear
         without it is clear with it, on the same imaginations (no risk is sampled), and goes out one
         imagination sooner. One that is not clear is judged again if some bystander does fall anyway.
         """
@@ -199,9 +199,9 @@ class _Judging:
         if self.no_worse.harmless(lead):
             self.lead = lead
             send(lead)
-            knew = self.knows_falls_anyway
+            knew = self.knows_as_it_is
             read_off = driven_on(self.scene, self.spec, first, answers, self.uncertainty)
-            if read_off is not None and self.excusable(read_off, knew) and self.know_falls_anyway():
+            if read_off is not None and self.excusable(read_off, knew) and self.know_as_it_is():
                 read_off = driven_on(self.scene, self.spec, first, answers, self.uncertainty)
             self.read_off = read_off
 
@@ -210,10 +210,10 @@ class _Judging:
         falls anyway was known is judged again once it is, if someone does (only the walk sets whose imagination
         ended in a fall now excused are imagined anew). The robot as it is only ever excuses falls, so one clear
         without it is clear with it, on the same imaginations."""
-        knew = self.knows_falls_anyway
+        knew = self.knows_as_it_is
         robot = self.scene.robot_name
         verdict, answers = judge_lead(at(), move, self.imagine, self.uncertainty, robot)
-        if not knew and not verdict.clear and self.know_falls_anyway():
+        if not knew and not verdict.clear and self.know_as_it_is():
             verdict, answers = judge_lead(at(), move, self.imagine, self.uncertainty, robot, answers)
         return verdict, answers
 
@@ -234,7 +234,7 @@ class _Judging:
         that happens anyway neither ends an imagination nor counts in the sampled risk): then the robot as it
         is is imagined, and if someone does fall anyway, the candidate is judged again.
         """
-        if self.excusable(verdict, knew) and self.know_falls_anyway():
+        if self.excusable(verdict, knew) and self.know_as_it_is():
             return self.judged_at(k, move)
         return verdict
 
@@ -281,7 +281,7 @@ class _Judging:
                 if not ahead.lend((self, k), self.scene, self.spec_at(k), move, self.uncertainty):
                     judged[k] = self.judge(k, move)
                     return
-                lent[k] = (move, self.knows_falls_anyway)
+                lent[k] = (move, self.knows_as_it_is)
 
         def gather() -> bool:
             """Move the judged prefix into ``verdicts``; True once it ends with one that settles the search."""
@@ -308,7 +308,7 @@ class _Judging:
     def judge(self, k: int, move: RobotMove | None) -> Verdict:
         if k == 1 and self.read_off is not None:
             return self.read_off
-        knew = self.knows_falls_anyway
+        knew = self.knows_as_it_is
         return self.settled(k, move, self.judged_at(k, move), knew)
 
 
