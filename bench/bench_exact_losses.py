@@ -5,7 +5,8 @@ scene (perception's uncertainty still sampled) and lists the saveable trials it
 lost. For each, this bench takes every move of the oracle's broad set that saves
 the trial in the truth when commanded ``--delay`` plus two judgements after the
 danger showed (the oracle commands at once), judges each as the search would
-(:func:`agents.caregiving.model.judging.judge_move`, at most ``--max-moves``), and
+(:func:`agents.caregiving.model.judging.judge_move`, at most ``--max-moves``, told what
+befalls the bystanders with the robot as it is, :func:`~agents.caregiving.model.judging.as_it_is`), and
 puts the trial in the first class that fits:
 
 * ``late``: no move saves it commanded that late;
@@ -32,7 +33,7 @@ from functools import partial
 from pathlib import Path
 
 import benchlib
-from agents.caregiving.model.judging import judge_move
+from agents.caregiving.model.judging import as_it_is, judge_move
 from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.verdict import Verdict
@@ -65,10 +66,9 @@ def classify(case: Case, delay: float, judging: float, max_moves: int) -> tuple[
     if not saving:
         return "late", 0
     uncertainty = perception_uncertainty(scene, case.trial.sensors, case.at, 0)  # as the loop's first look
-    at = replace(spec, delay=commanded)
-    verdicts = [
-        judge_move(at, move, partial(serve_one, scene), uncertainty, scene.robot_name) for move in saving[:max_moves]
-    ]
+    imagine = partial(serve_one, scene)
+    at = as_it_is(replace(spec, delay=commanded), imagine, scene, uncertainty)  # as a search told it
+    verdicts = [judge_move(at, move, imagine, uncertainty, scene.robot_name) for move in saving[:max_moves]]
     if any(v.safe(THRESHOLD) for v in verdicts):
         return "missed", len(saving)
     if any(v.clear for v in verdicts):
