@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, TypeVar
 
 from .candidates import Danger
 from .fields import Fields
@@ -21,6 +21,8 @@ from .joint import walk_from_fields, walk_to_wire
 from .robot_moves import RobotMove
 from .uncertainty import Uncertainty
 from .world_model import Walk
+
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -59,13 +61,11 @@ class SearchSpec:
     def falling_in(self, walks: Iterable[Walk]) -> dict[str, str]:
         """The falls that do not refuse a move in a walk set of ``walks``: ``falling``'s, and ``falls_anyway``'s
         where the bystander walks that walk."""
-        on = set(walks)
-        return {**self.falling, **{w.person: hit for w, hit in self.falls_anyway if w in on}}
+        return {**self.falling, **_by_person(self.falls_anyway, walks)}
 
     def anyway_in(self, walks: Iterable[Walk]) -> dict[str, float]:
         """The bystanders' sampled risks with the robot as it is, in a walk set of ``walks``."""
-        on = set(walks)
-        return {w.person: risk for w, risk in self.risks_anyway if w in on}
+        return _by_person(self.risks_anyway, walks)
 
     def letting_dangers_fall(self) -> SearchSpec:
         """The spec with the dangers' own falls let happen too, as they do with the robot idle."""
@@ -169,3 +169,9 @@ class SearchSpec:
             falls,
             risks,
         )
+
+
+def _by_person(pairs: Iterable[tuple[Walk, T]], walks: Iterable[Walk]) -> dict[str, T]:
+    """``{person: value}`` of the ``pairs`` whose walk is one of ``walks``."""
+    on = set(walks)
+    return {w.person: value for w, value in pairs if w in on}
