@@ -14,7 +14,7 @@ import pytest
 from recorded_cases import DELAY, EXACT, HELD_OUT, JUDGING, THRESHOLD, recorded_case
 
 from agents.caregiving.model import imagine_reply
-from agents.caregiving.model.candidates import candidates
+from agents.caregiving.model.candidates import candidates, swerves
 from agents.caregiving.model.imagine_reply import Answer, ImagineReply
 from agents.caregiving.model.imagine_request import JointItem
 from agents.caregiving.model.joint import imagine_joint
@@ -75,6 +75,23 @@ def test_the_head_start_is_judged_first_and_every_candidate_as_a_switch_from_it(
         assert item.lead_for == pytest.approx(JUDGING * k)
     assert [i.move for i in judged] == [v.move for v in result.verdicts[1:]]
     assert result.judged == len(result.verdicts)
+
+
+def test_the_swerves_of_a_head_start_come_right_after_it() -> None:
+    """Trial 178 of the paper's room at seed 2024: the person, walking round the head start, grazes the ball.
+
+    The head start's verdict is in before the second candidate is asked for, so its swerves come second, and
+    the first of them, chosen, goes out one judgement sooner than after the stand-off in front.
+    """
+    trial, planner, scene, spec = recorded_case("paper_experiment1", 2024, 178, 0.55)
+    result = search(
+        scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 24, judging=JUDGING, head_start=lambda _: None
+    )
+    assert result.lead is not None and not result.verdicts[0].safe(THRESHOLD)
+    shifted = swerves(scene, spec.dangers[0], result.lead.move, result.verdicts[0])
+    assert shifted and result.verdicts[1].move == shifted[0]
+    assert result.chosen is not None and result.chosen.move == shifted[0] and result.judged == 2
+    assert saved_in_truth(trial, 0.55, planner, DELAY, JUDGING, result)
 
 
 def test_a_first_candidate_that_walks_someone_into_the_robot_is_no_head_start() -> None:

@@ -8,6 +8,7 @@ danger, the robot starting one world step later and 20 ms later per candidate ju
 import math
 from dataclasses import replace
 from functools import partial
+from itertools import islice
 
 import pytest
 from recorded_cases import DELAY, EXACT, HELD_OUT, JUDGING, THRESHOLD, recorded_case
@@ -120,7 +121,9 @@ def test_swerves_shift_the_stand_off_towards_the_side_the_person_grazed_and_only
     assert path_pose.target == danger.obstacle and swerves(scene, danger, path_pose, touched(scene, danger, 50.0)) == []
 
 
-def test_the_swerves_come_third_and_no_candidate_repeats(paper: tuple[Scene, Danger]) -> None:
+def test_the_swerves_follow_the_first_candidate_once_its_verdict_is_in_and_no_candidate_repeats(
+    paper: tuple[Scene, Danger],
+) -> None:
     scene, danger = paper
     plain = list(candidates(scene, (danger,)))
     first = plain[0]
@@ -129,7 +132,13 @@ def test_the_swerves_come_third_and_no_candidate_repeats(paper: tuple[Scene, Dan
     with_swerves = list(candidates(scene, (danger,), [touched(scene, danger, 50.0)]))
     keys = [(round(m.x, 3), round(m.y, 3), round(m.heading, 3)) for m in with_swerves]
     assert len(keys) == len(set(keys))
-    assert with_swerves[:2] == plain[:2] and with_swerves[2 : 2 + len(shifted)] == shifted
+    assert with_swerves[0] == first and with_swerves[1 : 1 + len(shifted)] == shifted
+    # A verdict that comes in only after the second candidate was asked for brings its swerves right after it.
+    verdicts: list[Verdict] = []
+    stream = candidates(scene, (danger,), verdicts)
+    asked = [next(stream), next(stream)]
+    verdicts.append(touched(scene, danger, 50.0))
+    assert asked == plain[:2] and list(islice(stream, len(shifted))) == shifted
 
 
 def test_a_verdicts_falls_and_sampled_contact_survive_the_wire() -> None:

@@ -35,7 +35,8 @@ robot's current speed), started when the robot would start on that candidate,
 must come within :data:`REACH` of it before the person passes it (path poses) or
 before the collision (stand-offs), or, for a crossing or a cover farther back,
 must come into the person's way before the collision (:func:`crossing_time`). :func:`candidates` interleaves the dangers'
-orders and puts the :func:`swerves` of the first candidate third, once its verdict is in.
+orders and puts the :func:`swerves` of the first candidate next once its verdict is in (after the second
+candidate if that was asked for first).
 """
 
 from __future__ import annotations
@@ -369,7 +370,8 @@ def candidates(
     """The dangers' :func:`ordered_moves`, interleaved (most urgent danger first) and without repeats.
 
     ``verdicts`` are the search's verdicts so far, filled in as it judges: once the first candidate's is
-    in, its :func:`swerves` (for the most urgent danger) come right after the second candidate. The k-th
+    in, its :func:`swerves` (for the most urgent danger) come next, right after the first candidate when it is
+    in before the second is asked for. The k-th
     move yielded (from 1) has the robot starting ``first_start + per_move * k`` seconds after the scene's
     time, as the search judges it; the moves it could not reach in time by then are pruned.
     """
@@ -386,9 +388,10 @@ def candidates(
         if first is None:
             return
         yield first
-        second = next(stream, None)
-        if second is not None:
-            yield second
+        if not verdicts:
+            second = next(stream, None)
+            if second is not None:
+                yield second
         if verdicts:
             yield from _unseen(swerves(scene, urgent[0], first, verdicts[0]), seen)
         yield from stream

@@ -184,26 +184,41 @@ class _Judging:
             self.no_worse.spec = self.spec
         return bool(self.spec.falls_anyway or self.spec.risks_anyway)
 
-    def consider_head_start(self, first: RobotMove | None) -> None:
-        """Judge the first candidate as a head start, and send it if it is harmless.
+    def opened_with_head_start(
+        self,
+        positions: Iterator[tuple[int, RobotMove | None]],
+        verdicts: list[Verdict],
+    ) -> Iterator[tuple[int, RobotMove | None]]:
+        """Judge the first candidate as a head start, and send it if it is harmless and another candidate follows;
+        the candidates left to judge.
 
-        It is judged before :func:`as_it_is` is imagined, which only excuses falls and risks: a head start clear
-        without it is clear with it, on the same imaginations (no risk is sampled), and goes out one
+        The first candidate's verdict, read off the head start's (:func:`driven_on`), goes into ``verdicts`` before
+        the second is asked for, so that the candidates can follow from it (its swerves come next). The head
+        start is judged before :func:`as_it_is` is imagined, which only excuses falls and risks: a head start
+        clear without it is clear with it, on the same imaginations (no risk is sampled), and goes out one
         imagination sooner. One that is not clear is judged again if some bystander does fall anyway.
         """
         send, self.send_lead = self.send_lead, None
-        if send is None or first is None:
-            return
+        opening = next(positions, None)
+        if send is None or opening is None:
+            return chain([opening] if opening is not None else [], positions)
+        first = opening[1]
         self.lead_judged = True
         lead, answers = self.judged_as_lead(self.lead_sent, first)
-        if self.no_worse.harmless(lead):
-            self.lead = lead
-            send(lead)
-            knew = self.knows_as_it_is
+        if not self.no_worse.harmless(lead):
+            return chain([opening], positions)
+        knew = self.knows_as_it_is
+        read_off = driven_on(self.scene, self.spec, first, answers, self.uncertainty)
+        if read_off is not None and self.excusable(read_off, knew) and self.know_as_it_is():
             read_off = driven_on(self.scene, self.spec, first, answers, self.uncertainty)
-            if read_off is not None and self.excusable(read_off, knew) and self.know_as_it_is():
-                read_off = driven_on(self.scene, self.spec, first, answers, self.uncertainty)
-            self.read_off = read_off
+        verdicts += [read_off] if read_off is not None else []
+        second = next(positions, None)
+        if second is None:  # a head start is for a search that judges on past its first candidate
+            del verdicts[:]
+            return iter([opening])
+        self.lead, self.read_off = lead, read_off
+        send(lead)
+        return chain([second] if read_off is not None else [opening, second], positions)
 
     def judged_as_lead(self, at: Callable[[], SearchSpec], move: RobotMove | None) -> tuple[Verdict, list[Answer]]:
         """:func:`judge_lead` of ``move`` (``None``: braking) with the spec ``at()`` gives; one refused before who
@@ -253,10 +268,9 @@ class _Judging:
 
         ``moves`` may read ``verdicts`` as they come in.
         """
-        opening = list(islice(enumerate(moves, start=1), 2)) if self.send_lead is not None else []
-        if len(opening) == 2:  # a head start is for a search that judges on past its first candidate
-            self.consider_head_start(opening[0][1])
-        positions = chain(opening, enumerate(moves, start=len(opening) + 1))
+        positions = self.opened_with_head_start(enumerate(moves, start=1), verdicts)
+        if verdicts and (verdicts[0].safe(threshold) or settles(verdicts[0])):
+            return
         judged: dict[int, Verdict] = {}
         # The candidates the helper is judging, by position, and whether who falls anyway was known when lent.
         lent: dict[int, tuple[RobotMove | None, bool]] = {}
@@ -292,6 +306,7 @@ class _Judging:
             return False
 
         mine = next(positions, None)  # the next candidate this process judges: always the first not lent
+        exchange()  # after a head start whose verdict was read off, the helper sets to work at once
         while mine is not None:
             judged[mine[0]] = self.judge(*mine)
             exchange()
@@ -306,8 +321,6 @@ class _Judging:
         gather()
 
     def judge(self, k: int, move: RobotMove | None) -> Verdict:
-        if k == 1 and self.read_off is not None:
-            return self.read_off
         knew = self.knows_as_it_is
         return self.settled(k, move, self.judged_at(k, move), knew)
 
