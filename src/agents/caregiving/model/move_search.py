@@ -199,9 +199,11 @@ class _Judging:
         imagination sooner. One that is not clear is judged again if some bystander does fall anyway.
         """
         send, self.send_lead = self.send_lead, None
+        if send is None:
+            return positions
         opening = next(positions, None)
-        if send is None or opening is None:
-            return chain([opening] if opening is not None else [], positions)
+        if opening is None:
+            return positions
         first = opening[1]
         self.lead_judged = True
         lead, answers = self.judged_as_lead(self.lead_sent, first)
