@@ -24,6 +24,7 @@ import time
 from collections import Counter
 
 import benchlib
+from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES
 from bench_move_search import RUNS, THRESHOLD, cases, every_room
 from bench_move_search_noisy import add_belief_arguments
 from bridges.experiment.beliefs import Noise
@@ -82,6 +83,12 @@ def main() -> None:
     )
     p.add_argument("--first-look-only", action="store_true", help="act on the first look only, and drive its move on")
     p.add_argument("--no-sampled-risk", action="store_true", help="search without sampling uncertainty")
+    p.add_argument(
+        "--max-moves",
+        type=int,
+        default=DEFAULT_MAX_MOVES,
+        help="moves a search judges at most (default: the action agent's)",
+    )
     p.add_argument("--known-gaze", action="store_true", help="judge moves at the people's true gaze alone")
     p.add_argument(
         "--belief-noise",
@@ -105,6 +112,7 @@ def main() -> None:
         noise=noise,
         threshold=THRESHOLD,
         known_gaze=args.known_gaze,
+        max_moves=args.max_moves,
     )
     found = closed_loops(args.runs, args.draws, setup)
     benchlib.report_draws(
@@ -120,6 +128,7 @@ def main() -> None:
             "sampled_risk": noise.sampled_risk,
             "belief_noise": args.belief_noise,
             "known_gaze": args.known_gaze,
+            "max_moves": args.max_moves,
         },
         found,
     )

@@ -137,7 +137,7 @@ def first_safe(runs: list[str], delay: float, judging: float, head_start: bool =
             partial(serve_one, scene),
             EXACT,
             THRESHOLD,
-            24,
+            move_search.DEFAULT_MAX_MOVES,
             judging=judging,
             head_start=(lambda _lead: None) if head_start else None,
         )

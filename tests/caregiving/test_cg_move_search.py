@@ -5,7 +5,7 @@ from dataclasses import replace
 from functools import partial
 
 import pytest
-from recorded_cases import EXACT, HELD_OUT
+from recorded_cases import DELAY, EXACT, HELD_OUT, JUDGING, THRESHOLD, recorded_case
 
 from agents.caregiving.model.candidates import REACH, Danger, candidates, drive_time, ordered_moves
 from agents.caregiving.model.errors import ReplyError, RequestError
@@ -16,7 +16,7 @@ from agents.caregiving.model.imagine_reply import Answer, decode_answer, encode_
 from agents.caregiving.model.imagine_request import JointItem, uncertainty_to_wire
 from agents.caregiving.model.judging import as_it_is, judge, judge_move
 from agents.caregiving.model.move_choice import NoWorse, Settles, choose, gives_up, holds, replaces
-from agents.caregiving.model.move_search import search
+from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES, search
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.robot_moves import RobotMove, robot_fits
 from agents.caregiving.model.scenario import load_scenario
@@ -27,6 +27,7 @@ from agents.caregiving.model.uncertainty import Risk, Uncertainty
 from agents.caregiving.model.verdict import Fall, SearchResult, Verdict
 from agents.caregiving.model.world_model import Walk, World
 from bridges.experiment.oracle import world_at
+from bridges.experiment.perfect_belief import saved_in_truth
 from bridges.world.bridge import trial_for
 
 GAZE = math.radians(8)
@@ -537,3 +538,19 @@ def test_the_robot_as_it_is_is_imagined_only_when_a_bystanders_fall_refuses_a_mo
     told = as_it_is(spec, plain, scene, UNCERTAINTY)
     assert bool(told.falls_anyway) == falls_anyway_first
     assert lazy == search(scene, told, plain, UNCERTAINTY, 0.2, 32, judging=0.02, head_start=lambda lead: None)
+
+
+def test_the_default_search_reaches_a_saving_move_past_the_twenty_fourth_candidate() -> None:
+    """Trial 13 of the crossing hall at seed 29: Ana heads for the toy car, and every stand-off of it and every
+    pose on her way walks her into the bag or the car, or Ben into the robot. A stand-off of the door, judged
+    after them, saves her in the ground truth; a search that stopped at 24 candidates found no move."""
+    trial, planner, scene, spec = recorded_case(HELD_OUT / "crossing_hall.yaml", 29, 13, 0.6)
+    imagine = partial(serve_one, scene)
+
+    short = search(scene, spec, imagine, EXACT, THRESHOLD, 24, judging=JUDGING)
+    found = search(scene, spec, imagine, EXACT, THRESHOLD, DEFAULT_MAX_MOVES, judging=JUDGING)
+
+    assert short.chosen is None
+    assert found.chosen is not None and found.chosen.move is not None
+    assert [v.move for v in found.verdicts].index(found.chosen.move) >= 24
+    assert saved_in_truth(trial, 0.6, planner, DELAY, JUDGING, found)

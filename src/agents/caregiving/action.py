@@ -39,6 +39,7 @@ from typing import TypeVar
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
+from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES
 from agents.caregiving.model.response import (
     Ask,
     Asked,
@@ -85,7 +86,7 @@ class Action(Agent):
     def add_arguments(cls, parser: argparse.ArgumentParser) -> None:
         add_risk_arguments(parser)
         add_walking_arguments(parser)
-        parser.add_argument("--max-moves", type=int, default=24, help="moves tried per search at most")
+        parser.add_argument("--max-moves", type=int, default=DEFAULT_MAX_MOVES, help="moves tried per search at most")
         parser.add_argument(
             "--retry",
             type=float,

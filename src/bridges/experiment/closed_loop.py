@@ -32,6 +32,7 @@ from functools import partial
 
 import numpy as np
 
+from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.response import Ask, Asked, Keep, NoMove, Policy, Send, UnderWay, drive, respond
 from agents.caregiving.model.robot_moves import RobotMove
@@ -45,8 +46,6 @@ from .beliefs import SAMPLES, Noise, belief, search_uncertainty
 from .oracle import idle_run, world_at
 from .perfect_belief import Gazes, spec_on
 
-#: Moves a search judges at most, as the action agent's default.
-MAX_MOVES = 24
 #: Seconds past the danger's moment after which a trial's loop stops looking (the truth then runs to its end).
 HORIZON = 10.0
 
@@ -55,7 +54,8 @@ HORIZON = 10.0
 class Setup:
     """How the loop runs: the robot's start ``delay`` after a look and ``judging`` seconds more per judgement,
     seconds between ``look``s at a danger and before a ``retry`` of one no move removed, whether only the first
-    look acts, the belief's ``noise``, and the risk ``threshold`` a move must stay under. With ``known_gaze``
+    look acts, the belief's ``noise``, the risk ``threshold`` a move must stay under, and the ``max_moves`` a
+    search judges at most. With ``known_gaze``
     the search judges each move at the endangered people's true gaze alone (see
     :class:`~bridges.experiment.perfect_belief.Gazes`), which no sensor tells."""
 
@@ -67,6 +67,7 @@ class Setup:
     noise: Noise
     threshold: float = 0.2
     known_gaze: bool = False
+    max_moves: int = DEFAULT_MAX_MOVES
 
 
 @dataclass
@@ -138,7 +139,7 @@ def _look(
     def run(ask: Ask) -> Asked:
         nonlocal judged, lead
         delay = setup.delay + setup.judging * judged
-        item = ask.item(delay, uncertainty, setup.threshold, MAX_MOVES, setup.judging)
+        item = ask.item(delay, uncertainty, setup.threshold, setup.max_moves, setup.judging)
         found = item.run(scene, partial(serve_one, scene), None, (lambda _lead: None) if ask.head_start else None)
         if found.lead is not None and found.lead.move is not None:
             lead = (now + delay + setup.judging, found.lead.move)
