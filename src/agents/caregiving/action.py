@@ -11,12 +11,12 @@ flow of Algorithm 2 and nothing more:
 * :mod:`agents.caregiving.model.response` decides what to do about them (keep the
   move under way, give it one more look, send a new move, brake, or find none),
   asking for each search it needs;
-* the simulator runs each search next to its imagination in one request
-  (:mod:`agents.caregiving.model.move_search`: every candidate imagined in time
-  with every gaze class of each endangered person, the other people beside them,
-  perception's uncertainty sampled; a move that makes anything worse is never
-  chosen), and sends its head start back as soon as it is found, which is written
-  at once as an intention with ``head_start`` set;
+* :mod:`agents.caregiving.search_client` asks the simulator for each search, one
+  request each (:mod:`agents.caregiving.model.move_search`: every candidate imagined
+  in time with every gaze class of each endangered person, the other people beside
+  them, perception's uncertainty sampled; a move that makes anything worse is never
+  chosen); a head start found on the way is written at once as an intention with
+  ``head_start`` set;
 * the response is written to W; a move whose search ended well before the moment
   it imagined the move setting off is judged once more, to set off now, and sent
   at once if it still does what it was chosen for; otherwise it is held until then.
@@ -32,18 +32,12 @@ from __future__ import annotations
 import argparse
 import asyncio
 import time
-from collections.abc import Callable, Generator
 from dataclasses import replace
 from itertools import count
-from typing import TypeVar
 
 from agents.caregiving import keys
-from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES
 from agents.caregiving.model.response import (
-    Ask,
-    Asked,
-    JudgingTime,
     Keep,
     NoMove,
     Policy,
@@ -56,7 +50,7 @@ from agents.caregiving.model.response import (
 from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.uncertainty import Uncertainty
-from agents.caregiving.model.verdict import SearchResult, Verdict
+from agents.caregiving.model.verdict import Verdict
 from wm import Event, Node
 
 from ..runtime import Agent, main, on
@@ -73,8 +67,7 @@ from .robot_intentions import (
     search_spec,
     write_intention,
 )
-
-T = TypeVar("T")
+from .search_client import SearchClient, SearchTerms
 
 
 class Action(Agent):
@@ -105,10 +98,8 @@ class Action(Agent):
         self.size_error = size_error(self.args)
         self.episode: int | None = None
         self.names = count(1)
-        self.rpc_ms = self.sim_ms = 0.0
+        self.searches = SearchClient(self.ask, keys.imagine(self.args.graph), self.log)
         self.pending: set[tuple[int, int]] = set()
-        self.tried: list[Verdict] = []  # the moves the last search judged, for its log line
-        self.judging = JudgingTime()
         self.clock = OdometryClock()
         self.new_episode = True
         self.failed: dict[int, float] = {}  # person node id -> simulated time their last search found no move
@@ -163,10 +154,10 @@ class Action(Agent):
         Only a move that protects every endangered person is judged again; braking is sent as found.
         """
         early = self._early(ctx, send.sets_off)
-        if early <= 2 * self.judging.seconds * self.clock.rate(self.g) or send.braking or send.unsaved:
+        if early <= 2 * self.searches.judging.seconds * self.clock.rate(self.g) or send.braking or send.unsaved:
             return send
         now = replace(spec, current=move_of(under_way, ctx) if under_way is not None else None)
-        judged = await self._drive(ctx, set_off_sooner(send, now, idle_risk, self._policy(ctx)))
+        judged = await self.searches.run(set_off_sooner(send, now, idle_risk, self._policy(ctx)), self._terms(ctx))
         self.log.info(
             "move judged again to set off sooner",
             sent=judged is not send,
@@ -203,8 +194,7 @@ class Action(Agent):
         started: float,
     ) -> tuple[Response, Node | None]:
         """Run :func:`respond`, each search it asks for by the simulator; also the head start written, if any."""
-        self.rpc_ms = self.sim_ms = 0.0
-        self.tried = []
+        self.searches.begin()
         led: Node | None = None
 
         def lead(verdict: Verdict) -> None:
@@ -221,25 +211,7 @@ class Action(Agent):
             else None
         )
         responding = respond(spec, idle_risks, under_way, self._policy(ctx))
-        return await self._drive(ctx, responding, lead, lambda: led is not None), led
-
-    async def _drive(
-        self,
-        ctx: Context,
-        protocol: Generator[Ask, Asked, T],
-        lead: Callable[[Verdict], None] | None = None,
-        led: Callable[[], bool] = lambda: False,
-    ) -> T:
-        """Run a protocol of :mod:`~agents.caregiving.model.response` to its end, each search it asks for by the
-        simulator; a head start found on the way goes to ``lead``, and ``led`` tells whether one was written."""
-        try:
-            ask = next(protocol)
-            while True:
-                found = await self._search(ctx, ask, lead if ask.head_start else None)
-                ask = protocol.send(Asked(found, led()))
-        except StopIteration as done:
-            ended: T = done.value
-            return ended
+        return await self.searches.run(responding, self._terms(ctx), lead, lambda: led is not None), led
 
     def _act(
         self,
@@ -287,47 +259,20 @@ class Action(Agent):
             "no move removes the danger",
             people=sorted(dangers),
             search_ms=self._ms(started),
-            tried=len(self.tried),
-            why=sorted({v.reason for v in self.tried})[:4],
+            tried=len(self.searches.tried),
+            why=sorted({v.reason for v in self.searches.tried})[:4],
             head_start=head_start,
         )
 
-    # -- asking the simulator ------------------------------------------------------------------
-    async def _search(
-        self, ctx: Context, ask: Ask, head_start: Callable[[Verdict], None] | None = None
-    ) -> SearchResult | None:
-        """One search, run by the simulator; each candidate imagines the robot starting when its command would arrive.
-
-        With ``head_start``, a head start the simulator finds on the way is handed to it as soon as it arrives.
-        A search of the generated candidates adds its verdicts to :attr:`tried`. None when the simulator refused.
-        """
-        item = ask.item(
-            self._delay(ctx),
+    def _terms(self, ctx: Context) -> SearchTerms:
+        """What each search of a response on ``ctx`` is asked with."""
+        return SearchTerms(
+            lambda: self._delay(ctx),
+            lambda: self.clock.rate(self.g),
             Uncertainty(self.size_error, ctx.sigma, self.args.samples),
             self.args.risk_threshold,
             self.args.max_moves,
-            self.judging.seconds * self.clock.rate(self.g),
         )
-
-        def progress(reply: imagine_reply.ImagineReply) -> None:
-            found = reply.search
-            if head_start is not None and found is not None and found.lead is not None:
-                head_start(found.lead)
-
-        sent = time.perf_counter()
-        reply = await self.ask(
-            keys.imagine(self.args.graph), {"items": [item.to_wire()]}, decode=imagine_reply.decode, progress=progress
-        )
-        self.rpc_ms += (time.perf_counter() - sent) * 1e3
-        self.sim_ms += reply.compute_ms
-        found = reply.search
-        if found is None:
-            self.log.error("the simulator refused the search", error=reply.results[0].error if reply.results else None)
-            return None
-        self.judging.timed(ask, found, reply.compute_ms)
-        if ask.moves is None:
-            self.tried += found.verdicts
-        return found
 
     def _policy(self, ctx: Context) -> Policy:
         return Policy(self.args.risk_threshold, self.args.samples, ctx.scene.robot_name)
@@ -370,13 +315,13 @@ class Action(Agent):
             risk=round(chosen.risk, 2),
             chosen=chosen.reason,
             people=len(dangers),
-            tried=len(self.tried),
-            refused=sorted({v.reason for v in self.tried if not v.clear})[:4],
+            tried=len(self.searches.tried),
+            refused=sorted({v.reason for v in self.searches.tried if not v.clear})[:4],
             replaces=current.name if current is not None else None,
             because=under_way.reason if under_way is not None else None,
             search_ms=self._ms(started),
-            rpc_ms=round(self.rpc_ms, 1),
-            sim_ms=round(self.sim_ms, 1),
+            rpc_ms=round(self.searches.rpc_ms, 1),
+            sim_ms=round(self.searches.sim_ms, 1),
             since_risk_ms=round((time.time() - edge.get("updated_at", time.time())) * 1e3, 1),
         )
         return True
