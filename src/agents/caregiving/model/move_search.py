@@ -34,8 +34,8 @@ if TYPE_CHECKING:
 
 #: Candidate moves one search may judge at most.
 MAX_MOVES = 256
-#: Candidate moves the action agent's searches judge at most by default. Past the 24th come the path poses and
-#: the other objects' stand-offs that save some people no earlier candidate does; few streams run past 32
+#: Candidate moves the action agent's searches judge at most by default. Past the 24th come the crossings and
+#: the other objects' stand-offs, which save some people no earlier candidate does; few streams run past 32
 #: (see *A longer search* in docs/caregiving-results.md).
 DEFAULT_MAX_MOVES = 32
 #: Candidates lent to the helper process at a time (see :mod:`agents.caregiving.model.judge_ahead`).
