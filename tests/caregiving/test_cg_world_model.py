@@ -196,8 +196,10 @@ def test_advancing_in_bulk_ends_as_stepping_does(scenario: str) -> None:
     ],
 )
 def test_looking_again_only_when_a_thing_could_show_ends_as_looking_every_step(scenario: str) -> None:
-    """World._sees skips what stays hidden within visibility.sight's bound; with several people walking past a
-    driving robot, every trial must end as it does with every look worked out."""
+    """World._sees skips what stays hidden within visibility.sight's bound (the robot's for the disc it turns
+    in), and World._check_contacts what never moves and stays farther than the closest approach; with several
+    people walking past a driving robot, every trial must end as it does with every look and clearance worked
+    out."""
     s = load_scenario(scenario)
     rng = np.random.default_rng(23)
     for _ in range(4):
@@ -218,10 +220,14 @@ def test_a_slow_walker_overtaken_sees_the_other_come_into_view_at_once() -> None
 
 
 class _LooksEveryStep(World):
-    """The world with every look worked out afresh."""
+    """The world with every look and every clearance worked out afresh at every step."""
 
     def _sees(self, w: _Walker, o: Obstacle) -> bool:
         return can_see(w.state, o, w.gaze)
+
+    def _check_contacts(self, w: _Walker, around: tuple[Obstacle, ...]) -> None:
+        w.measured.clear()
+        super()._check_contacts(w, around)
 
 
 def _walk_alike(bounded: World, every: World, move: RobotMove | None) -> None:

@@ -34,6 +34,7 @@ import numpy as np
 
 from .errors import CaregivingError
 from .geometry import (
+    Circle,
     Polyline,
     bounding_radius,
     closest_boundary_point,
@@ -116,6 +117,9 @@ class _Walker:
     # was worked out, with the bound (see World._sees).
     travelled: float = 0.0
     unseen: dict[str, tuple[float, float, float, Hidden]] = field(default_factory=dict)
+    # For the things that never move, the walker's travel and their clearance when it was last measured: they
+    # stay at least that clearance, less what the walker has travelled since, away (see World._check_contacts).
+    measured: dict[str, tuple[float, float]] = field(default_factory=dict)
     # The bodies the walker starts touching, with their clearance then: left out of contacts while the walker
     # leaves them, until they come clear (see World._check_contacts).
     leaving: dict[str, float] = field(default_factory=dict)
@@ -176,6 +180,8 @@ class World:
         self._fixed: tuple[Obstacle, ...] = ()
         self.robot_arrival: float | None = None
         self.robot_seen: dict[str, float] = {}
+        # The length of the polygonal line through every place the robot has stood (see World._sees).
+        self._robot_travelled = 0.0
 
     @classmethod
     def from_scenario(cls, scenario: Scenario, dt: float = DT, planner: GridPlanner | None = None) -> World:
@@ -187,7 +193,14 @@ class World:
         """An independent copy of the world now (sharing the planner and its caches)."""
         twin = copy.copy(self)
         twin._walkers = [
-            replace(w, known=dict(w.known), track=list(w.track), unseen=dict(w.unseen), leaving=dict(w.leaving))
+            replace(
+                w,
+                known=dict(w.known),
+                track=list(w.track),
+                unseen=dict(w.unseen),
+                leaving=dict(w.leaving),
+                measured=dict(w.measured),
+            )
             for w in self._walkers
         ]
         twin._walker_named = {w.state.name: w for w in twin._walkers}
@@ -350,15 +363,15 @@ class World:
     def _sees(self, w: _Walker, o: Obstacle) -> bool:
         """Whether ``w`` sees ``o`` now, not working it out again while it stays hidden.
 
-        :func:`visibility.sight` bounds how far ``w`` must move before ``o`` can show; a person ``o`` moving
-        ``d`` changes the distances and directions it reads by at most as much as ``w`` moving ``d`` does, so
-        what both have walked since counts against the bound. The robot turns as it drives, which the bound
-        does not cover: it is looked at every time.
+        :func:`visibility.sight` bounds how far ``w`` must move before ``o`` can show; a person or the robot
+        ``o`` moving ``d`` changes the distances and directions it reads by at most as much as ``w`` moving
+        ``d`` does, so what both have travelled since counts against the bound. The robot also turns as it
+        drives, which the bound does not cover, so its bound is worked out for the disc that holds its
+        footprint at any heading: while that disc is hidden, so is the robot.
         """
-        if o.kind == ROBOT_KIND:
-            return can_see(w.state, o, w.gaze)
+        robot = o.kind == ROBOT_KIND
         other = self._walker_named.get(o.name)
-        moved = other.travelled if other is not None else 0.0
+        moved = self._robot_travelled if robot else other.travelled if other is not None else 0.0
         known = w.unseen.get(o.name)
         if known is not None:
             mine, theirs, heading, bound = known
@@ -366,9 +379,9 @@ class World:
                 bound.turn == math.inf or abs(wrap_angle(w.state.heading - heading)) < bound.turn
             ):
                 return False
-        hidden = sight(w.state, o, w.gaze)
+        hidden = sight(w.state, _any_heading(o) if robot else o, w.gaze)
         if hidden is None:
-            return True
+            return not robot or can_see(w.state, o, w.gaze)
         w.unseen[o.name] = (w.travelled, moved, w.state.heading, hidden)
         return False
 
@@ -429,7 +442,7 @@ class World:
         """Record ``w``'s closest approach to anything ``around`` but their target, and a contact as a collision."""
         x, y, radius, target = w.state.x, w.state.y, w.state.radius, w.target
         nearest, clear = None, w.min_clearance
-        leaving = w.leaving
+        leaving, measured, travelled = w.leaving, w.measured, w.travelled
         for o in around:
             if o.name == target:
                 continue
@@ -441,11 +454,17 @@ class World:
                 if c <= 0.0 and not (len(w.track) == 2 and c < start):
                     continue
                 del leaving[o.name]
-            # A body whose bounding circle keeps it at least the closest approach so far away can neither be
-            # the new closest nor touch (the closest approach stays positive while the walker walks).
+            # A body kept at least the closest approach so far away, by its bounding circle or, if it never
+            # moves, by its clearance when last measured less what the walker has travelled since, can
+            # neither be the new closest nor touch (the closest approach stays positive while they walk).
+            fixed = o.kind != ROBOT_KIND and o.kind != PERSON_KIND
+            if fixed and (last := measured.get(o.name)) is not None and last[1] - (travelled - last[0]) - 1e-9 >= clear:
+                continue
             if math.hypot(x - shape.x, y - shape.y) - bounding_radius(shape) - radius - 1e-9 >= clear:
                 continue
             c = point_distance(shape, x, y) - radius
+            if fixed:
+                measured[o.name] = (travelled, c)
             if c < clear:
                 nearest, clear = o, c
         if nearest is None:
@@ -461,7 +480,9 @@ class World:
     # -- stepping ------------------------------------------------------------------------------
     def step(self) -> None:
         """Advance the world by one ``dt``."""
+        before = self.robot
         self._step_robot()
+        self._robot_travelled += math.hypot(self.robot.x - before.x, self.robot.y - before.y)
         self._fixed = self._static + (self.robot.body(),)
         for w in self._walkers:
             if w.status == "walking":
@@ -598,6 +619,12 @@ class World:
         xs[start], ys[start] = pts[0, 0], pts[0, 1]
         xs[end], ys[end] = pts[-1, 0], pts[-1, 1]
         return xs, ys
+
+
+def _any_heading(body: Obstacle) -> Obstacle:
+    """``body`` as the disc its footprint sweeps turning in place, which holds it at any heading."""
+    shape = body.shape
+    return replace(body, shape=Circle(shape.x, shape.y, bounding_radius(shape)))
 
 
 def run_idle(trial: Scenario, max_time: float = 60.0, planner: GridPlanner | None = None) -> Outcome:
