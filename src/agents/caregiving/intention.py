@@ -25,7 +25,8 @@ gaze classes are :mod:`agents.caregiving.model.guesses`. Each surviving intentio
 ``has_intention`` person -> target (risky, path, collision point and object,
 time to collision, gaze, probability); risky ones also get a ``collision`` edge
 person -> object. Edges are updated in place, rewritten only when their meaning
-changes (or every ``--refresh`` simulated seconds), and deleted when they stop holding.
+changes (or every ``--refresh`` simulated seconds), and deleted when they stop holding
+(these writes are :mod:`agents.caregiving.person_intentions`).
 """
 
 from __future__ import annotations
@@ -33,9 +34,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import math
-import time
 from collections.abc import Awaitable
-from typing import Any
 
 from agents.caregiving import keys
 from agents.caregiving.model import imagine_reply
@@ -43,14 +42,15 @@ from agents.caregiving.model.guesses import Guess, guesses, heading_error
 from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.imagine_request import PersonItem
 from agents.caregiving.model.uncertainty import Uncertainty
-from agents.caregiving.model.visibility import GazeClass, candidate_targets, gaze_classes
+from agents.caregiving.model.visibility import candidate_targets, gaze_classes
 from agents.caregiving.model.world_model import Walk
 from wm import Event
 
 from ..runtime import Agent, main, on
 from .context import Context, read_context
 from .imagination_cache import ImaginationCache, Key, footing
-from .names import COLLISION, HAS_INTENTION, KNOWS, OBJECT, PERSON, ROBOT
+from .names import PERSON
+from .person_intentions import GuessWriter, remember
 from .risk_options import add_risk_arguments, add_walking_arguments, size_error, walking
 
 
@@ -85,7 +85,7 @@ class Intention(Agent):
         a = self.args
         self.size_error = size_error(a)
         self.first_seen: dict[int, float] = {}
-        self.written: dict[tuple[int, int], tuple[bool, str | None, float]] = {}
+        self.writer = GuessWriter(a.refresh)
         self.evaluations = 0
         self.last_time = -1.0
         self.episode: int | None = None
@@ -120,7 +120,7 @@ class Intention(Agent):
         uncertainty = Uncertainty(self.size_error, ctx.sigma, a.samples)
         p = ctx.scene.person(person)
         classes = gaze_classes(p, ctx.scene.bodies_around(person))
-        known = self._remember(ctx, person, classes)
+        known = remember(self.g, ctx, person, classes)
         now = footing(ctx.scene, person, ctx.sigma)
         items: list[PersonItem] = []
         answers: list[tuple[Answer, float] | None] = []
@@ -145,7 +145,8 @@ class Intention(Agent):
                 for (i, key), res in zip(pending, reply.results, strict=True):
                     self.cache.store(key, now, res, aside=walking and self._aside(res, p.heading))
                     answers[i] = res, 0.0
-            self._write(ctx, [person], self._guesses(ctx, items, [x for x in answers if x is not None]))
+            found = self._guesses(ctx, items, [x for x in answers if x is not None])
+            self.writer.write(self.g, ctx, [person], found)
 
         return finish()
 
@@ -154,30 +155,6 @@ class Intention(Agent):
         r = answer.imagination
         path = r.path if r is not None and r.reachable else ()
         return bool(path) and heading_error(path, heading) > walking(self.args).aside
-
-    def _remember(self, ctx: Context, person: str, classes: tuple[GazeClass, ...]) -> list[str]:
-        """Objects (and the robot) the person sees in every gaze class are surely seen: mark them ``knows`` in W.
-
-        The person plans around them later too, even once they are out of view (as people do); a robot that has
-        been seen is remembered where it stands, so that a walk imagined later does not re-plan on first sight.
-        """
-        pid = ctx.ids[person]
-        sure = frozenset.intersection(*(c.visible for c in classes)) if classes else frozenset()
-        known = {self.g.get_node(e.dst).name for e in self.g.edges(type=KNOWS, src=pid)}
-        fresh = [
-            n
-            for n in sure
-            if n in ctx.ids
-            and n not in known
-            and ctx.ids[n] != pid
-            and self.g.find_node(ctx.ids[n]) is not None
-            and self.g.get_node(ctx.ids[n]).type in (OBJECT, ROBOT)
-        ]
-        if fresh:
-            with self.g.batch():
-                for name in fresh:
-                    self.g.insert_or_assign_edge(pid, ctx.ids[name], KNOWS, {"updated_at": time.time()})
-        return sorted(known | set(fresh))
 
     def _guesses(self, ctx: Context, items: list[PersonItem], results: list[tuple[Answer, float]]) -> list[Guess]:
         walking = {p.name: p.heading for p in ctx.scene.people if ctx.speed(p.name) > self.args.moving_speed}
@@ -200,75 +177,6 @@ class Intention(Agent):
                 nominal=guess.nominal,
             )
         return found
-
-    def _write(self, ctx: Context, people: list[str], guesses: list[Guess]) -> None:
-        g = self.g
-        now = time.time()
-        keep = {(ctx.ids[x.person], ctx.ids[x.target]) for x in guesses}
-        with g.batch():
-            for x in guesses:
-                src, dst = ctx.ids[x.person], ctx.ids[x.target]
-                if g.find_node(src) is None or g.find_node(dst) is None:
-                    continue  # perception dropped it meanwhile
-                last = self.written.get((src, dst))
-                stale = (
-                    last is None
-                    or last[0] != x.risky
-                    or last[1] != x.obstacle
-                    or ctx.scene.time - last[2] >= self.args.refresh
-                )
-                if not stale:
-                    continue
-                self.written[(src, dst)] = (x.risky, x.obstacle, ctx.scene.time)
-                attrs: dict[str, Any] = {
-                    "risky": x.risky,
-                    "path": [c for pt in x.path for c in pt],
-                    "gaze": x.gaze,
-                    "action": "walk_to",
-                    "probability": x.probability,
-                    "updated_at": now,
-                    "at_time": ctx.scene.time,
-                    "observed_at": ctx.written_at,
-                }
-                if x.risky and x.obstacle in ctx.ids:
-                    attrs.update(
-                        collision_point=list(x.point or (0.0, 0.0)),
-                        collision_object=ctx.ids[x.obstacle],
-                        time_to_collision=x.ttc if x.ttc is not None else 0.0,
-                    )
-                g.insert_or_assign_edge(src, dst, HAS_INTENTION, attrs)
-            self._prune(ctx, people, keep, guesses)
-
-    def _prune(self, ctx: Context, people: list[str], keep: set[tuple[int, int]], guesses: list[Guess]) -> None:
-        """Delete intentions and collision marks of evaluated people that no longer hold."""
-        g = self.g
-        evaluated = {ctx.ids[p] for p in people}
-        dangers = {(ctx.ids[x.person], ctx.ids[x.obstacle]) for x in guesses if x.risky and x.obstacle in ctx.ids}
-        for e in g.edges(type=HAS_INTENTION):
-            if e.src in evaluated and (e.src, e.dst) not in keep:
-                g.delete_edge(e.src, e.dst, HAS_INTENTION)
-                self.written.pop((e.src, e.dst), None)
-        for e in g.edges(type=COLLISION):
-            if e.src in evaluated and (e.src, e.dst) not in dangers:
-                g.delete_edge(e.src, e.dst, COLLISION)
-        for x in guesses:
-            if x.risky and x.obstacle in ctx.ids:
-                src, dst = ctx.ids[x.person], ctx.ids[x.obstacle]
-                if (
-                    g.find_node(src) is not None
-                    and g.find_node(dst) is not None
-                    and g.find_edge(src, dst, COLLISION) is None
-                ):
-                    g.insert_or_assign_edge(
-                        src,
-                        dst,
-                        COLLISION,
-                        {
-                            "collision_point": list(x.point or (0.0, 0.0)),
-                            "time_to_collision": x.ttc if x.ttc is not None else 0.0,
-                            "updated_at": time.time(),
-                        },
-                    )
 
 
 if __name__ == "__main__":
