@@ -2,8 +2,8 @@
 
 What the tracker holds of the truth at a moment: each object's position off by the
 sensor's sigma averaged over the frames seen so far (the tracker averages a static
-object's detections) and its size off by a factor drawn within the sensor's
-``size_error`` (a bias no averaging removes); each person's position off by half the
+object's detections) and its size, height included, off by a factor drawn within the
+sensor's ``size_error`` (a bias no averaging removes, as the sensors draw it); each person's position off by half the
 sensor's sigma (what a one-second line fit leaves), their heading by the sensor's
 heading sigma, and where their walk began likewise. Walls are known exactly.
 :class:`Noise` scales each part, so that the cost of each shows apart.
@@ -76,7 +76,7 @@ def belief(
             if isinstance(s, Circle)
             else Box(s.x + dx, s.y + dy, s.hx * f, s.hy * f, s.theta)
         )
-        obstacles.append(replace(o, shape=seen))
+        obstacles.append(replace(o, shape=seen, height=o.height * f))
     people = []
     for p in truth.people:
         dx, dy = rng.normal(0.0, person_sigma, 2)
