@@ -19,7 +19,8 @@ flow of Algorithm 2 and nothing more:
   ``head_start`` set;
 * the response is written to W; a move whose search ended well before the moment
   it imagined the move setting off is judged once more, to set off now, and sent
-  at once if it still does what it was chosen for; otherwise it is held until then.
+  at once if it still does what it was chosen for; otherwise it is held until then
+  (:mod:`agents.caregiving.set_off`).
 
 The chosen move becomes the robot's ``intention`` node (``move_to``, target,
 final pose, ``status: proposed``, ``in_time``, ``reason``; or ``stop``, its target
@@ -30,7 +31,6 @@ executor drives it.
 from __future__ import annotations
 
 import argparse
-import asyncio
 import time
 from dataclasses import replace
 from itertools import count
@@ -68,6 +68,7 @@ from .robot_intentions import (
     write_intention,
 )
 from .search_client import SearchClient, SearchTerms
+from .set_off import SetOff
 
 
 class Action(Agent):
@@ -101,6 +102,7 @@ class Action(Agent):
         self.searches = SearchClient(self.ask, keys.imagine(self.args.graph), self.log)
         self.pending: set[tuple[int, int]] = set()
         self.clock = OdometryClock()
+        self.set_off = SetOff(self.clock, self.args.dispatch)
         self.new_episode = True
         self.failed: dict[int, float] = {}  # person node id -> simulated time their last search found no move
         self.doubted: str | None = None  # the move under way that failed its last judgement, if it did
@@ -139,7 +141,7 @@ class Action(Agent):
         response, led = await self._respond(ctx, spec, idle_risks, dangers, current, started)
         if isinstance(response, Send) and response.sets_off is not None:
             response = await self._sooner(ctx, spec, max(idle_risks.values()), response, led or current)
-            await self._until_set_off(ctx, response.sets_off)
+            await self.set_off.hold(self.g, ctx.scene.time, response.sets_off, self.log)
             world = self.g.find_node(WORLD)
             if world is None or episode_of(world) != ctx.episode:
                 return  # the trial ended while the move was held
@@ -153,7 +155,7 @@ class Action(Agent):
 
         Only a move that protects every endangered person is judged again; braking is sent as found.
         """
-        early = self._early(ctx, send.sets_off)
+        early = self.set_off.early(self.g, ctx.scene.time, send.sets_off)
         if early <= 2 * self.searches.judging.seconds * self.clock.rate(self.g) or send.braking or send.unsaved:
             return send
         now = replace(spec, current=move_of(under_way, ctx) if under_way is not None else None)
@@ -164,25 +166,6 @@ class Action(Agent):
             hold_ms=round(early * 1e3, 1),
         )
         return judged
-
-    async def _until_set_off(self, ctx: Context, sets_off: float | None) -> None:
-        """Wait until a move written now would reach the world no sooner than its search imagined it setting
-        off, ``sets_off`` simulated seconds after the context, give or take one world step (the world takes a
-        command at its next step).
-
-        The search imagines its k-th candidate setting off ``judging * k`` after the first, from a running
-        estimate of a candidate's cost; a search that ends sooner than that would otherwise send the robot
-        on its way before the moment its move was judged for, into a room where people are elsewhere.
-        """
-        early = self._early(ctx, sets_off)
-        if sets_off is not None and early > 0.0:
-            self.log.info("move held", until_s=round(sets_off, 3), held_ms=round(early * 1e3, 1))
-            await asyncio.sleep(early / self.clock.rate(self.g))
-
-    def _early(self, ctx: Context, sets_off: float | None) -> float:
-        """How many simulated seconds before ``sets_off`` (after the context) a move written now would reach the
-        world, give or take one world step; 0 without a set-off time."""
-        return sets_off - self._delay(ctx) - DT if sets_off is not None else 0.0
 
     async def _respond(
         self,
@@ -267,7 +250,7 @@ class Action(Agent):
     def _terms(self, ctx: Context) -> SearchTerms:
         """What each search of a response on ``ctx`` is asked with."""
         return SearchTerms(
-            lambda: self._delay(ctx),
+            lambda: self.set_off.delay(self.g, ctx.scene.time),
             lambda: self.clock.rate(self.g),
             Uncertainty(self.size_error, ctx.sigma, self.args.samples),
             self.args.risk_threshold,
@@ -276,15 +259,6 @@ class Action(Agent):
 
     def _policy(self, ctx: Context) -> Policy:
         return Policy(self.args.risk_threshold, self.args.samples, ctx.scene.robot_name)
-
-    def _delay(self, ctx: Context) -> float:
-        """When a move decided now would reach the world, in simulated seconds after the context.
-
-        The world has gone on past the context already (sensor latency, then Algorithm 1 and the search so
-        far: the robot's odometry in W says by how much), and the executor and the world take ``--dispatch``
-        more. The search adds the time it spends judging, candidate by candidate.
-        """
-        return self.clock.lag(self.g, ctx.scene.time) + self.args.dispatch
 
     # -- writing W -----------------------------------------------------------------------------
     def _write(
