@@ -79,11 +79,10 @@ class GuessWriter:
         """Delete intentions and collision marks of evaluated people that no longer hold; mark new dangers."""
         evaluated = {ctx.ids[p] for p in people}
         keep = {(ctx.ids[x.person], ctx.ids[x.target]) for x in guesses}
-        dangers = {
-            (ctx.ids[x.person], ctx.ids[x.obstacle]): x
-            for x in guesses
-            if x.risky and x.obstacle is not None and x.obstacle in ctx.ids
-        }
+        dangers: dict[tuple[int, int], Guess] = {}  # each pair marked by its first risky guess
+        for x in guesses:
+            if x.risky and x.obstacle is not None and x.obstacle in ctx.ids:
+                dangers.setdefault((ctx.ids[x.person], ctx.ids[x.obstacle]), x)
         for e in g.edges(type=HAS_INTENTION):
             if e.src in evaluated and (e.src, e.dst) not in keep:
                 g.delete_edge(e.src, e.dst, HAS_INTENTION)
