@@ -30,15 +30,17 @@ import benchlib
 from agents.caregiving.model import move_search
 from agents.caregiving.model.candidates import candidates
 from agents.caregiving.model.judging import judge_move
+from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import Verdict
-from bench_move_search import THRESHOLD, Case, cases, every_room
-from bridges.experiment.beliefs import Noise, belief, search_uncertainty
-from bridges.experiment.oracle import idle_run, world_at
-from bridges.experiment.perfect_belief import Gazes, outcome_in_truth, spec_on
+from bench_move_search import THRESHOLD, Case, every_room
+from bench_move_search_noisy import drawn_beliefs
+from bridges.experiment.beliefs import Noise, belief
+from bridges.experiment.oracle import world_at
+from bridges.experiment.perfect_belief import saved_in_truth
 
 
 class Near:
@@ -66,23 +68,17 @@ def fragile_moves(
     """The counts the module docstring describes."""
     by_refusals: Counter[str] = Counter()
     switched: Counter[str] = Counter()
-    for case in cases(runs):
-        if not case.saveable:
-            continue
-        idle = idle_run(case.trial, case.planner)
-        now = world_at(case.trial, case.at, case.planner)
-        rng, origins = np.random.default_rng([case.index, 1]), np.random.default_rng([case.index, 1, 1])
-        scene = belief(now.scene(), case.trial.sensors, case.at, Noise(), rng, origins)
-        spec = spec_on(scene, idle, now, delay, Gazes.ANY_CLASS)
+    for drawn in drawn_beliefs(runs, 1, delay, Noise()):
+        case, scene, spec, uncertainty = drawn.case, drawn.scene, drawn.spec, drawn.uncertainty
         if spec is None:
             continue
-        uncertainty = search_uncertainty(scene, case.trial.sensors, case.at, 0, Noise())
-        found = move_search.search(scene, spec, partial(serve_one, scene), uncertainty, THRESHOLD, 32, judging=judging)
+        found = move_search.search(
+            scene, spec, partial(serve_one, scene), uncertainty, THRESHOLD, DEFAULT_MAX_MOVES, judging=judging
+        )
         chosen = found.chosen
         if chosen is None or chosen.move is None:
             continue
-        outcome = outcome_in_truth(case.trial, case.at, case.planner, delay, judging, found)
-        saved = outcome is not None and not outcome.collided
+        saved = saved_in_truth(case.trial, case.at, case.planner, delay, judging, found)
         slot = found.verdicts.index(chosen) + 1
         around = Near(case, scene, spec, uncertainty, near)
         refusals = around.refusing(chosen, delay + judging * slot)

@@ -37,16 +37,19 @@ from __future__ import annotations
 
 import argparse
 import time
-from collections.abc import Sequence
-from dataclasses import replace
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
 
 import benchlib
 from agents.caregiving.model import move_choice, move_search
+from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.service import serve_one
-from bench_move_search import RUNS, THRESHOLD, cases
+from agents.caregiving.model.uncertainty import Uncertainty
+from bench_move_search import RUNS, THRESHOLD, Case, cases
 from bridges.experiment.beliefs import Noise, belief, search_uncertainty
 from bridges.experiment.oracle import idle_run, world_at
 from bridges.experiment.perfect_belief import Gazes, outcome_in_truth, spec_on
@@ -58,6 +61,33 @@ def add_belief_arguments(p: argparse.ArgumentParser, runs: Sequence[str], drawn_
     p.add_argument("--draws", type=int, default=3, help=f"beliefs drawn per {drawn_per}")
     p.add_argument("--delay", type=float, default=delay, help="seconds from the danger to the robot's start")
     p.add_argument("--judging", type=float, default=0.02, help="seconds more per candidate judged")
+
+
+@dataclass(frozen=True)
+class Drawn:
+    """One belief drawn of a saveable case, Algorithm 1's spec on it (``None``: it shows no danger), and the
+    uncertainty the search samples round it."""
+
+    case: Case
+    scene: Scene
+    spec: SearchSpec | None
+    uncertainty: Uncertainty
+
+
+def drawn_beliefs(runs: list[str], draws: int, delay: float, noise: Noise) -> Iterator[Drawn]:
+    """``draws`` beliefs of every saveable case of ``runs``, at the moment its run saw the danger, the robot
+    starting ``delay`` later; seeded per case and draw, so that every bench and version sees the same beliefs."""
+    for case in cases(runs):
+        if not case.saveable:
+            continue
+        idle = idle_run(case.trial, case.planner)
+        now = world_at(case.trial, case.at, case.planner)
+        rng, origins = np.random.default_rng([case.index, draws]), np.random.default_rng([case.index, draws, 1])
+        sensors = case.trial.sensors
+        for k in range(draws):
+            scene = belief(now.scene(), sensors, case.at, noise, rng, origins)
+            spec = spec_on(scene, idle, now, delay, Gazes.ANY_CLASS)
+            yield Drawn(case, scene, spec, search_uncertainty(scene, sensors, case.at, k, noise))
 
 
 def noisy_search(
@@ -76,46 +106,37 @@ def noisy_search(
     beliefs = flagged = chosen = saved = judged = into_robot = leads = 0
     lost: dict[str, int] = {}
     spent = 0.0
-    for case in cases(runs):
-        if not case.saveable:
+    for drawn in drawn_beliefs(runs, draws, delay, noise):
+        case, scene, spec, uncertainty = drawn.case, drawn.scene, drawn.spec, drawn.uncertainty
+        beliefs += 1
+        if spec is None:
             continue
-        idle = idle_run(case.trial, case.planner)
-        now = world_at(case.trial, case.at, case.planner)
-        rng, origins = np.random.default_rng([case.index, draws]), np.random.default_rng([case.index, draws, 1])
-        sensors = case.trial.sensors
-        for k in range(draws):
-            beliefs += 1
-            scene = belief(now.scene(), sensors, case.at, noise, rng, origins)
-            spec = spec_on(scene, idle, now, delay, Gazes.ANY_CLASS)
-            if spec is None:
-                continue
-            flagged += 1
-            uncertainty = search_uncertainty(scene, sensors, case.at, k, noise)
-            started = time.perf_counter()
-            result = move_search.search(
-                scene,
-                spec,
-                partial(serve_one, scene),
-                uncertainty,
-                THRESHOLD,
-                24,
-                judging=judging,
-                settle_after_clear=settle_after_clear,
-                head_start=(lambda _lead: None) if head_start else None,
-            )
-            spent += time.perf_counter() - started
-            judged += len(result.verdicts)
-            chosen += result.chosen is not None and result.chosen.move is not None
-            leads += result.lead is not None
-            if drive_on:
-                result = replace(result, halt=None)
-            outcome = outcome_in_truth(case.trial, case.at, case.planner, delay, judging, result)
-            ok = outcome is not None and not outcome.collided
-            into_robot += outcome is not None and any(c.obstacle == scene.robot_name for c in outcome.collisions)
-            saved += ok
-            if not ok:
-                name = f"{case.run}#{case.index}"
-                lost[name] = lost.get(name, 0) + 1
+        flagged += 1
+        started = time.perf_counter()
+        result = move_search.search(
+            scene,
+            spec,
+            partial(serve_one, scene),
+            uncertainty,
+            THRESHOLD,
+            24,
+            judging=judging,
+            settle_after_clear=settle_after_clear,
+            head_start=(lambda _lead: None) if head_start else None,
+        )
+        spent += time.perf_counter() - started
+        judged += len(result.verdicts)
+        chosen += result.chosen is not None and result.chosen.move is not None
+        leads += result.lead is not None
+        if drive_on:
+            result = replace(result, halt=None)
+        outcome = outcome_in_truth(case.trial, case.at, case.planner, delay, judging, result)
+        ok = outcome is not None and not outcome.collided
+        into_robot += outcome is not None and any(c.obstacle == scene.robot_name for c in outcome.collisions)
+        saved += ok
+        if not ok:
+            name = f"{case.run}#{case.index}"
+            lost[name] = lost.get(name, 0) + 1
     return {
         "beliefs": beliefs,
         "flagged": flagged,
