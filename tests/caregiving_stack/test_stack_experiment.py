@@ -36,6 +36,11 @@ KEYS = {
     "prevention_rate_of_saveable_after_delay",
     "robot_caused_collisions",
     "robot_tripped_people",
+    "people_at_risk",
+    "people_flagged",
+    "person_recall",
+    "flag_lead_s_p50",
+    "flag_lead_s_min",
 }
 
 
@@ -64,6 +69,13 @@ def test_short_experiment_writes_table_json_and_figures(tmp_path: Path) -> None:
     assert KEYS <= data.keys()
     assert data["trials"] == 2 and [t["index"] for t in data["per_trial"]] == [1, 0]
     assert all(isinstance(t["robot_tripped"], list) for t in data["per_trial"])
+    # Every fall with the robot idle is scored on its own, its person flagged, if at all, before it.
+    falls = [f for t in data["per_trial"] for f in t["falls"]]
+    assert [bool(t["falls"]) for t in data["per_trial"]] == [t["truly_risky"] for t in data["per_trial"]]
+    assert data["people_at_risk"] == len(falls) and data["people_flagged"] == sum(
+        f["flagged_at"] is not None for f in falls
+    )
+    assert all(f["flagged_at"] <= f["falls_at"] for f in falls if f["flagged_at"] is not None)
     assert data["sensor_noise"] is True and data["paper"]["precision"] == 0.61
     assert data["scenario"] == data["scenario_file"] == "paper_experiment1"  # a shipped scenario, by name
     assert (figures / "reaction_times.png").stat().st_size > 0

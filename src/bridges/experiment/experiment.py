@@ -8,7 +8,12 @@ same trial with the robot idle (:func:`agents.caregiving.model.world_model.run_i
 Per trial: *predicted risky* = some ``has_intention`` was marked risky;
 *discarded* = no intention arose at all (as in the paper). Over the valid
 trials: accuracy, precision, recall, F1, F2 and the false-positive and
-false-negative rates (shares of valid trials, as the paper's Table I).
+false-negative rates (shares of valid trials, as the paper's Table I). A trial
+of several people can be predicted for a false alarm about one person while
+another falls unflagged, so each fall with the robot idle is also scored on its
+own (:mod:`bridges.experiment.fallers`): ``people_at_risk`` counts them,
+``person_recall`` is the share whose own risky intention was written at or
+before their fall, and ``flag_lead_s_p50`` and ``_min`` say how long before it.
 ``action_rate`` is the share of predicted-risky trials in which Algorithm 2
 wrote a move its joint imagination says removes the danger (the paper's
 definition), ``action_in_time_rate`` the share whose move was also imagined to
@@ -69,9 +74,10 @@ from rich.table import Table
 
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import Scenario, load_scenario
-from agents.caregiving.model.world_model import run_idle
+from agents.caregiving.model.world_model import World
 from bridges.world.bridge import trial_for
 
+from .fallers import Faller, fallers
 from .launch import Stack
 from .oracle import OracleVerdict, oracle
 from .trials import TrialRecord, finite, open_harness
@@ -105,6 +111,7 @@ class Scored:
     saveable: bool | None = None
     standoff_saveable: bool | None = None
     saveable_after_delay: bool | None = None  # by a move commanded the pipeline's median delay later
+    falls: tuple[Faller, ...] = ()  # each fall with the robot idle, and when its person was first flagged
 
     @property
     def truly_risky(self) -> bool:
@@ -171,6 +178,8 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
     delay = pipeline_delay(scored)
     late = [s for s in risky if s.saveable_after_delay]
     saved_late = sum(not s.record.collided for s in late)
+    falls = [f for s in valid for f in s.falls]
+    leads = finite([f.lead for f in falls])
     return {
         "trials": len(scored),
         "discarded": len(scored) - len(valid),
@@ -218,6 +227,11 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "head_start_ms_p50": percentile(finite([s.record.head_start_ms for s in scored]), 50),
         "truly_risky": len(risky),
         "closed_loop_collisions": sum(s.record.collided for s in scored),
+        "people_at_risk": len(falls),
+        "people_flagged": len(leads),
+        "person_recall": _ratio(len(leads), len(falls)),
+        "flag_lead_s_p50": percentile(leads, 50),
+        "flag_lead_s_min": min(leads, default=None),
     }
 
 
@@ -226,6 +240,8 @@ def _fmt(key: str, value: Any) -> str:
         return "-"
     if "_ms_" in key:
         return f"{value:.1f} ms"
+    if "_s_" in key:
+        return f"{value:.2f} s"
     if key in (
         "accuracy",
         "fp_rate",
@@ -253,6 +269,10 @@ ROWS = [
     ("False negatives", "fn_rate"),
     ("Precision", "precision"),
     ("Recall", "recall"),
+    ("People who fell with the robot idle", "people_at_risk"),
+    ("... each flagged before their fall (recall by person)", "person_recall"),
+    ("... flagged this long before it (p50)", "flag_lead_s_p50"),
+    ("... at the least", "flag_lead_s_min"),
     ("F-1 score", "f1"),
     ("F-2 score", "f2"),
     ("Reaction time (mean)", "reaction_ms_mean"),
@@ -328,9 +348,16 @@ async def run_trials(
             for index in indices:
                 stack.check()
                 record = await harness.run(seed, index, timeout, scenario_file)
-                truth = run_idle(trial_for(scenario, seed, index), planner=planner)
-                fallers = frozenset(c.person for c in truth.collisions)
-                scored.append(Scored(record, fallers, min(truth.min_clearance.values(), default=float("inf"))))
+                idle = World.from_scenario(trial_for(scenario, seed, index), planner=planner)
+                truth = idle.run()
+                scored.append(
+                    Scored(
+                        record,
+                        frozenset(c.person for c in truth.collisions),
+                        min(truth.min_clearance.values(), default=float("inf")),
+                        falls=fallers(idle, record.flags.values()),
+                    )
+                )
                 progress.update(
                     task, advance=1, description=f"trials ({sum(s.record.collided for s in scored)} collided)"
                 )
@@ -394,6 +421,7 @@ def trial_json(s: Scored) -> dict[str, Any]:
         "decision_ms": r.decision_ms,
         "e2e_ms": r.e2e_ms,
         "collisions": r.outcome.get("collisions", []),
+        "falls": [{"person": f.person, "falls_at": f.falls_at, "flagged_at": f.flagged_at} for f in s.falls],
     }
 
 

@@ -3,7 +3,8 @@
 The harness is itself a (passive) replica of W. For each trial it asks the
 world bridge to prepare it, waits until perception and the agents have cleared
 W for it, starts the clock, and records from its replica: whether any intention
-arose, the first risky ``has_intention`` and the robot's first ``intention``
+arose, the first risky ``has_intention`` (and each person's first, where they
+stood then), and the robot's first ``intention``
 (with the wall-clock stamps their writers put on them), plus a snapshot of W at
 the moment of the action for the figures. The world's record of what really
 happened arrives on ``world/outcome``.
@@ -29,6 +30,8 @@ from agents.caregiving.names import HAS_INTENTION, INTENTION, KNOWS, OBJECT, PER
 from agents.messaging import Messaging, TaskSet, logging_guard
 from wm import Event, Graph
 from wm.net.connection import close_session, open_session
+
+from .fallers import Flag
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +65,7 @@ class TrialRecord:
     snapshot: Snapshot | None = None
     seen_risky_at: float | None = None
     seen_action_at: float | None = None
+    flags: dict[int, Flag] = field(default_factory=dict)  # each person node's first risky intention
 
     @property
     def set_off(self) -> dict[str, Any] | None:
@@ -163,7 +167,12 @@ class Harness:
         if event.type == HAS_INTENTION and event.kind.value in ("edge_added", "edge_updated"):
             rec.intentions += 1
             edge = self.g.find_edge(event.src, event.dst, HAS_INTENTION)  # type: ignore[arg-type]
-            if edge is not None and edge.get("risky") and rec.risky is None:
+            if edge is None or not edge.get("risky"):
+                return
+            path = edge.get("path") or ()
+            if len(path) >= 2 and edge.src not in rec.flags:
+                rec.flags[edge.src] = Flag(float(edge.get("at_time", 0.0)), (float(path[0]), float(path[1])))
+            if rec.risky is None:
                 rec.risky, rec.seen_risky_at = dict(edge.attrs), time.time()
                 rec.snapshot = snapshot(self.g, None)
         elif event.type == INTENTION and event.kind.value == "node_added" and rec.action is None:

@@ -138,7 +138,7 @@ class World:
     def __init__(self, scene: Scene, walks: Sequence[Walk], dt: float = DT, planner: GridPlanner | None = None) -> None:
         """People named in ``walks`` walk; anyone else stands still. The robot starts at its scene speed."""
         self.dt = dt
-        self.time = scene.time
+        self.started = self.time = scene.time
         self.planner = planner or GridPlanner(scene.bounds)
         self._bounds = scene.bounds
         self._static = scene.obstacles
@@ -234,6 +234,10 @@ class World:
     def done(self) -> bool:
         """Whether nobody is walking any more."""
         return all(w.status != "walking" for w in self._walkers)
+
+    def people(self) -> list[str]:
+        """Everyone who walks in this world, walking still or not."""
+        return [w.state.name for w in self._walkers]
 
     def walking(self) -> list[str]:
         """The people still walking."""
