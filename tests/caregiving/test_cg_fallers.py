@@ -1,4 +1,4 @@
-"""Each fall with the robot idle, scored by whether its own person was flagged before it."""
+"""Each fall with the robot idle, scored by whether its own person was flagged before it, and saved."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import pytest
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.world_model import World
 from bridges.experiment.experiment import Scored, metrics
-from bridges.experiment.fallers import Flag, fallers, position_at
+from bridges.experiment.fallers import Faller, Flag, fallers, position_at
 from bridges.experiment.trials import TrialRecord
 
 
@@ -26,7 +26,7 @@ def _flag(idle: World, person: str, at_time: float, off: float = 0.0) -> Flag:
 
 def test_a_fall_whose_person_was_flagged_before_it_counts_with_its_lead() -> None:
     idle = _two_people()
-    (fall,) = fallers(idle, [_flag(idle, "person", 0.6, off=0.05)])
+    (fall,) = fallers(idle, [_flag(idle, "person", 0.6, off=0.05)], ())
     assert fall.person == "person"
     assert fall.flagged_at == 0.6
     assert fall.lead == pytest.approx(idle.outcome().collisions[0].time - 0.6)
@@ -34,20 +34,20 @@ def test_a_fall_whose_person_was_flagged_before_it_counts_with_its_lead() -> Non
 
 def test_a_false_alarm_about_someone_else_does_not_flag_the_person_who_falls() -> None:
     idle = _two_people()
-    (fall,) = fallers(idle, [_flag(idle, "visitor", 0.6)])
+    (fall,) = fallers(idle, [_flag(idle, "visitor", 0.6)], ())
     assert fall.flagged_at is None and fall.lead is None
 
 
 def test_a_flag_after_the_fall_does_not_count() -> None:
     idle = _two_people()
     falls_at = idle.outcome().collisions[0].time
-    (fall,) = fallers(idle, [_flag(idle, "person", falls_at + 0.5)])
+    (fall,) = fallers(idle, [_flag(idle, "person", falls_at + 0.5)], ())
     assert fall.flagged_at is None
 
 
 def test_the_earliest_of_a_persons_flags_counts() -> None:
     idle = _two_people()
-    (fall,) = fallers(idle, [_flag(idle, "person", 2.0), _flag(idle, "person", 1.0)])
+    (fall,) = fallers(idle, [_flag(idle, "person", 2.0), _flag(idle, "person", 1.0)], ())
     assert fall.flagged_at == 1.0
 
 
@@ -61,8 +61,8 @@ def test_a_position_is_where_the_person_stood_then_and_where_they_stopped_after(
 
 def test_recall_by_person_sees_the_miss_that_recall_by_trial_hides() -> None:
     idle = _two_people()
-    missed = fallers(idle, [_flag(idle, "visitor", 0.6)])
-    caught = fallers(idle, [_flag(idle, "person", 0.6)])
+    missed = fallers(idle, [_flag(idle, "visitor", 0.6)], {"person"})
+    caught = fallers(idle, [_flag(idle, "person", 0.6)], ())
     fell = frozenset({"person"})
     record = TrialRecord(0, intentions=1, risky={"probability": 1.0})
     m = metrics([Scored(record, fell, falls=missed), Scored(record, fell, falls=caught)])
@@ -70,3 +70,12 @@ def test_recall_by_person_sees_the_miss_that_recall_by_trial_hides() -> None:
     assert m["people_at_risk"] == 2
     assert m["person_recall"] == 0.5
     assert m["flag_lead_s_min"] == m["flag_lead_s_p50"] == pytest.approx(caught[0].lead)
+    assert m["people_saved"] == 1 and m["person_prevention_rate"] == 0.5
+
+
+def test_saving_one_of_two_who_fall_counts_by_person_though_the_trial_is_not_prevented() -> None:
+    falls = (Faller("ana", 4.0, 0.5, fell_acting=False), Faller("ben", 6.0, 0.5, fell_acting=True))
+    record = TrialRecord(0, intentions=1, risky={"probability": 1.0}, outcome={"collisions": [{"person": "ben"}]})
+    m = metrics([Scored(record, frozenset({"ana", "ben"}), falls=falls)])
+    assert m["prevented"] == 0
+    assert m["people_at_risk"] == 2 and m["people_saved"] == 1 and m["person_prevention_rate"] == 0.5

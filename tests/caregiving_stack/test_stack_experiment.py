@@ -41,6 +41,8 @@ KEYS = {
     "person_recall",
     "flag_lead_s_p50",
     "flag_lead_s_min",
+    "people_saved",
+    "person_prevention_rate",
 }
 
 
@@ -76,6 +78,7 @@ def test_short_experiment_writes_table_json_and_figures(tmp_path: Path) -> None:
         f["flagged_at"] is not None for f in falls
     )
     assert all(f["flagged_at"] <= f["falls_at"] for f in falls if f["flagged_at"] is not None)
+    assert data["people_saved"] == sum(not f["fell_acting"] for f in falls)
     assert data["sensor_noise"] is True and data["paper"]["precision"] == 0.61
     assert data["scenario"] == data["scenario_file"] == "paper_experiment1"  # a shipped scenario, by name
     assert (figures / "reaction_times.png").stat().st_size > 0

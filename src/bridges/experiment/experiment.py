@@ -13,7 +13,10 @@ of several people can be predicted for a false alarm about one person while
 another falls unflagged, so each fall with the robot idle is also scored on its
 own (:mod:`bridges.experiment.fallers`): ``people_at_risk`` counts them,
 ``person_recall`` is the share whose own risky intention was written at or
-before their fall, and ``flag_lead_s_p50`` and ``_min`` say how long before it.
+before their fall, and ``flag_lead_s_p50`` and ``_min`` say how long before it;
+``people_saved`` and ``person_prevention_rate`` count those who did not fall with
+the robot acting (two people falling in different places may be more than one
+move can save, and saving one of them counts here).
 ``action_rate`` is the share of predicted-risky trials in which Algorithm 2
 wrote a move its joint imagination says removes the danger (the paper's
 definition), ``action_in_time_rate`` the share whose move was also imagined to
@@ -232,6 +235,8 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "person_recall": _ratio(len(leads), len(falls)),
         "flag_lead_s_p50": percentile(leads, 50),
         "flag_lead_s_min": min(leads, default=None),
+        "people_saved": sum(not f.fell_acting for f in falls),
+        "person_prevention_rate": _ratio(sum(not f.fell_acting for f in falls), len(falls)),
     }
 
 
@@ -253,6 +258,7 @@ def _fmt(key: str, value: Any) -> str:
         "prevention_rate",
         "prevention_rate_of_saveable",
         "prevention_rate_of_saveable_after_delay",
+        "person_prevention_rate",
     ):
         return f"{100 * value:.2f} %"
     if isinstance(value, float):
@@ -273,6 +279,7 @@ ROWS = [
     ("... each flagged before their fall (recall by person)", "person_recall"),
     ("... flagged this long before it (p50)", "flag_lead_s_p50"),
     ("... at the least", "flag_lead_s_min"),
+    ("... saved by the robot", "person_prevention_rate"),
     ("F-1 score", "f1"),
     ("F-2 score", "f2"),
     ("Reaction time (mean)", "reaction_ms_mean"),
@@ -355,7 +362,9 @@ async def run_trials(
                         record,
                         frozenset(c.person for c in truth.collisions),
                         min(truth.min_clearance.values(), default=float("inf")),
-                        falls=fallers(idle, record.flags.values()),
+                        falls=fallers(
+                            idle, record.flags.values(), {c["person"] for c in record.outcome.get("collisions", [])}
+                        ),
                     )
                 )
                 progress.update(
@@ -421,7 +430,10 @@ def trial_json(s: Scored) -> dict[str, Any]:
         "decision_ms": r.decision_ms,
         "e2e_ms": r.e2e_ms,
         "collisions": r.outcome.get("collisions", []),
-        "falls": [{"person": f.person, "falls_at": f.falls_at, "flagged_at": f.flagged_at} for f in s.falls],
+        "falls": [
+            {"person": f.person, "falls_at": f.falls_at, "flagged_at": f.flagged_at, "fell_acting": f.fell_acting}
+            for f in s.falls
+        ],
     }
 
 
