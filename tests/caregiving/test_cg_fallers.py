@@ -76,6 +76,9 @@ def test_recall_by_person_sees_the_miss_that_recall_by_trial_hides() -> None:
 def test_saving_one_of_two_who_fall_counts_by_person_though_the_trial_is_not_prevented() -> None:
     falls = (Faller("ana", 4.0, 0.5, fell_acting=False), Faller("ben", 6.0, 0.5, fell_acting=True))
     record = TrialRecord(0, intentions=1, risky={"probability": 1.0}, outcome={"collisions": [{"person": "ben"}]})
-    m = metrics([Scored(record, frozenset({"ana", "ben"}), falls=falls)])
-    assert m["prevented"] == 0
+    scored = Scored(record, frozenset({"ana", "ben"}), saveable=False, falls=falls, saveable_people=frozenset({"ana"}))
+    m = metrics([scored])
+    assert m["prevented"] == 0 and m["oracle_saveable"] == 0
     assert m["people_at_risk"] == 2 and m["people_saved"] == 1 and m["person_prevention_rate"] == 0.5
+    assert m["people_saveable"] == m["people_saved_saveable"] == 1
+    assert m["person_prevention_rate_of_saveable"] == 1.0

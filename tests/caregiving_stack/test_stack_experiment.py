@@ -43,6 +43,9 @@ KEYS = {
     "flag_lead_s_min",
     "people_saved",
     "person_prevention_rate",
+    "people_saveable",
+    "people_saved_saveable",
+    "person_prevention_rate_of_saveable",
 }
 
 

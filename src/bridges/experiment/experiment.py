@@ -16,7 +16,10 @@ own (:mod:`bridges.experiment.fallers`): ``people_at_risk`` counts them,
 before their fall, and ``flag_lead_s_p50`` and ``_min`` say how long before it;
 ``people_saved`` and ``person_prevention_rate`` count those who did not fall with
 the robot acting (two people falling in different places may be more than one
-move can save, and saving one of them counts here).
+move can save, and saving one of them counts here); ``people_saveable`` counts
+those the oracle finds some move saves, alone or with the others, without
+tripping anyone else, and ``person_prevention_rate_of_saveable`` is the share of
+them saved.
 ``action_rate`` is the share of predicted-risky trials in which Algorithm 2
 wrote a move its joint imagination says removes the danger (the paper's
 definition), ``action_in_time_rate`` the share whose move was also imagined to
@@ -115,6 +118,7 @@ class Scored:
     standoff_saveable: bool | None = None
     saveable_after_delay: bool | None = None  # by a move commanded the pipeline's median delay later
     falls: tuple[Faller, ...] = ()  # each fall with the robot idle, and when its person was first flagged
+    saveable_people: frozenset[str] = frozenset()  # of those who fall, the ones some move saves (the oracle's)
 
     @property
     def truly_risky(self) -> bool:
@@ -183,6 +187,7 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
     saved_late = sum(not s.record.collided for s in late)
     falls = [f for s in valid for f in s.falls]
     leads = finite([f.lead for f in falls])
+    saveable_falls = [f for s in valid for f in s.falls if f.person in s.saveable_people]
     return {
         "trials": len(scored),
         "discarded": len(scored) - len(valid),
@@ -237,6 +242,11 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "flag_lead_s_min": min(leads, default=None),
         "people_saved": sum(not f.fell_acting for f in falls),
         "person_prevention_rate": _ratio(sum(not f.fell_acting for f in falls), len(falls)),
+        "people_saveable": len(saveable_falls),
+        "people_saved_saveable": sum(not f.fell_acting for f in saveable_falls),
+        "person_prevention_rate_of_saveable": _ratio(
+            sum(not f.fell_acting for f in saveable_falls), len(saveable_falls)
+        ),
     }
 
 
@@ -259,6 +269,7 @@ def _fmt(key: str, value: Any) -> str:
         "prevention_rate_of_saveable",
         "prevention_rate_of_saveable_after_delay",
         "person_prevention_rate",
+        "person_prevention_rate_of_saveable",
     ):
         return f"{100 * value:.2f} %"
     if isinstance(value, float):
@@ -280,6 +291,8 @@ ROWS = [
     ("... flagged this long before it (p50)", "flag_lead_s_p50"),
     ("... at the least", "flag_lead_s_min"),
     ("... saved by the robot", "person_prevention_rate"),
+    ("... some move could save, alone or with the others (oracle)", "people_saveable"),
+    ("... saved by the robot, of those", "person_prevention_rate_of_saveable"),
     ("F-1 score", "f1"),
     ("F-2 score", "f2"),
     ("Reaction time (mean)", "reaction_ms_mean"),
@@ -392,13 +405,15 @@ def with_oracle(scenario: Scenario, seed: int, scored: list[Scored], console: Co
     with console.status(f"oracle: could any move have saved the {len(risky)} truly risky trials?"):
         with ProcessPoolExecutor(max_workers=2) as pool:
             verdicts = list(pool.map(_judge_trial, jobs))
-    now, late = verdicts[: len(risky)], verdicts[len(risky) :] or [None] * len(risky)
+    now = verdicts[: len(risky)]
+    late: list[OracleVerdict | None] = [*verdicts[len(risky) :]] or [None] * len(risky)
     judged = {
         id(s): replace(
             s,
             saveable=v.saveable,
             standoff_saveable=v.standoff_saveable,
             saveable_after_delay=w.saveable if w is not None else None,
+            saveable_people=v.saveable_people,
         )
         for s, v, w in zip(risky, now, late, strict=True)
     }
@@ -431,7 +446,13 @@ def trial_json(s: Scored) -> dict[str, Any]:
         "e2e_ms": r.e2e_ms,
         "collisions": r.outcome.get("collisions", []),
         "falls": [
-            {"person": f.person, "falls_at": f.falls_at, "flagged_at": f.flagged_at, "fell_acting": f.fell_acting}
+            {
+                "person": f.person,
+                "falls_at": f.falls_at,
+                "flagged_at": f.flagged_at,
+                "fell_acting": f.fell_acting,
+                "saveable": f.person in s.saveable_people if s.saveable is not None else None,
+            }
             for f in s.falls
         ],
     }

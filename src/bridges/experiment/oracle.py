@@ -4,7 +4,10 @@ It searches the ground truth, not the robot's beliefs. The world is stepped to
 the moment the danger first became observable (the context time of the first
 risky guess), then each move of a broad set is commanded in a fork of it and run
 to the end, with the people reacting as the world's people do. A trial is
-*saveable* when some move leaves nobody touching anything.
+*saveable* when some move leaves nobody touching anything. A person who falls with
+the robot idle is saveable when some move leaves them untouched and trips nobody
+who would not fall anyway: where two people fall in different places, one move may
+not save both, but each may be saved alone.
 
 The broad move set is every stand-off pose around every object, plus a lattice
 of free poses (:data:`LATTICE` metres apart, :data:`HEADINGS` headings) in the
@@ -14,7 +17,8 @@ region between the person and the obstacle and the poses on and beside their
 path. The stand-off-only oracle uses the stand-offs alone, so that the figures
 show what the free poses add.
 
-The search stops at the first move that saves the trial and skips poses where
+The search stops at the first move that saves the trial (it saves every person
+too; without one, the whole set is searched, person by person) and skips poses where
 the robot does not fit (the world refuses a command there, so it cannot save
 anything); :func:`saving_moves` is the exhaustive version the tests hold it to.
 """
@@ -44,11 +48,13 @@ BEYOND = 0.5
 
 @dataclass(frozen=True)
 class OracleVerdict:
-    """Whether some move saves the trial, the first one found, and whether a stand-off alone does."""
+    """Whether some move saves the trial, the first one found, whether a stand-off alone does, and the people
+    falling with the robot idle whom some move saves, each alone or together."""
 
     saveable: bool
     standoff_saveable: bool
     move: RobotMove | None
+    saveable_people: frozenset[str] = frozenset()
 
 
 def idle_run(trial: Scenario, planner: GridPlanner) -> World:
@@ -71,10 +77,16 @@ def standoff_moves_all(scene: Scene) -> list[RobotMove]:
     return [m for o in scene.obstacles if o.kind != WALL_KIND for m in standoff_poses(scene, o.name)]
 
 
-def lattice_moves(world: World) -> list[RobotMove]:
-    """Free poses on a lattice in the corridor around each person's idle walk from now, nearest the danger first."""
+def idle_from(world: World) -> World:
+    """A fork of ``world`` run on to its end with the robot idle."""
     idle = world.fork()
     idle.run(idle.time + 30.0)
+    return idle
+
+
+def lattice_moves(world: World, idle: World) -> list[RobotMove]:
+    """Free poses on a lattice in the corridor around each person's idle walk from now (``idle``: :func:`idle_from`
+    ``world``), nearest the danger first."""
     scene = world.scene()
     x0, y0, x1, y1 = scene.bounds
     xs = np.arange(x0 + LATTICE / 2, x1, LATTICE)
@@ -99,13 +111,14 @@ def lattice_moves(world: World) -> list[RobotMove]:
     return moves
 
 
-def broad_moves(world: World) -> Iterator[tuple[RobotMove, bool]]:
-    """The broad move set in search order, each flagged whether it is a stand-off; poses the robot cannot fit skipped."""
+def broad_moves(world: World, idle: World) -> Iterator[tuple[RobotMove, bool]]:
+    """The broad move set in search order, each flagged whether it is a stand-off; poses the robot cannot fit skipped
+    (``idle``: :func:`idle_from` ``world``)."""
     scene = world.scene()
     for move in standoff_moves_all(scene):
         if robot_fits(scene, move):
             yield move, True
-    for move in lattice_moves(world):
+    for move in lattice_moves(world, idle):
         if robot_fits(scene, move):
             yield move, False
 
@@ -118,10 +131,15 @@ def commanded(world: World, move: RobotMove) -> Outcome | None:
     return trial.run(trial.time + 30.0)
 
 
+def fell_after(world: World, move: RobotMove) -> frozenset[str] | None:
+    """Who touches something when ``move`` is commanded now; None when the robot cannot reach it."""
+    outcome = commanded(world, move)
+    return frozenset(c.person for c in outcome.collisions) if outcome is not None else None
+
+
 def saves(world: World, move: RobotMove) -> bool:
     """Whether commanding ``move`` now leaves everybody untouched to the end."""
-    outcome = commanded(world, move)
-    return outcome is not None and not outcome.collided
+    return fell_after(world, move) == frozenset()
 
 
 def oracle(trial: Scenario, at: float, planner: GridPlanner) -> OracleVerdict:
@@ -129,14 +147,22 @@ def oracle(trial: Scenario, at: float, planner: GridPlanner) -> OracleVerdict:
     world = world_at(trial, at, planner)
     if world.done:
         return OracleVerdict(not world.outcome().collided, not world.outcome().collided, None)
-    for move, standoff in broad_moves(world):
-        if saves(world, move):
-            return OracleVerdict(True, standoff, move)
-    return OracleVerdict(False, False, None)
+    idle = idle_from(world)
+    fallers = frozenset(c.person for c in idle.outcome().collisions)
+    saveable: set[str] = set()
+    for move, standoff in broad_moves(world, idle):
+        fell = fell_after(world, move)
+        if fell is None:
+            continue
+        if not fell:
+            return OracleVerdict(True, standoff, move, fallers)
+        if fell <= fallers:  # it trips nobody who would not fall anyway
+            saveable |= fallers - fell
+    return OracleVerdict(False, False, None, frozenset(saveable))
 
 
 def saving_moves(trial: Scenario, at: float, planner: GridPlanner) -> list[RobotMove]:
     """Exhaustive: every move of the broad set, fitting or not, that saves the trial when commanded at ``at``."""
     world = world_at(trial, at, planner)
     scene = world.scene()
-    return [m for m in [*standoff_moves_all(scene), *lattice_moves(world)] if saves(world, m)]
+    return [m for m in [*standoff_moves_all(scene), *lattice_moves(world, idle_from(world))] if saves(world, m)]
