@@ -169,7 +169,7 @@ class Harness:
             edge = self.g.find_edge(event.src, event.dst, HAS_INTENTION)  # type: ignore[arg-type]
             if edge is None or not edge.get("risky"):
                 return
-            path = edge.get("path") or ()
+            path: list[float] = list(edge.get("path") or [])
             if len(path) >= 2 and edge.src not in rec.flags:
                 rec.flags[edge.src] = Flag(float(edge.get("at_time", 0.0)), (float(path[0]), float(path[1])))
             if rec.risky is None:
