@@ -34,8 +34,8 @@ from __future__ import annotations
 import json
 import time
 from collections import Counter
-from collections.abc import Iterator
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -91,13 +91,19 @@ def recorded_scenario(recorded: dict[str, Any]) -> Scenario:
     return load_scenario(name)
 
 
-def every_room() -> list[str]:
-    """One recorded run (the first by name) of each room and seed with a saveable trial, shipped and held out."""
+def has_saveable(recorded: dict[str, Any]) -> bool:
+    """Whether a recorded run holds a trial the oracle found saveable."""
+    return any(t.get("saveable") for t in recorded["per_trial"])
+
+
+def every_room(keep: Callable[[dict[str, Any]], bool] = has_saveable) -> list[str]:
+    """One recorded run (the first by name) of each room and seed that ``keep`` keeps (by default: with a saveable
+    trial), shipped and held out."""
     runs: dict[tuple[str, int], str] = {}
     for path in sorted([*RECORDED.glob("*.json"), *RECORDED.glob("heldout/*.json")]):
         recorded = json.loads(path.read_text())
         trials = recorded.get("per_trial") if isinstance(recorded, dict) else None
-        if not trials or "seed" not in recorded or not any(t.get("saveable") for t in trials):
+        if not trials or "seed" not in recorded or not keep(recorded):
             continue
         room = Path(str(recorded.get("scenario_file", recorded.get("scenario")))).stem
         runs.setdefault((room, int(recorded["seed"])), str(path.relative_to(RECORDED).with_suffix("")))
@@ -205,7 +211,7 @@ def every_candidate(runs: list[str], delay: float) -> dict[str, object]:
             continue
         scene, spec = found
         danger = spec.dangers[0]
-        alone = replace(spec, dangers=(danger,))
+        alone = spec.alone(danger)
         verdicts = []
         for kind, m, until, in_the_way in kinds(scene, danger, delay):
             ok = judging.judge_move(alone, m, partial(serve_one, scene), EXACT, scene.robot_name).safe(THRESHOLD)

@@ -144,6 +144,13 @@ def test_when_no_move_saves_everyone_each_danger_is_searched_alone_most_urgent_f
     response = script.run(respond(spec(ann, bo), {"ann": 1.0, "bo": 1.0}, None, POLICY))
     assert response == Send(rescue, unsaved=("bo",))
     assert [a.spec.dangers for a in script.asks[1:]] == [(bo,), (ann,)]
+    # Searched alone, the other endangered person still walks, on the walk found risky, their own fall let happen:
+    # no move there saves them, but none may trip them another way, or walk them into the robot.
+    for ask, other in zip(script.asks[1:], (ann, bo), strict=True):
+        (walk,) = ask.spec.bystanders
+        assert (walk.person, walk.target, walk.gaze) == (other.person, other.target, 0.1)
+        assert ask.spec.falling == {other.person: other.obstacle}
+        assert all(walk in walks for walks in ask.spec.walk_sets())
 
 
 def test_a_head_start_with_no_move_chosen_ends_in_the_braking_the_search_judged() -> None:

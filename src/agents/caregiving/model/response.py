@@ -23,7 +23,9 @@ The steps, in order:
   as its search: when none is chosen, the robot brakes, or, when braking there
   would trip someone, drives on with it until a later search replaces it;
 * when no single move keeps everyone safe, each danger is searched alone, most
-  urgent first, and the first move found is sent with the people it leaves unsaved;
+  urgent first (:meth:`~agents.caregiving.model.search_spec.SearchSpec.alone`: the
+  others walk on beside them, their own falls let happen), and the first move found
+  is sent with the people it leaves unsaved;
 * a new move replaces the one under way only when it
   :func:`~agents.caregiving.model.move_choice.replaces` it;
 * when none is found: a head start ends in braking (when the search found braking
@@ -202,7 +204,7 @@ def respond(
     unsaved: tuple[str, ...] = ()
     if chosen is None and len(spec.dangers) > 1:
         for danger in sorted(spec.dangers, key=lambda d: d.time_to_collision):
-            found = (yield Ask(replace(spec, dangers=(danger,)), idle_risks[danger.person])).found
+            found = (yield Ask(spec.alone(danger), idle_risks[danger.person])).found
             chosen = found.chosen if found is not None else None
             if chosen is not None:
                 unsaved = tuple(sorted(p for p in idle_risks if p != danger.person))

@@ -67,6 +67,19 @@ class SearchSpec:
         """The bystanders' sampled risks with the robot as it is, in a walk set of ``walks``."""
         return _by_person(self.risks_anyway, walks)
 
+    def alone(self, danger: Danger) -> SearchSpec:
+        """The spec protecting ``danger`` alone: the other endangered people walk on beside them as bystanders, on
+        the walk found risky, their own falls let happen (no move here saves them, but none may trip them
+        another way or walk them into the robot)."""
+        others = [d for d in self.dangers if d is not danger]
+        walks = tuple(Walk(d.person, d.target, self.gazes[d.person][0], self.known.get(d.person, ())) for d in others)
+        return replace(
+            self,
+            dangers=(danger,),
+            bystanders=walks + self.bystanders,
+            falling={**self.falling, **{d.person: d.obstacle for d in others}},
+        )
+
     def letting_dangers_fall(self) -> SearchSpec:
         """The spec with the dangers' own falls let happen too, as they do with the robot idle."""
         return replace(self, falling={**self.falling, **{d.person: d.obstacle for d in self.dangers}})
