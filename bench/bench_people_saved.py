@@ -64,7 +64,7 @@ def summary(trials: list[dict[str, Any]]) -> dict[str, int]:
         "people_at_risk": sum(len(t["fallers"]) for t in trials),
         "people_saveable": sum(len(t["saveable_people"]) for t in trials),
         "people_saved": sum(len(t["saved"]) for t in trials),
-        "people_saved_of_saveable": saved_of_saveable,
+        "people_saved_saveable": saved_of_saveable,
     }
 
 
@@ -89,7 +89,7 @@ def main() -> None:
         mine = summary([t for t in trials if t["run"] == run])
         print(
             f"  {run}: trials {mine['trials_prevented_of_saveable']} of {mine['trials_saveable']} saveable; people "
-            f"{mine['people_saved_of_saveable']} of {mine['people_saveable']} saveable "
+            f"{mine['people_saved_saveable']} of {mine['people_saveable']} saveable "
             f"({mine['people_saved']} of {mine['people_at_risk']} at risk)"
         )
     benchlib.write_json(args.json, {"runs": runs, **figures, "trials": trials})
