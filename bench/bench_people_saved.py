@@ -8,7 +8,7 @@ moment the run first saw a danger (``oracle.oracle``'s ``saveable_people``: the 
 without tripping anyone who would not fall anyway), and counts, from the run's own record, who fell with
 the robot acting. Runs written before ``wm experiment`` reported people (``person_prevention_rate``) are
 scored here the same way. With no run named, it takes one recorded run of each room and seed with two
-people or more and a truly risky trial.
+people or more and a truly risky trial (48 runs, 725 trials: about 18 minutes on two cores).
 
     python bench/bench_people_saved.py [--json PATH] [RUN ...]
 """
