@@ -21,9 +21,8 @@ from typing import Any
 
 import benchlib
 from agents.caregiving.model.planner import GridPlanner
-from agents.caregiving.model.world_model import World
 from bench_move_search import RECORDED, every_room, recorded_scenario
-from bridges.experiment.oracle import oracle
+from bridges.experiment.oracle import idle_run, oracle
 from bridges.world.bridge import trial_for
 
 
@@ -40,7 +39,7 @@ def scored_trial(job: tuple[str, int]) -> dict[str, Any]:
     scenario = recorded_scenario(recorded)
     trial = trial_for(scenario, recorded["seed"], index)
     planner = GridPlanner(scenario.scene().bounds)
-    fallers = {c.person for c in World.from_scenario(trial, planner=planner).run().collisions}
+    fallers = {c.person for c in idle_run(trial, planner).outcome().collisions}
     verdict = oracle(trial, t["risk_at_time"], planner)
     fell = {c["person"] for c in t["collisions"]}
     return {

@@ -3,7 +3,7 @@
 For each trial the world bridge samples positions from ``--seed``, the stack
 runs closed-loop (the robot acts on what it guesses), and the harness records
 what W showed. Ground truth is the world model's exact-geometry outcome of the
-same trial with the robot idle (:func:`agents.caregiving.model.world_model.run_idle`).
+same trial with the robot idle (:func:`bridges.experiment.oracle.idle_run`).
 
 Per trial: *predicted risky* = some ``has_intention`` was marked risky;
 *discarded* = no intention arose at all (as in the paper). Over the valid
@@ -80,12 +80,11 @@ from rich.table import Table
 
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import Scenario, load_scenario
-from agents.caregiving.model.world_model import World
 from bridges.world.bridge import trial_for
 
 from .fallers import Faller, fallers
 from .launch import Stack
-from .oracle import OracleVerdict, oracle
+from .oracle import OracleVerdict, idle_run, oracle
 from .trials import TrialRecord, finite, open_harness
 
 #: When no risky intention arose, the oracle acts at the time the pipeline typically does (simulated seconds).
@@ -187,7 +186,9 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
     saved_late = sum(not s.record.collided for s in late)
     falls = [f for s in valid for f in s.falls]
     leads = finite([f.lead for f in falls])
+    saved = sum(not f.fell_acting for f in falls)
     saveable_falls = [f for s in valid for f in s.falls if f.person in s.saveable_people]
+    saved_saveable = sum(not f.fell_acting for f in saveable_falls)
     return {
         "trials": len(scored),
         "discarded": len(scored) - len(valid),
@@ -240,13 +241,11 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "person_recall": _ratio(len(leads), len(falls)),
         "flag_lead_s_p50": percentile(leads, 50),
         "flag_lead_s_min": min(leads, default=None),
-        "people_saved": sum(not f.fell_acting for f in falls),
-        "person_prevention_rate": _ratio(sum(not f.fell_acting for f in falls), len(falls)),
+        "people_saved": saved,
+        "person_prevention_rate": _ratio(saved, len(falls)),
         "people_saveable": len(saveable_falls),
-        "people_saved_saveable": sum(not f.fell_acting for f in saveable_falls),
-        "person_prevention_rate_of_saveable": _ratio(
-            sum(not f.fell_acting for f in saveable_falls), len(saveable_falls)
-        ),
+        "people_saved_saveable": saved_saveable,
+        "person_prevention_rate_of_saveable": _ratio(saved_saveable, len(saveable_falls)),
     }
 
 
@@ -368,8 +367,8 @@ async def run_trials(
             for index in indices:
                 stack.check()
                 record = await harness.run(seed, index, timeout, scenario_file)
-                idle = World.from_scenario(trial_for(scenario, seed, index), planner=planner)
-                truth = idle.run()
+                idle = idle_run(trial_for(scenario, seed, index), planner)
+                truth = idle.outcome()
                 scored.append(
                     Scored(
                         record,
