@@ -10,18 +10,26 @@ where someone walks into the robot (``into_robot``), the looks, the commands sen
 to the robot, the candidates judged and the responses by kind. ``--belief-noise`` draws the beliefs with one
 of the sensor model's errors alone (or none), which shows what each costs. ``--first-look-only``
 acts on the first look alone and drives its move on, which shows what looking
-again buys. ``--known-gaze`` judges moves at each endangered person's true gaze
+again buys. ``--people PATH`` (a ``bench_people_saved.py`` JSON) runs instead every trial of its runs where
+some move saves someone, alone or with the others (rooms where two people fall in different places hold
+many that no one move saves whole), and counts people: those some move saves, those of them saved, and
+those who fell only with the robot acting (``tripped``, counted in every bench). ``--known-gaze`` judges moves at each endangered person's true gaze
 alone, as no sensor could, which shows what the gaze classes cost. The draws are
 seeded per trial, so two versions are compared on the same beliefs.
 
     python bench/bench_closed_loop.py [--draws N] [--look S] [--retry S] [--first-look-only]
-        [--no-sampled-risk] [--known-gaze] [--belief-noise KIND] [--json PATH] [--every-room | RUN ...]
+        [--no-sampled-risk] [--known-gaze] [--belief-noise KIND] [--json PATH]
+        [--every-room | --people PATH | RUN ...]
 """
 
 from __future__ import annotations
 
+import json
 import time
 from collections import Counter
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
 
 import benchlib
 from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES
@@ -41,36 +49,92 @@ BELIEF_NOISE = {
 }
 
 
-def closed_loops(runs: list[str], draws: int, setup: Setup) -> dict[str, object]:
-    """Every draw of every saveable case in a closed loop; what came of them."""
-    loops = saved = into_robot = looks = commands = judged = 0
-    responses: Counter[str] = Counter()
-    lost: Counter[str] = Counter()
-    started = time.perf_counter()
-    for case in cases(runs):
-        if not case.saveable:
+#: ``{(run, trial index): the people some move saves}``, from a ``bench_people_saved.py`` JSON.
+SaveablePeople = dict[tuple[str, int], frozenset[str]]
+
+
+def saveable_people(path: Path) -> SaveablePeople:
+    """The trials of a ``bench_people_saved.py`` JSON where some move saves someone, and whom."""
+    trials = json.loads(path.read_text())["trials"]
+    return {(t["run"], t["index"]): frozenset(t["saveable_people"]) for t in trials if t["saveable_people"]}
+
+
+@dataclass(frozen=True)
+class Draw:
+    """What came of one draw of one case's closed loop."""
+
+    case: str  # run#index
+    saved: bool
+    people_saveable: int
+    people_saved: int
+    tripped: int  # people who fell only with the robot acting
+    into_robot: bool
+    looks: int
+    commands: int
+    judged: int
+    responses: dict[str, int]
+    lost: bool  # someone saveable fell (without ``people``: anyone fell)
+
+
+def run_draws(job: tuple[str, int, Setup, SaveablePeople | None]) -> list[Draw]:
+    """Every draw of every saveable case of one run (with ``people``: every case where some move saves someone)."""
+    run, draws, setup, people = job
+    found = []
+    for case in cases([run]):
+        saveable = people.get((case.run, case.index), frozenset()) if people is not None else None
+        if not (saveable if saveable is not None else case.saveable):
             continue
         for draw in range(draws):
             loop = closed_loop(case.trial, case.at, case.planner, (case.index, draw), setup)
             collisions = loop.truth.outcome().collisions
-            loops += 1
-            saved += not collisions
-            into_robot += any(c.obstacle == loop.truth.scene().robot_name for c in collisions)
-            looks += loop.looks
-            commands += loop.commands
-            judged += loop.judged
-            responses.update(loop.responses)
-            lost.update([f"{case.run}#{case.index}"] if collisions else [])
+            fell = {c.person for c in collisions}
+            found.append(
+                Draw(
+                    f"{case.run}#{case.index}",
+                    not collisions,
+                    len(saveable or ()),
+                    len((saveable or frozenset()) - fell),
+                    len(fell - loop.idle_fallers),
+                    any(c.obstacle == loop.truth.scene().robot_name for c in collisions),
+                    loop.looks,
+                    loop.commands,
+                    loop.judged,
+                    loop.responses,
+                    bool(fell & saveable if saveable is not None else fell),
+                )
+            )
+    return found
+
+
+def closed_loops(runs: list[str], draws: int, setup: Setup, people: SaveablePeople | None = None) -> dict[str, object]:
+    """Every draw of every saveable case in a closed loop (with ``people``: of every case where some move saves
+    someone), the runs shared between two processes; what came of them."""
+    started = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=2) as pool:
+        found = [d for ds in pool.map(run_draws, [(run, draws, setup, people) for run in runs]) for d in ds]
+    responses: Counter[str] = Counter()
+    for d in found:
+        responses.update(d.responses)
     return {
-        "draws": loops,
-        "saved": saved,
-        "into_robot": into_robot,
-        "looks": looks,
-        "commands": commands,
-        "judged": judged,
+        "draws": len(found),
+        "saved": sum(d.saved for d in found),
+        **(
+            {
+                "people_saveable": sum(d.people_saveable for d in found),
+                "people_saved": sum(d.people_saved for d in found),
+            }
+            if people is not None
+            else {}
+        ),
+        "tripped": sum(d.tripped for d in found),
+        "into_robot": sum(d.into_robot for d in found),
+        "looks": sum(d.looks for d in found),
+        "commands": sum(d.commands for d in found),
+        "judged": sum(d.judged for d in found),
         "responses": dict(sorted(responses.items())),
         "seconds": round(time.perf_counter() - started, 1),
-        "lost_draws": dict(lost),
+        "lost_draws": dict(Counter(d.case for d in found if d.lost)),
+        "tripped_draws": dict(Counter(d.case for d in found if d.tripped)),
     }
 
 
@@ -96,12 +160,19 @@ def main() -> None:
         default="all",
         help="which of the sensor model's errors the beliefs are drawn with (default: all; none: the exact scene)",
     )
-    p.add_argument(
+    rooms = p.add_mutually_exclusive_group()
+    rooms.add_argument(
         "--every-room", action="store_true", help="one recorded run of each room and seed in docs/results (no RUN)"
     )
+    rooms.add_argument(
+        "--people", type=Path, help="a bench_people_saved.py JSON: its trials where some move saves someone (no RUN)"
+    )
     args = p.parse_args()
+    people = saveable_people(args.people) if args.people else None
     if args.every_room:
         args.runs = every_room()
+    elif people is not None:
+        args.runs = sorted({run for run, _ in people})
     noise = Noise(*BELIEF_NOISE[args.belief_noise], sampled_risk=not args.no_sampled_risk)
     setup = Setup(
         delay=args.delay,
@@ -114,7 +185,7 @@ def main() -> None:
         known_gaze=args.known_gaze,
         max_moves=args.max_moves,
     )
-    found = closed_loops(args.runs, args.draws, setup)
+    found = closed_loops(args.runs, args.draws, setup, people)
     benchlib.report_draws(
         "Algorithm 2 in a closed loop",
         args.json,
@@ -129,6 +200,7 @@ def main() -> None:
             "belief_noise": args.belief_noise,
             "known_gaze": args.known_gaze,
             "max_moves": args.max_moves,
+            "people": str(args.people) if args.people else None,
         },
         found,
     )

@@ -58,8 +58,10 @@ def print_table(title: str, rows: Sequence[tuple[str, Any]]) -> None:
 
 def report_draws(title: str, path: Path, settings: dict[str, Any], found: dict[str, Any]) -> None:
     """Print a bench on drawn beliefs (its figures, then the draws lost by trial) and write them with its settings."""
-    print_table(title, [(k, v) for k, v in found.items() if k != "lost_draws"])
-    print("lost draws:", found["lost_draws"])
+    print_table(title, [(k, v) for k, v in found.items() if not k.endswith("_draws")])
+    for k, v in found.items():
+        if k.endswith("_draws"):
+            print(f"{k.replace('_', ' ')}:", v)
     write_json(path, {**settings, **found})
 
 

@@ -75,6 +75,7 @@ class Loop:
     """One draw's closed loop: the truth, the move under way, and what happened."""
 
     truth: World
+    idle_fallers: frozenset[str] = frozenset()  # who falls in the truth with the robot idle
     under_way: UnderWay | None = None
     retry_after: float = -math.inf
     looks: int = 0
@@ -109,7 +110,7 @@ def closed_loop(trial: Scenario, at: float, planner: GridPlanner, seed: tuple[in
     """Run ``trial`` in a closed loop from ``at`` (when the danger showed), its beliefs drawn from ``seed``; the
     returned loop's truth has run to its end."""
     idle = idle_run(trial, planner)
-    loop = Loop(world_at(trial, at, planner))
+    loop = Loop(world_at(trial, at, planner), frozenset(c.person for c in idle.outcome().collisions))
     perception = Perception(trial.sensors, setup.noise, seed)
     policy = Policy(setup.threshold, SAMPLES, trial.scene().robot_name)
     now = at
