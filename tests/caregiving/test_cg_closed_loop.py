@@ -3,7 +3,8 @@
 Seed 2024's trial 13, from the moment the live run first saw its danger, on one drawn sequence of beliefs:
 acting on the first look alone, the robot's move fails in the truth; looking again every half second, as the
 action agent does, the response replaces it and the person is saved. And on the exact scene with no delay, a
-robot that knew the person's gaze saves one the gaze classes lose.
+robot that knew the person's gaze saves one the gaze classes lose. In a room of three, a head start left
+under way while each danger is searched alone trips nobody.
 """
 
 import pytest
@@ -107,3 +108,18 @@ def test_the_true_gaze_alone_is_what_a_known_gaze_spec_judges_at(office_case) ->
     any_class = spec_on(now.scene(), idle, now, 0.0, Gazes.ANY_CLASS)
     assert any_class is not None
     assert {p: set(g) for p, g in any_class.gazes.items()} == {p: set(g) for p, g in by_class.gazes.items()}
+
+
+def test_a_head_start_under_way_while_each_danger_is_searched_alone_trips_nobody() -> None:
+    """Three people in a lounge, seed 5, trial 9, on the exact scene: two walk towards the slipper and no move saves
+    both. The search that judges moves for both sends a head start and finds nothing, and each danger is then
+    searched alone while the robot drives it. Braked at the end of those searches, where its braking was never
+    judged, the robot stood turned into the third person's way, and she walked into it."""
+    scenario = load_scenario(HELD_OUT / "three_people_lounge.yaml")
+    trial, planner = trial_for(scenario, 5, 9), GridPlanner(scenario.scene().bounds)
+    exact = Setup(
+        delay=0.05, judging=0.008, look=0.5, retry=0.5, first_look_only=False, noise=Noise(0.0, 0.0, 0.0)
+    )
+    loop = closed_loop(trial, 0.6, planner, (9, 0), exact)
+    fell = {c.person for c in loop.truth.outcome().collisions}
+    assert loop.idle_fallers == {"bo", "cy"} and fell <= loop.idle_fallers

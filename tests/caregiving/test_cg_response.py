@@ -160,6 +160,17 @@ def test_a_head_start_with_no_move_chosen_ends_in_the_braking_the_search_judged(
     assert response == NoMove(halt)
 
 
+def test_a_head_start_is_the_move_under_way_in_the_searches_alone_and_drives_on_when_they_find_nothing() -> None:
+    """Braking was judged at the end of the search that sent the head start; the searches alone come after it,
+    while the robot drives on, so that braking is not sent."""
+    ann, bo = danger("ann", 3.0), danger("bo", 1.5)
+    joint = SearchResult(None, (falls(NEW, "ball"),), lead=safe(UNDER_WAY), halt=safe(None), judged=2)
+    script = Script(Asked(joint, led=True), Asked(found(falls(NEW, "ball"))), Asked(found(falls(NEW, "ball"))))
+    response = script.run(respond(spec(ann, bo), {"ann": 1.0, "bo": 1.0}, None, POLICY))
+    assert response == NoMove()
+    assert [a.spec.current for a in script.asks] == [None, UNDER_WAY, UNDER_WAY]
+
+
 @pytest.mark.parametrize("led", [False, True])
 def test_a_refused_search_finds_no_move(led: bool) -> None:
     response = Script(Asked(None, led=led)).run(respond(spec(danger("ann", 2.0)), {"ann": 1.0}, None, POLICY))

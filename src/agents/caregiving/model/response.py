@@ -25,7 +25,9 @@ The steps, in order:
 * when no single move keeps everyone safe, each danger is searched alone, most
   urgent first (:meth:`~agents.caregiving.model.search_spec.SearchSpec.alone`: the
   others walk on beside them, their own falls let happen), and the first move found
-  is sent with the people it leaves unsaved;
+  is sent with the people it leaves unsaved. A head start sent meanwhile is the move
+  under way in those searches, and when they find nothing it drives on: braking was
+  judged only at the end of the search that sent it;
 * a new move replaces the one under way only when it
   :func:`~agents.caregiving.model.move_choice.replaces` it;
 * when none is found: a head start ends in braking (when the search found braking
@@ -202,16 +204,22 @@ def respond(
     found = asked.found
     chosen = found.chosen if found is not None else None
     unsaved: tuple[str, ...] = ()
-    if chosen is None and len(spec.dangers) > 1:
+    searched_alone = chosen is None and len(spec.dangers) > 1
+    if searched_alone:
+        # A head start sent by the search above is under way while the searches alone judge.
+        lead = asked.found.lead if asked.led and asked.found is not None else None
+        driving = replace(spec, current=lead.move) if lead is not None else spec
         for danger in sorted(spec.dangers, key=lambda d: d.time_to_collision):
-            found = (yield Ask(spec.alone(danger), idle_risks[danger.person])).found
+            found = (yield Ask(driving.alone(danger), idle_risks[danger.person])).found
             chosen = found.chosen if found is not None else None
             if chosen is not None:
                 unsaved = tuple(sorted(p for p in idle_risks if p != danger.person))
                 break
     if chosen is None:
         if asked.led and asked.found is not None:
-            return NoMove(asked.found.halt)
+            # Braking was judged at the end of the search that sent the head start; after the searches alone, the
+            # robot has driven it on further, to where braking was never judged. Driven on, it harms nobody.
+            return NoMove(None if searched_alone else asked.found.halt)
         if again is not None and again.move is not None and again.trips(policy.robot):
             stopping = (yield Ask(spec, 1.0, (None,))).found
             braking = stopping.verdicts[0] if stopping is not None and stopping.verdicts else None
