@@ -117,9 +117,7 @@ def test_a_head_start_under_way_while_each_danger_is_searched_alone_trips_nobody
     judged, the robot stood turned into the third person's way, and she walked into it."""
     scenario = load_scenario(HELD_OUT / "three_people_lounge.yaml")
     trial, planner = trial_for(scenario, 5, 9), GridPlanner(scenario.scene().bounds)
-    exact = Setup(
-        delay=0.05, judging=0.008, look=0.5, retry=0.5, first_look_only=False, noise=Noise(0.0, 0.0, 0.0)
-    )
+    exact = Setup(delay=0.05, judging=0.008, look=0.5, retry=0.5, first_look_only=False, noise=Noise(0.0, 0.0, 0.0))
     loop = closed_loop(trial, 0.6, planner, (9, 0), exact)
     fell = {c.person for c in loop.truth.outcome().collisions}
     assert loop.idle_fallers == {"bo", "cy"} and fell <= loop.idle_fallers
