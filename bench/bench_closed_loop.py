@@ -12,10 +12,12 @@ of the sensor model's errors alone (or none), which shows what each costs. ``--f
 acts on the first look alone and drives its move on, which shows what looking
 again buys. ``--people PATH`` (a ``bench_people_saved.py`` JSON) runs instead every trial of its runs where
 some move saves someone, alone or with the others (rooms where two people fall in different places hold
-many that no one move saves whole), and counts people: those some move saves, those of them saved, and
-those who fell only with the robot acting (``tripped``, counted in every bench). ``--known-gaze`` judges moves at each endangered person's true gaze
+many that no one move saves whole), and counts people: those some move saves and those of them saved.
+Every mode counts those who fell only with the robot acting (``tripped``), and lists the draws that lost
+someone and those that tripped someone. ``--known-gaze`` judges moves at each endangered person's true gaze
 alone, as no sensor could, which shows what the gaze classes cost. The draws are
-seeded per trial, so two versions are compared on the same beliefs.
+seeded per trial, so two versions are compared on the same beliefs. The runs are shared between two
+processes.
 
     python bench/bench_closed_loop.py [--draws N] [--look S] [--retry S] [--first-look-only]
         [--no-sampled-risk] [--known-gaze] [--belief-noise KIND] [--json PATH]
