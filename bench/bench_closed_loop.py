@@ -15,12 +15,14 @@ some move saves someone, alone or with the others (rooms where two people fall i
 many that no one move saves whole), and counts people: those some move saves and those of them saved.
 Every mode counts those who fell only with the robot acting (``tripped``), and lists the draws that lost
 someone and those that tripped someone. ``--known-gaze`` judges moves at each endangered person's true gaze
-alone, as no sensor could, which shows what the gaze classes cost. The draws are
+alone, as no sensor could, which shows what the gaze classes cost. ``--false-alarms`` has Algorithm 1 look at
+everyone still walking, as live, so that a person believed to fall who passes in the truth is a danger too
+(by default only those who fall with the robot idle are). The draws are
 seeded per trial, so two versions are compared on the same beliefs. The runs are shared between two
 processes.
 
     python bench/bench_closed_loop.py [--draws N] [--look S] [--retry S] [--first-look-only]
-        [--no-sampled-risk] [--known-gaze] [--belief-noise KIND] [--json PATH]
+        [--no-sampled-risk] [--known-gaze] [--false-alarms] [--belief-noise KIND] [--json PATH]
         [--every-room | --people PATH | RUN ...]
 """
 
@@ -157,6 +159,11 @@ def main() -> None:
     )
     p.add_argument("--known-gaze", action="store_true", help="judge moves at the people's true gaze alone")
     p.add_argument(
+        "--false-alarms",
+        action="store_true",
+        help="look for dangers in everyone still walking, as live, not only in those who fall with the robot idle",
+    )
+    p.add_argument(
         "--belief-noise",
         choices=sorted(BELIEF_NOISE),
         default="all",
@@ -185,6 +192,7 @@ def main() -> None:
         noise=noise,
         threshold=THRESHOLD,
         known_gaze=args.known_gaze,
+        false_alarms=args.false_alarms,
         max_moves=args.max_moves,
     )
     found = closed_loops(args.runs, args.draws, setup, people)
@@ -201,6 +209,7 @@ def main() -> None:
             "sampled_risk": noise.sampled_risk,
             "belief_noise": args.belief_noise,
             "known_gaze": args.known_gaze,
+            "false_alarms": args.false_alarms,
             "max_moves": args.max_moves,
             "people": str(args.people) if args.people else None,
         },

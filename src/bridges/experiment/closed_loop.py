@@ -57,7 +57,9 @@ class Setup:
     look acts, the belief's ``noise``, the risk ``threshold`` a move must stay under, and the ``max_moves`` a
     search judges at most. With ``known_gaze``
     the search judges each move at the endangered people's true gaze alone (see
-    :class:`~bridges.experiment.perfect_belief.Gazes`), which no sensor tells."""
+    :class:`~bridges.experiment.perfect_belief.Gazes`), which no sensor tells. With ``false_alarms``, Algorithm 1
+    looks at everyone still walking, as live, not only at those who fall with the robot idle: anyone whose walk
+    on the belief collides is a danger, a false alarm when they pass in the truth."""
 
     delay: float
     judging: float
@@ -67,6 +69,7 @@ class Setup:
     noise: Noise
     threshold: float = 0.2
     known_gaze: bool = False
+    false_alarms: bool = False
     max_moves: int = DEFAULT_MAX_MOVES
 
 
@@ -129,7 +132,8 @@ def _look(
 ) -> None:
     """One look: Algorithm 1's danger on ``scene``, Algorithm 2's response to it, carried out in the truth."""
     gazes = Gazes.TRUE_GAZE if setup.known_gaze else Gazes.ANY_CLASS
-    spec = spec_on(scene, idle, loop.truth, setup.delay, gazes)
+    people = loop.truth.walking() if setup.false_alarms else None
+    spec = spec_on(scene, idle, loop.truth, setup.delay, gazes, people)
     if spec is None:
         return
     loop.looks += 1
