@@ -4,7 +4,8 @@ Seed 2024's trial 13, from the moment the live run first saw its danger, on one 
 acting on the first look alone, the robot's move fails in the truth; looking again every half second, as the
 action agent does, the response replaces it and the person is saved. And on the exact scene with no delay, a
 robot that knew the person's gaze saves one the gaze classes lose. In a room of three, a head start left
-under way while each danger is searched alone trips nobody.
+under way while each danger is searched alone trips nobody, and with false alarms on, the loop acts on a
+danger Algorithm 1 sees in someone who falls in no truth.
 """
 
 import pytest
@@ -121,3 +122,24 @@ def test_a_head_start_under_way_while_each_danger_is_searched_alone_trips_nobody
     loop = closed_loop(trial, 0.6, planner, (9, 0), exact)
     fell = {c.person for c in loop.truth.outcome().collisions}
     assert loop.idle_fallers == {"bo", "cy"} and fell <= loop.idle_fallers
+
+
+@pytest.mark.parametrize("false_alarms", [False, True])
+def test_with_false_alarms_algorithm_1_looks_at_everyone_walking(false_alarms: bool) -> None:
+    """Crossing hall, seed 8423, trial 16: nobody falls with the robot idle, and the live run flagged a danger at
+    0.6 s. Looking only at who falls idle, the loop finds nothing to act on; looking at everyone, as live, it
+    acts on the false alarm, and trips nobody."""
+    scenario = load_scenario(HELD_OUT / "crossing_hall.yaml")
+    trial, planner = trial_for(scenario, 8423, 16), GridPlanner(scenario.scene().bounds)
+    setup = Setup(
+        delay=0.05,
+        judging=0.008,
+        look=0.5,
+        retry=0.5,
+        first_look_only=False,
+        noise=Noise(),
+        false_alarms=false_alarms,
+    )
+    loop = closed_loop(trial, 0.6, planner, (16, 0), setup)
+    assert not loop.idle_fallers and (loop.looks > 0) == false_alarms
+    assert loop.truth.outcome().collisions == ()
