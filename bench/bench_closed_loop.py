@@ -85,8 +85,8 @@ def run_draws(job: tuple[str, int, Setup, SaveablePeople | None]) -> list[Draw]:
     run, draws, setup, people = job
     found = []
     for case in cases([run]):
-        saveable = people.get((case.run, case.index), frozenset()) if people is not None else None
-        if not (saveable if saveable is not None else case.saveable):
+        saveable = people.get((case.run, case.index), frozenset()) if people is not None else frozenset()
+        if not (saveable if people is not None else case.saveable):
             continue
         for draw in range(draws):
             loop = closed_loop(case.trial, case.at, case.planner, (case.index, draw), setup)
@@ -96,15 +96,15 @@ def run_draws(job: tuple[str, int, Setup, SaveablePeople | None]) -> list[Draw]:
                 Draw(
                     f"{case.run}#{case.index}",
                     not collisions,
-                    len(saveable or ()),
-                    len((saveable or frozenset()) - fell),
+                    len(saveable),
+                    len(saveable - fell),
                     len(fell - loop.idle_fallers),
                     any(c.obstacle == loop.truth.scene().robot_name for c in collisions),
                     loop.looks,
                     loop.commands,
                     loop.judged,
                     loop.responses,
-                    bool(fell & saveable if saveable is not None else fell),
+                    bool(fell & saveable if people is not None else fell),
                 )
             )
     return found

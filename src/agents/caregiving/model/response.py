@@ -204,10 +204,11 @@ def respond(
     found = asked.found
     chosen = found.chosen if found is not None else None
     unsaved: tuple[str, ...] = ()
+    led = found if asked.led else None  # the search, when it sent a head start
     searched_alone = chosen is None and len(spec.dangers) > 1
     if searched_alone:
         # A head start sent by the search above is under way while the searches alone judge.
-        lead = asked.found.lead if asked.led and asked.found is not None else None
+        lead = led.lead if led is not None else None
         driving = replace(spec, current=lead.move) if lead is not None else spec
         for danger in sorted(spec.dangers, key=lambda d: d.time_to_collision):
             found = (yield Ask(driving.alone(danger), idle_risks[danger.person])).found
@@ -216,10 +217,10 @@ def respond(
                 unsaved = tuple(sorted(p for p in idle_risks if p != danger.person))
                 break
     if chosen is None:
-        if asked.led and asked.found is not None:
+        if led is not None:
             # Braking was judged at the end of the search that sent the head start; after the searches alone, the
             # robot has driven it on further, to where braking was never judged. Driven on, it harms nobody.
-            return NoMove(None if searched_alone else asked.found.halt)
+            return NoMove(None if searched_alone else led.halt)
         if again is not None and again.move is not None and again.trips(policy.robot):
             stopping = (yield Ask(spec, 1.0, (None,))).found
             braking = stopping.verdicts[0] if stopping is not None and stopping.verdicts else None

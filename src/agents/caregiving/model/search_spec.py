@@ -72,26 +72,31 @@ class SearchSpec:
         the walk found risky, their own falls let happen (no move here saves them, but none may trip them
         another way or walk them into the robot)."""
         others = [d for d in self.dangers if d is not danger]
-        walks = tuple(Walk(d.person, d.target, self.gazes[d.person][0], self.known.get(d.person, ())) for d in others)
         return replace(
             self,
             dangers=(danger,),
-            bystanders=walks + self.bystanders,
-            falling={**self.falling, **{d.person: d.obstacle for d in others}},
+            bystanders=tuple(self._walk(d) for d in others) + self.bystanders,
+            falling=self._letting_fall(others),
         )
 
     def letting_dangers_fall(self) -> SearchSpec:
         """The spec with the dangers' own falls let happen too, as they do with the robot idle."""
-        return replace(self, falling={**self.falling, **{d.person: d.obstacle for d in self.dangers}})
+        return replace(self, falling=self._letting_fall(self.dangers))
+
+    def _letting_fall(self, dangers: Iterable[Danger]) -> dict[str, str]:
+        """``falling`` with the own falls of ``dangers`` let happen too."""
+        return {**self.falling, **{d.person: d.obstacle for d in dangers}}
+
+    def _walk(self, danger: Danger, gaze: float | None = None) -> Walk:
+        """``danger``'s person on their walk at ``gaze`` (by default the gaze class found risky)."""
+        pitch = self.gazes[danger.person][0] if gaze is None else gaze
+        return Walk(danger.person, danger.target, pitch, self.known.get(danger.person, ()))
 
     def walk_sets(self) -> list[tuple[Walk, ...]]:
         """The sets of walks to imagine each move with: every gaze class of each endangered person in turn, with
         every bystander on their likeliest walk; then each other walk a bystander may be on, in a set of its own
         with the endangered people at the gaze found risky."""
-        first = {
-            d.person: Walk(d.person, d.target, self.gazes[d.person][0], self.known.get(d.person, ()))
-            for d in self.dangers
-        }
+        first = {d.person: self._walk(d) for d in self.dangers}
         likeliest: dict[str, Walk] = {}
         others: list[Walk] = []
         for w in self.bystanders:
@@ -103,7 +108,7 @@ class SearchSpec:
         for d in self.dangers:
             for gaze in self.gazes[d.person][1 if sets else 0 :]:
                 walks = dict(first)
-                walks[d.person] = Walk(d.person, d.target, gaze, self.known.get(d.person, ()))
+                walks[d.person] = self._walk(d, gaze)
                 sets.append(tuple(walks.values()) + tuple(likeliest.values()))
         for w in others:
             sets.append(tuple(first.values()) + tuple({**likeliest, w.person: w}.values()))
