@@ -215,7 +215,7 @@ def test_the_first_candidate_is_read_off_the_head_start_as_it_would_be_judged() 
         lead_spec = replace(spec, delay=DELAY + JUDGING)
         lead, answers = judge_lead(lead_spec, first, imagine, noisy, scene.robot_name)
         assert NoWorse(spec, imagine, noisy, THRESHOLD, scene.robot_name).harmless(lead)
-        read = driven_on(scene, spec, first, answers, noisy)
+        read = driven_on(scene, lead_spec, first, answers, imagine, noisy)
         judged = judge_move(replace(lead_spec, lead=first, lead_for=JUDGING), first, imagine, noisy, scene.robot_name)
         assert read == judged
         clear += judged.clear and judged.risk > 0.0

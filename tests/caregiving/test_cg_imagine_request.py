@@ -12,7 +12,7 @@ from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.service import item_from_wire
 from agents.caregiving.model.uncertainty import Uncertainty
-from agents.caregiving.model.world_model import Walk
+from agents.caregiving.model.world_model import Passing, Walk
 
 U = Uncertainty(0.2, {"person": 0.05, "ball": 0.02}, 32, 7)
 WALK = Walk("person", "couch", math.radians(8), ("door",))
@@ -27,6 +27,9 @@ MOVE = RobotMove("ball", -0.5, 0.1, math.pi)
         JointItem((WALK, Walk("bob", "door", 0.1)), MOVE, RobotMove("couch", 1.0, 2.0, 0.0), 0.3, U),
         JointItem((WALK,), None),
         JointItem((WALK, Walk("bob", "door", 0.1)), MOVE, uncertainty=U, anyway={"bob": 0.25}),
+        JointItem(
+            (WALK, Walk("bob", "door", 0.1)), MOVE, passing={"bob": Passing("ball"), "person": Passing("ball", 0.03)}
+        ),
         SearchItem(
             SearchSpec((Danger("person", "couch", ((0, 0), (1, 0)), (0.5, 0.0), "ball", 2.0),), {"person": (0.1,)}, {}),
             U,
@@ -52,6 +55,18 @@ def test_an_item_survives_the_wire(item: PersonItem | JointItem | SearchItem) ->
         ({**PersonItem(WALK).to_wire(), "gaze": 3.0}, "request.gaze: expected a pitch"),
         ({**JointItem((WALK,), MOVE).to_wire(), "anyway": {"bob": 0.2}}, "request.anyway.bob: expected one of"),
         ({**JointItem((WALK,), MOVE).to_wire(), "anyway": {"person": 1.5}}, "request.anyway.person"),
+        (
+            {**JointItem((WALK,), MOVE).to_wire(), "passing": {"bob": {"object": "ball"}}},
+            "request.passing.bob: expected",
+        ),
+        (
+            {**JointItem((WALK,), MOVE).to_wire(), "passing": {"person": {"object": "ball", "allowance": -0.1}}},
+            "request.passing.person.allowance",
+        ),
+        (
+            {**JointItem((WALK,), MOVE).to_wire(), "passing": {"person": {"allowance": 0.1}}},
+            "request.passing.person.object",
+        ),
     ],
 )
 def test_a_malformed_item_names_its_bad_field(wire: dict[str, object], message: str) -> None:

@@ -11,7 +11,7 @@ from agents.caregiving.model.robot_moves import RobotMove, standoff_moves, trave
 from agents.caregiving.model.scenario import load_scenario, sample_trial
 from agents.caregiving.model.scene import Obstacle
 from agents.caregiving.model.visibility import can_see
-from agents.caregiving.model.world_model import Walk, World, _Walker, run_idle
+from agents.caregiving.model.world_model import Passing, Walk, World, _Walker, run_idle
 from bridges.world.bridge import trial_for
 
 STACK_SCENARIOS = Path(__file__).parents[1] / "caregiving_stack" / "scenarios"
@@ -30,6 +30,24 @@ def test_paper_default_person_does_not_see_the_ball_and_collides() -> None:
     assert hit.time == pytest.approx(4.3)
     assert math.hypot(hit.point[0], hit.point[1]) == pytest.approx(0.11, abs=1e-6)
     assert out.arrival["person"] is None and out.min_clearance["person"] <= 0.0
+
+
+def test_a_person_imagined_passing_walks_through_or_touches_only_deeper_than_the_allowance() -> None:
+    """The paper's person, imagined passing the ball: not there for them, they walk through it to the couch and
+    say how deep they went; allowed deeper than that, they pass it; allowed half as deep, they touch it later."""
+    s = load_scenario("paper_experiment1")
+    walks = [Walk("person", s.people[0].target, math.radians(s.people[0].gaze_deg))]
+    idle = World(s.scene(), walks).run()
+    through = World(s.scene(), walks, passing={"person": Passing("ball")})
+    assert not through.run().collided and through.walker("person").status == "arrived"
+    depth = through.passed_clearance("person")
+    assert depth is not None and depth < 0.0
+    assert World(s.scene(), walks).passed_clearance("person") is None
+    missed = World(s.scene(), walks, passing={"person": Passing("ball", -depth + 0.01)}).run()
+    assert not missed.collided
+    grazed = World(s.scene(), walks, passing={"person": Passing("ball", -depth / 2)}).run()
+    (hit,) = grazed.collisions
+    assert hit.obstacle == "ball" and hit.time > idle.collisions[0].time
 
 
 def test_person_who_sees_the_obstacle_walks_around_it() -> None:

@@ -13,6 +13,7 @@ may ask for the collision risk sampled under perception's uncertainty
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -21,7 +22,7 @@ from .fields import Fields
 from .joint import walk_from_fields, walk_to_wire
 from .robot_moves import RobotMove
 from .uncertainty import Uncertainty
-from .world_model import Walk
+from .world_model import Passing, Walk
 
 #: Seconds a joint item may ask the robot to go on with its current move before the new one.
 MAX_DELAY = 5.0
@@ -80,7 +81,8 @@ class JointItem:
     people whose fall into a given object happens anyway (``{person: object}``): that fall neither ends
     the imagination nor stops the risk from being sampled for the others. ``anyway`` holds bystanders'
     sampled risks with the robot as it is (``{person: probability}``): the risk sampled leaves out a walk
-    whose risk the move does not raise.
+    whose risk the move does not raise. ``passing`` names people imagined passing what they are believed to
+    walk into (see :class:`~agents.caregiving.model.world_model.Passing`), to tell what a false alarm meets.
     """
 
     walks: tuple[Walk, ...]
@@ -93,10 +95,11 @@ class JointItem:
     lead: RobotMove | None = None
     lead_for: float = 0.0
     anyway: Mapping[str, float] = field(default_factory=dict)
+    passing: Mapping[str, Passing] = field(default_factory=dict)
 
     def to_wire(self) -> dict[str, Any]:
         """``{"kind": "joint", "walks", "move", "current", "delay", "until_first_fall", "falling", "lead",
-        "lead_for", "anyway", "uncertainty"?}``."""
+        "lead_for", "anyway", "passing", "uncertainty"?}``."""
         out: dict[str, Any] = {
             "kind": "joint",
             "walks": [walk_to_wire(w) for w in self.walks],
@@ -108,6 +111,10 @@ class JointItem:
             "lead": self.lead.to_wire() if self.lead else None,
             "lead_for": self.lead_for,
             "anyway": dict(self.anyway),
+            "passing": {
+                person: {"object": p.obstacle, "allowance": p.allowance if p.allowance < math.inf else None}
+                for person, p in self.passing.items()
+            },
         }
         if self.uncertainty is not None:
             out["uncertainty"] = uncertainty_to_wire(self.uncertainty)
@@ -132,12 +139,25 @@ class JointItem:
             RobotMove.optional_from(f, "lead"),
             f.number("lead_for", 0.0, non_negative=True, at_most=MAX_DELAY),
             risks_from_fields(f.child("anyway", {}), people),
+            passing_from_fields(f.child("passing", {}), people),
         )
 
 
 def falling_from_fields(f: Fields, people: set[str]) -> dict[str, str]:
     """``{person: object}`` for some of ``people``."""
     return {_one_of(f, person, people): f.string(person) for person in f.keys()}
+
+
+def passing_from_fields(f: Fields, people: set[str]) -> dict[str, Passing]:
+    """``{person: {object, allowance}}`` for some of ``people``; a null allowance is an infinite one."""
+    passing = {}
+    for person in f.keys():
+        entry = f.child(_one_of(f, person, people))
+        allowance = entry.optional_number("allowance")
+        if allowance is not None and allowance < 0.0:
+            raise entry.fail("allowance", f"expected a depth of 0 m or more, got {allowance!r}")
+        passing[person] = Passing(entry.string("object"), math.inf if allowance is None else allowance)
+    return passing
 
 
 def risks_from_fields(f: Fields, people: set[str]) -> dict[str, float]:

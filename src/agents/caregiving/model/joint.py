@@ -32,7 +32,7 @@ from .robot_moves import RobotMove
 from .rollout import DT
 from .scene import Scene
 from .uncertainty import NO_RISK, Risk, Uncertainty, collision_risk
-from .world_model import Walk, World, fell
+from .world_model import Passing, Walk, World, fell
 
 #: Seconds imagined at most: long enough for a walk across any room these scenarios hold.
 HORIZON = 30.0
@@ -53,6 +53,8 @@ class WalkOutcome:
     saw_robot_at: float | None
     # Closest approach to the robot while it drives, or stands where the person does not know it to be.
     robot_clearance: float = math.inf
+    # Imagined passing what they were believed to walk into: how close they came to it (negative: through it).
+    passed_clearance: float | None = None
 
     @property
     def collided(self) -> bool:
@@ -97,6 +99,7 @@ class WalkOutcome:
             "min_clearance": self.min_clearance if math.isfinite(self.min_clearance) else None,
             "saw_robot_at": self.saw_robot_at,
             "robot_clearance": self.robot_clearance if math.isfinite(self.robot_clearance) else None,
+            "passed_clearance": self.passed_clearance,
         }
 
     @classmethod
@@ -118,6 +121,7 @@ class WalkOutcome:
             math.inf if clearance is None else clearance,
             f.optional_number("saw_robot_at"),
             math.inf if robot_clearance is None else robot_clearance,
+            f.optional_number("passed_clearance"),
         )
 
 
@@ -252,18 +256,20 @@ def imagine_joint(
     planner: GridPlanner | None = None,
     until_first_fall: bool = False,
     falling: Mapping[str, str] | None = None,
+    passing: Mapping[str, Passing] | None = None,
 ) -> JointImagination:
     """Step the robot's move and the people's walks together, as the world would, and report how they end.
 
     With ``until_first_fall``, stop at the first person who falls, unless ``falling`` names that very fall
     (``{person: object}``, a fall that happens anyway); whoever still walks then is ``walking``.
+    ``passing`` names people imagined passing what they are believed to walk into (see :class:`Passing`).
     """
     if scene.robot is None:
         raise RequestError("the scene has no robot")
     for w in walks:
         scene.person(w.person)
         scene.obstacle(w.target)
-    world = World(scene, walks, planner=planner or planner_for(scene.bounds))
+    world = World(scene, walks, planner=planner or planner_for(scene.bounds), passing=passing)
     start = scene.time
     if current is not None:
         world.resume_robot(current)
@@ -294,4 +300,5 @@ def _outcome(world: World, walk: Walk, start: float) -> WalkOutcome:
         w.min_clearance,
         saw - start if saw is not None else None,
         w.robot_clearance,
+        world.passed_clearance(walk.person),
     )

@@ -22,6 +22,7 @@ from .scene import Scene
 from .search_spec import SearchSpec
 from .uncertainty import NO_RISK, Uncertainty
 from .verdict import Fall, Verdict
+from .world_model import Passing
 
 #: Sigmas of perception's error in a person's position that the robot keeps clear of them when they cannot
 #: keep clear of it themselves (see :class:`RobotMargin`).
@@ -47,6 +48,10 @@ class RobotMargin:
     def of(cls, robot: str | None, uncertainty: Uncertainty) -> RobotMargin | None:
         """The margin of ``robot`` under perception's ``uncertainty``; None for a scene without a robot."""
         return cls(robot, uncertainty.sigma) if robot is not None else None
+
+    def error(self, person: str, obstacle: str) -> float:
+        """How far off perception may hold ``person`` from ``obstacle``: the margin's sigmas of both errors."""
+        return MARGIN_SIGMAS * math.hypot(self.sigma.get(person, 0.0), self.sigma.get(obstacle, 0.0))
 
     def too_close(self, walk: WalkOutcome) -> bool:
         """Whether the walk passes the robot closer than the margin for that person."""
@@ -156,23 +161,106 @@ def judge_move(
     Everyone imagined is held to the :class:`RobotMargin` of ``robot`` (the scene's robot) under ``uncertainty``.
     """
     items = spec.items(move, uncertainty)
-    return _judged_in_turn(spec, move, [partial(imagine, item) for item in items], uncertainty, robot)
+    answers = [partial(imagine, item) for item in items]
+    return _judged_in_turn(spec, move, answers, Misses(items[0], imagine), uncertainty, robot)
+
+
+#: Metres by which a person imagined just missing what they were let fall into misses it with the robot as it is.
+MISS_BY = 0.01
+
+
+@dataclass(frozen=True)
+class Misses:
+    """A move's first walk set (``item``) imagined again to the end, no risk sampled, with some of the people it
+    lets fall passing what they fall into (see :class:`Passing`): with the move, or with the robot as it is."""
+
+    item: JointItem
+    imagine: Imagine
+
+    def with_move(self, passing: Mapping[str, Passing]) -> JointImagination | None:
+        """The move imagined with ``passing``."""
+        return self.imagine(replace(self.item, until_first_fall=False, uncertainty=None, passing=passing)).joint
+
+    def as_it_is(self, passing: Mapping[str, Passing]) -> JointImagination | None:
+        """The robot going on with the move under way (or resting), imagined with ``passing``."""
+        item = replace(self.item, move=self.item.current, lead=None, lead_for=0.0)
+        return self.imagine(replace(item, until_first_fall=False, uncertainty=None, passing=passing)).joint
 
 
 def _judged_in_turn(
     spec: SearchSpec,
     move: RobotMove | None,
     answers: Sequence[Callable[[], Answer]],
+    misses: Misses,
     uncertainty: Uncertainty,
     robot: str | None,
 ) -> Verdict:
-    """:func:`judge_move`, with each walk set's answer got by calling ``answers[k]``, only when it is needed."""
+    """:func:`judge_move`, with each walk set's answer got by calling ``answers[k]``, only when it is needed.
+
+    A move clear in the first walk set is then held to :func:`_harmless_if_missed` (a search may settle for
+    one that is clear there and fails only at other gaze classes).
+    """
     margin = RobotMargin.of(robot, uncertainty)
     first = [answers[0]()]
     verdict = judge(move, first, spec, margin)
-    if not verdict.clear or len(answers) == 1:
+    if not verdict.clear:
         return verdict
-    return judge(move, first + [answer() for answer in answers[1:]], spec, margin)
+    if len(answers) > 1:
+        verdict = judge(move, first + [answer() for answer in answers[1:]], spec, margin)
+    return verdict if margin is None else _harmless_if_missed(verdict, first[0], spec, misses, margin)
+
+
+def _harmless_if_missed(
+    verdict: Verdict, first: Answer, spec: SearchSpec, misses: Misses, margin: RobotMargin
+) -> Verdict:
+    """``verdict`` of a move clear in the first walk set, refused if someone it lets fall there would fall with it
+    had they just missed that fall instead, or anyone would then walk into the robot.
+
+    A fall let happen (a bystander's that happens anyway, or another danger's) is a belief, and perception
+    may hold the person and the object a few centimetres off. Someone who, walking on through it with the
+    robot as it is, goes no deeper into it than the ``margin`` allows may really pass it: they are imagined
+    with the move as in the nearest world where they do, missing it by :data:`MISS_BY` with the robot as it
+    is. There, the move must not walk them into it or anything else, nor anyone into the robot.
+    """
+    assert first.joint is not None
+    excused = _excused(spec, first.joint)
+    let_fall = {
+        w.walk.person: w.collision_object
+        for w in first.joint.walks
+        if w.collision_object is not None and excused.get(w.walk.person) == w.collision_object
+    }
+    if not let_fall:
+        return verdict
+    through = misses.as_it_is({person: Passing(obstacle) for person, obstacle in let_fall.items()})
+    if through is None:
+        return replace(verdict, clear=False, risk=1.0, reason="not imagined missing the falls it lets happen")
+    grazing = {
+        w.walk.person: Passing(let_fall[w.walk.person], max(-depth, 0.0) + MISS_BY)
+        for w in through.walks
+        if w.walk.person in let_fall
+        and (depth := w.passed_clearance) is not None
+        and -depth <= margin.error(w.walk.person, let_fall[w.walk.person])
+    }
+    if not grazing:
+        return verdict
+    missed = misses.with_move(grazing)
+    if missed is None:
+        return replace(verdict, clear=False, risk=1.0, reason="not imagined missing the falls it lets happen")
+    hit = next(
+        (w for w in missed.walks if w.collision_object == margin.robot or w.collided and w.walk.person in grazing),
+        None,
+    )
+    if hit is None:
+        return verdict
+    missing = " and ".join(f"{person} just misses {p.obstacle}" for person, p in grazing.items())
+    return replace(
+        verdict,
+        clear=False,
+        risk=1.0,
+        reason=f"{hit.walk.person} walks into {hit.collision_object} where {missing}",
+        falls=(Fall(0, hit.walk.person, hit.collision_object, hit.collision_point),),
+        near=None,
+    )
 
 
 def judge_lead(
@@ -208,14 +296,16 @@ def _excuses_more(answer: Answer, falling: Mapping[str, str]) -> bool:
 
 
 def driven_on(
-    scene: Scene, spec: SearchSpec, move: RobotMove, lead: Sequence[Answer], uncertainty: Uncertainty
+    scene: Scene, spec: SearchSpec, move: RobotMove, lead: Sequence[Answer], imagine: Imagine, uncertainty: Uncertainty
 ) -> Verdict | None:
     """The verdict :func:`judge_move` gives the head start's own move driven on, read off the head start's answers.
 
     Driven on, the robot does just what it does in the head start's imagination, and so does everyone:
     the two imaginations part only where the head start lets a danger's own fall happen and goes on, and
     the move's judgement stops (:meth:`JointImagination.stopped_at_first_fall`). The risk is sampled round
-    the same walks. None when that cannot be read off (see there).
+    the same walks. None when that cannot be read off (see there). ``spec`` has the robot set off on
+    ``move`` when the head start was sent; ``imagine`` imagines the falls let happen just missed, when
+    the move is clear (see :func:`_harmless_if_missed`).
     """
     answers: list[Callable[[], Answer]] = []
     for a in lead:
@@ -227,4 +317,5 @@ def driven_on(
             return None
         anyway = spec.anyway_in(w.walk for w in a.joint.walks)
         answers.append(partial(joint_answer, scene, stopped, uncertainty, excused, anyway))
-    return _judged_in_turn(spec, move, answers, uncertainty, scene.robot_name)
+    misses = Misses(spec.items(move, None)[0], imagine)
+    return _judged_in_turn(spec, move, answers, misses, uncertainty, scene.robot_name)

@@ -214,9 +214,9 @@ class _Judging:
         if not self.no_worse.harmless(lead):
             return chain([opening], positions)
         knew = self.knows_as_it_is
-        read_off = driven_on(self.scene, self.spec, first, answers, self.uncertainty)
+        read_off = driven_on(self.scene, self.lead_sent(), first, answers, self.imagine, self.uncertainty)
         if read_off is not None and self.excusable(read_off, knew) and self.know_as_it_is():
-            read_off = driven_on(self.scene, self.spec, first, answers, self.uncertainty)
+            read_off = driven_on(self.scene, self.lead_sent(), first, answers, self.imagine, self.uncertainty)
         verdicts += [read_off] if read_off is not None else []
         second = next(positions, None)
         if second is None:  # a head start is for a search that judges on past its first candidate

@@ -98,6 +98,7 @@ def serve(scene: Scene, item: Item, serving: Serving = PLAIN) -> Answer:
         lead_for=item.lead_for,
         until_first_fall=item.until_first_fall,
         falling=item.falling,
+        passing=item.passing,
     )
     return joint_answer(scene, joint, item.uncertainty, item.falling, item.anyway)
 

@@ -97,6 +97,15 @@ def fell(status: str, person: str, hit: str | None, excused: Mapping[str, str]) 
     return status == "stuck" or status == "collided" and excused.get(person) != hit
 
 
+@dataclass(frozen=True)
+class Passing:
+    """A person imagined passing ``obstacle``, which the belief has them walk into: it is not there for them at
+    all (``allowance`` infinite), or they touch it only by going more than ``allowance`` metres into it."""
+
+    obstacle: str
+    allowance: float = math.inf
+
+
 @dataclass
 class _Walker:
     state: PersonState
@@ -135,9 +144,20 @@ class _Drive:
 class World:
     """The simulated room, stepped at ``dt``."""
 
-    def __init__(self, scene: Scene, walks: Sequence[Walk], dt: float = DT, planner: GridPlanner | None = None) -> None:
-        """People named in ``walks`` walk; anyone else stands still. The robot starts at its scene speed."""
+    def __init__(
+        self,
+        scene: Scene,
+        walks: Sequence[Walk],
+        dt: float = DT,
+        planner: GridPlanner | None = None,
+        passing: Mapping[str, Passing] | None = None,
+    ) -> None:
+        """People named in ``walks`` walk; anyone else stands still. The robot starts at its scene speed.
+
+        ``passing`` names people imagined passing what the belief has them walk into (see :class:`Passing`).
+        """
         self.dt = dt
+        self._passing = dict(passing or {})
         self.started = self.time = scene.time
         self.planner = planner or GridPlanner(scene.bounds)
         self._bounds = scene.bounds
@@ -171,7 +191,7 @@ class World:
                 o.name: c
                 for o in bodies
                 if o.name not in (w.state.name, w.target)
-                and (c := point_distance(o.shape, w.state.x, w.state.y) - w.state.radius) <= 0.0
+                and (c := point_distance(o.shape, w.state.x, w.state.y) - w.state.radius + self._allowance(w, o)) <= 0.0
             }
         self.robot: RobotState = scene.robot
         self._speed = scene.robot.speed
@@ -256,6 +276,16 @@ class World:
         """What ``person`` collided with, if they did."""
         return next((c.obstacle for c in self._collisions if c.person == person), None)
 
+    def passed_clearance(self, person: str) -> float | None:
+        """How close ``person``, passing what they are believed to walk into, came to it (negative: how deep they
+        went through it); None when they pass nothing, or something that moves."""
+        passed = self._passing.get(person)
+        body = next((o for o in self._static if passed is not None and o.name == passed.obstacle), None)
+        if body is None:
+            return None
+        w = self.walker(person)
+        return float(signed_distance(body.shape, np.array(w.track)).min()) - w.state.radius
+
     def walker(self, person: str) -> _Walker:
         """The state of one walking person (their track, plan, status and what they know)."""
         return next(w for w in self._walkers if w.state.name == person)
@@ -331,9 +361,18 @@ class World:
 
     # -- people --------------------------------------------------------------------------------
     def _others(self, me: str) -> tuple[Obstacle, ...]:
-        """Everything ``me`` can bump into, as :meth:`Scene.bodies_around` orders it."""
+        """Everything ``me`` can bump into, as :meth:`Scene.bodies_around` orders it (but what they pass)."""
         people = tuple(w.state.body() for w in self._walkers if w.state.name != me)
-        return self._fixed + people + self._standing_bodies
+        around = self._fixed + people + self._standing_bodies
+        passed = self._passing.get(me)
+        if passed is None or passed.allowance < math.inf:
+            return around
+        return tuple(o for o in around if o.name != passed.obstacle)
+
+    def _allowance(self, w: _Walker, o: Obstacle) -> float:
+        """How far ``w`` may go into ``o`` before it is a touch: 0, but for what they are imagined passing."""
+        passed = self._passing.get(w.state.name)
+        return passed.allowance if passed is not None and passed.obstacle == o.name else 0.0
 
     def _look(self, w: _Walker, around: tuple[Obstacle, ...]) -> bool:
         """Update what ``w`` knows; True when that calls for a new plan.
@@ -447,12 +486,15 @@ class World:
         x, y, radius, target = w.state.x, w.state.y, w.state.radius, w.target
         nearest, clear = None, w.min_clearance
         leaving, measured, travelled = w.leaving, w.measured, w.travelled
+        passed = self._passing.get(w.state.name)
         for o in around:
             if o.name == target:
                 continue
             shape = o.shape
+            # What they are imagined passing is touched only deeper than its allowance: less radius to reach it.
+            reach = radius if passed is None or o.name != passed.obstacle else radius - passed.allowance
             if leaving and (start := leaving.get(o.name)) is not None:
-                c = point_distance(shape, x, y) - radius
+                c = point_distance(shape, x, y) - reach
                 # Still touching what they started against: walking on into it at the first step counts,
                 # leaving it does not until they come clear of it.
                 if c <= 0.0 and not (len(w.track) == 2 and c < start):
@@ -466,7 +508,7 @@ class World:
                 continue
             if math.hypot(x - shape.x, y - shape.y) - bounding_radius(shape) - radius - 1e-9 >= clear:
                 continue
-            c = point_distance(shape, x, y) - radius
+            c = point_distance(shape, x, y) - reach
             if fixed:
                 measured[o.name] = (travelled, c)
             if c < clear:
@@ -573,7 +615,8 @@ class World:
                 saw_robot = int(seen[0]) + 1
         bodies = [o for o in around if o.name != w.target]
         pts = np.stack((xs, ys), axis=1)
-        clear = np.stack([signed_distance(o.shape, pts) for o in bodies], axis=1) - s.radius
+        reach = np.array([s.radius - self._allowance(w, o) for o in bodies])
+        clear = np.stack([signed_distance(o.shape, pts) for o in bodies], axis=1) - reach
         # The resting robot: what the walker knows of it does not change before ``stop``.
         unaware = not self._knows_robot(w)
         nearest = clear.min(axis=1)

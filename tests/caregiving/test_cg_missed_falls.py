@@ -1,0 +1,51 @@
+"""A fall let happen may be a false alarm: a move must not harm the person who only just misses it."""
+
+import json
+from dataclasses import replace
+from functools import partial
+from pathlib import Path
+
+from agents.caregiving.model.judging import judge_move
+from agents.caregiving.model.move_search import SearchItem
+from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.service import item_from_wire, serve_one
+
+#: A search recorded live: crossing hall, seed 8521, trial 3, 5.0 s into the trial, on perception's belief.
+RECORDED = Path(__file__).parent / "data" / "crossing_hall_s8521_trial3_search.json"
+
+
+def recorded_search() -> tuple[Scene, SearchItem]:
+    data = json.loads(RECORDED.read_text())
+    item = item_from_wire(data["item"])
+    assert isinstance(item, SearchItem)
+    return Scene.from_wire(data["scene"]), item
+
+
+def test_a_move_that_walks_someone_just_missing_a_fall_let_happen_into_the_robot_is_refused() -> None:
+    """The search protects Ana (person_11) and lets Ben's (person_12) fall into the bag happen: no move saved
+    him a moment before. On the belief, Ben touches the bag by less than perception's error, and in the truth
+    he passes it. The cabinet stand-off the search chose live saves Ana, and Ben, walking on past the bag,
+    walks into the robot there (live, he did, in two runs). Imagined just missing the bag, he does so too: the
+    move is refused, and the search chooses no move that walks him into the robot."""
+    scene, item = recorded_search()
+    assert item.spec.falling == {"person_12": "backpack_10"}
+    found = serve_one(scene, item).search
+    assert found is not None
+    cabinet = [v for v in found.verdicts if v.move is not None and v.move.target == "cabinet_8"]
+    assert cabinet and not any(v.clear_where_found for v in cabinet)
+    assert any(v.reason == "person_12 walks into robot where person_12 just misses backpack_10" for v in cabinet)
+    if found.chosen is not None:
+        assert "person_12 walks into robot" not in found.chosen.reason
+
+
+def test_a_fall_let_happen_that_goes_deeper_than_perceptions_error_is_not_imagined_missed() -> None:
+    """The same move, judged with perception's error a hundredth as large: Ben's touch of the bag is then deeper
+    than the error allows, his fall is sure, and the move is clear where Ana's danger was found."""
+    scene, item = recorded_search()
+    cabinet = RobotMove("cabinet_8", 1.1058033926029978, 2.0959732469531973, 2.356194490192345)
+    sure = replace(item.uncertainty, sigma={name: sigma / 100 for name, sigma in item.uncertainty.sigma.items()})
+    imagine = partial(serve_one, scene)
+    refused = judge_move(item.spec, cabinet, imagine, item.uncertainty, scene.robot_name)
+    assert refused.reason == "person_12 walks into robot where person_12 just misses backpack_10"
+    assert judge_move(item.spec, cabinet, imagine, sure, scene.robot_name).clear_where_found
