@@ -462,10 +462,12 @@ def test_a_bystander_falling_anyway_does_not_veto_a_move_but_any_other_fall_does
     assert verdict({"visitor": "ball"}).reason == "visitor walks into shoe at gaze 8 deg"
     excused = verdict({"visitor": "shoe"})
     assert excused.clear and excused.risk < 0.5, excused.reason  # the visitor's fall is not sampled as a risk
-    with pytest.raises(RequestError, match="falling.person"):
+    let_fall = SearchSpec((danger,), {"person": (GAZE,)}, {}).letting_dangers_fall()
+    assert SearchSpec.from_fields(Fields(let_fall.to_wire(), "spec", RequestError)) == let_fall
+    with pytest.raises(RequestError, match="falling.person: expected the danger's own obstacle"):
         SearchSpec.from_fields(
             Fields(
-                SearchSpec((danger,), {"person": (GAZE,)}, {}, falling={"person": "ball"}).to_wire(),
+                SearchSpec((danger,), {"person": (GAZE,)}, {}, falling={"person": "shoe"}).to_wire(),
                 "spec",
                 RequestError,
             )

@@ -123,11 +123,15 @@ def test_a_new_move_not_clearly_better_leaves_the_move_under_way() -> None:
 
 
 def test_a_move_under_way_that_trips_someone_is_braked_when_no_move_is_found() -> None:
+    """Braking is judged with the danger's own fall let happen: its imagination goes on past that fall, to
+    whoever braking would walk into the robot after it."""
     again, braking = falls(UNDER_WAY, "robot"), safe(None)
     script = Script(Asked(found(again)), Asked(found(falls(NEW, "ball"))), Asked(found(braking)))
     response = script.run(respond(spec(danger("ann", 2.0)), {"ann": 1.0}, UnderWay(UNDER_WAY, False), POLICY))
     assert response == Send(braking, again, braking=True)
     assert script.asks[2].moves == (None,)
+    assert script.asks[2].spec == spec(danger("ann", 2.0)).letting_dangers_fall()
+    assert script.asks[2].spec.falling == {"ann": "ball"}
 
 
 def test_braking_that_ranks_no_better_is_not_sent() -> None:

@@ -4,7 +4,9 @@
 when it already refuses the move), :func:`judge_lead` judges it as a head start, with the
 dangers' own falls let happen, and :func:`driven_on` reads a head start's own move off its
 imaginations. :func:`judge` folds the answers: a walk that is not clear refuses the move, and so
-does a pass closer to the robot than the :class:`RobotMargin` or a bystander's sampled risk.
+does a pass closer to the robot than the :class:`RobotMargin` or a bystander's sampled risk. A move
+clear in the first walk set is judged again with the falls it lets happen just missed
+(:func:`_harmless_if_missed`).
 """
 
 from __future__ import annotations
@@ -179,11 +181,13 @@ class Misses:
 
     def with_move(self, passing: Mapping[str, Passing]) -> JointImagination | None:
         """The move imagined with ``passing``."""
-        return self.imagine(replace(self.item, until_first_fall=False, uncertainty=None, passing=passing)).joint
+        return self._to_the_end(self.item, passing)
 
-    def as_it_is(self, passing: Mapping[str, Passing]) -> JointImagination | None:
+    def robot_as_it_is(self, passing: Mapping[str, Passing]) -> JointImagination | None:
         """The robot going on with the move under way (or resting), imagined with ``passing``."""
-        item = replace(self.item, move=self.item.current, lead=None, lead_for=0.0)
+        return self._to_the_end(replace(self.item, move=self.item.current, lead=None, lead_for=0.0), passing)
+
+    def _to_the_end(self, item: JointItem, passing: Mapping[str, Passing]) -> JointImagination | None:
         return self.imagine(replace(item, until_first_fall=False, uncertainty=None, passing=passing)).joint
 
 
@@ -216,7 +220,8 @@ def _harmless_if_missed(
     """``verdict`` of a move clear in the first walk set, refused if someone it lets fall there would fall with it
     had they just missed that fall instead, or anyone would then walk into the robot.
 
-    A fall let happen (a bystander's that happens anyway, or another danger's) is a belief, and perception
+    A fall let happen (a bystander's that happens anyway, another danger's, or a danger's own where braking
+    is judged) is a belief, and perception
     may hold the person and the object a few centimetres off. Someone who, walking on through it with the
     robot as it is, goes no deeper into it than the ``margin`` allows may really pass it: they are imagined
     with the move as in the nearest world where they do, missing it by :data:`MISS_BY` with the robot as it
@@ -231,9 +236,10 @@ def _harmless_if_missed(
     }
     if not let_fall:
         return verdict
-    through = misses.as_it_is({person: Passing(obstacle) for person, obstacle in let_fall.items()})
+    unimagined = replace(verdict, clear=False, risk=1.0, reason="not imagined missing the falls it lets happen")
+    through = misses.robot_as_it_is({person: Passing(obstacle) for person, obstacle in let_fall.items()})
     if through is None:
-        return replace(verdict, clear=False, risk=1.0, reason="not imagined missing the falls it lets happen")
+        return unimagined
     grazing = {
         w.walk.person: Passing(let_fall[w.walk.person], max(-depth, 0.0) + MISS_BY)
         for w in through.walks
@@ -245,7 +251,7 @@ def _harmless_if_missed(
         return verdict
     missed = misses.with_move(grazing)
     if missed is None:
-        return replace(verdict, clear=False, risk=1.0, reason="not imagined missing the falls it lets happen")
+        return unimagined
     hit = next(
         (w for w in missed.walks if w.collision_object == margin.robot or w.collided and w.walk.person in grazing),
         None,

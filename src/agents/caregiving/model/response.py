@@ -32,7 +32,8 @@ The steps, in order:
   :func:`~agents.caregiving.model.move_choice.replaces` it;
 * when none is found: a head start ends in braking (when the search found braking
   harmless), and a move under way that walks someone into the robot or leaves
-  them stuck is braked if braking ranks clearly above carrying on.
+  them stuck is braked if braking, judged with the dangers' own falls let happen
+  (so that whoever it trips after them is seen), ranks clearly above carrying on.
 
 No search chooses a move whose imagination shows a fall that would not happen
 without it (:class:`~agents.caregiving.model.move_choice.NoWorse`): the robot never
@@ -222,7 +223,9 @@ def respond(
             # robot has driven it on further, to where braking was never judged. Driven on, it harms nobody.
             return NoMove(None if searched_alone else led.halt)
         if again is not None and again.move is not None and again.trips(policy.robot):
-            stopping = (yield Ask(spec, 1.0, (None,))).found
+            # Judged going on past the dangers' own falls: braking that walks someone into the robot after them
+            # is then seen.
+            stopping = (yield Ask(spec.letting_dangers_fall(), 1.0, (None,))).found
             braking = stopping.verdicts[0] if stopping is not None and stopping.verdicts else None
             if braking is not None and replaces(braking, again, policy.samples, policy.robot):
                 return Send(braking, again, braking=True, sets_off=stopping.sets_off if stopping else None)

@@ -35,7 +35,8 @@ class SearchSpec:
     they may be on instead, imagined in a walk set of its own (see :meth:`walk_sets`).
     ``falling`` names the bystanders who walk into something with the robot as it is (their danger is not
     searched now, say because no move saved them a moment ago), and what they walk into: a move is not
-    refused for that same fall, only for one it would cause.
+    refused for that same fall, only for one it would cause. It may name a danger too, with its own
+    obstacle: its fall is then let happen (see :meth:`letting_dangers_fall`).
     ``falls_anyway`` pairs a bystander's walk with what they walk into on it with the robot as it is, the
     search finds (see :func:`~agents.caregiving.model.judging.as_it_is`): in a walk set where they walk it, a move is not refused for that
     fall either.
@@ -181,12 +182,21 @@ class SearchSpec:
             bystanders,
             RobotMove.optional_from(f, "current"),
             f.number("delay", 0.0, non_negative=True, at_most=MAX_DELAY),
-            falling_from_fields(f.child("falling", {}), {w.person for w in bystanders}),
+            _falling_from_fields(f.child("falling", {}), dangers, bystanders),
             RobotMove.optional_from(f, "lead"),
             f.number("lead_for", 0.0, non_negative=True, at_most=MAX_DELAY),
             falls,
             risks,
         )
+
+
+def _falling_from_fields(f: Fields, dangers: tuple[Danger, ...], bystanders: tuple[Walk, ...]) -> dict[str, str]:
+    """``falling``: the bystanders' falls, and the dangers' own (:meth:`SearchSpec.letting_dangers_fall`)."""
+    falling = falling_from_fields(f, {w.person for w in bystanders} | {d.person for d in dangers})
+    for d in dangers:
+        if falling.get(d.person, d.obstacle) != d.obstacle:
+            raise f.fail(d.person, f"expected the danger's own obstacle {d.obstacle!r}, got {falling[d.person]!r}")
+    return falling
 
 
 def _by_person(pairs: Iterable[tuple[Walk, T]], walks: Iterable[Walk]) -> dict[str, T]:
