@@ -153,10 +153,8 @@ def passing_from_fields(f: Fields, people: set[str]) -> dict[str, Passing]:
     passing = {}
     for person in f.keys():
         entry = f.child(_one_of(f, person, people))
-        allowance = entry.optional_number("allowance")
-        if allowance is not None and allowance < 0.0:
-            raise entry.fail("allowance", f"expected a depth of 0 m or more, got {allowance!r}")
-        passing[person] = Passing(entry.string("object"), math.inf if allowance is None else allowance)
+        allowance = entry.number("allowance", non_negative=True) if entry.has("allowance") else math.inf
+        passing[person] = Passing(entry.string("object"), allowance)
     return passing
 
 

@@ -105,6 +105,10 @@ class Passing:
     obstacle: str
     allowance: float = math.inf
 
+    def allowance_for(self, name: str) -> float:
+        """How far the person may go into the body ``name`` before it is a touch."""
+        return self.allowance if name == self.obstacle else 0.0
+
 
 @dataclass
 class _Walker:
@@ -372,7 +376,7 @@ class World:
     def _allowance(self, w: _Walker, o: Obstacle) -> float:
         """How far ``w`` may go into ``o`` before it is a touch: 0, but for what they are imagined passing."""
         passed = self._passing.get(w.state.name)
-        return passed.allowance if passed is not None and passed.obstacle == o.name else 0.0
+        return passed.allowance_for(o.name) if passed is not None else 0.0
 
     def _look(self, w: _Walker, around: tuple[Obstacle, ...]) -> bool:
         """Update what ``w`` knows; True when that calls for a new plan.
@@ -492,7 +496,7 @@ class World:
                 continue
             shape = o.shape
             # What they are imagined passing is touched only deeper than its allowance: less radius to reach it.
-            reach = radius if passed is None or o.name != passed.obstacle else radius - passed.allowance
+            reach = radius if passed is None else radius - passed.allowance_for(o.name)
             if leaving and (start := leaving.get(o.name)) is not None:
                 c = point_distance(shape, x, y) - reach
                 # Still touching what they started against: walking on into it at the first step counts,
