@@ -143,3 +143,18 @@ def test_with_false_alarms_algorithm_1_looks_at_everyone_walking(false_alarms: b
     loop = closed_loop(trial, 0.6, planner, (16, 0), setup)
     assert not loop.idle_fallers and (loop.looks > 0) == false_alarms
     assert loop.truth.outcome().collisions == ()
+
+
+def test_someone_who_has_fallen_is_no_danger_any_more() -> None:
+    """Three people in a lounge, seed 5, trial 9: Bo and then Cy walk into the slipper with the robot idle. Once Bo
+    lies where she fell, only Cy's danger is left; the spec of the loop's looks is that of the live pipeline, where
+    perception sees Bo lying and Algorithm 1 guesses her no walk."""
+    scenario = load_scenario(HELD_OUT / "three_people_lounge.yaml")
+    trial, planner = trial_for(scenario, 5, 9), GridPlanner(scenario.scene().bounds)
+    idle = idle_run(trial, planner)
+    for at, dangers in ((6.0, ["bo", "cy"]), (6.5, ["cy"])):
+        now = world_at(trial, at, planner)
+        spec = spec_on(now.scene(), idle, now, 0.05)
+        assert spec is not None and [d.person for d in spec.dangers] == dangers
+        assert now.fallen() == frozenset(set(["bo", "cy"]) - set(dangers))
+        assert "bo" not in {w.person for w in spec.bystanders}

@@ -92,6 +92,17 @@ def test_a_bystander_is_imagined_on_their_guesses_or_when_walking_unguessed_on_e
     assert [x.target for x in bystander_walks(g, moving, person, slower)[0]] == ["door"]
 
 
+def test_someone_fallen_is_in_no_danger_and_walks_nowhere(w: tuple[wm.Graph, Context]) -> None:
+    g, ctx = w
+    edge = risky(g, ctx, "couch", 2.0, 0.5)
+    g.insert_or_assign_edge(ctx.ids["person"], ctx.ids["door"], HAS_INTENTION, {"gaze": 0.1, "updated_at": 1.0})
+    moving = replace(ctx, velocity={"person": (0.5, 0.1)})
+    assert dangers_in(moving, [edge], {}, 0.5) != {} and bystander_walks(g, moving, ctx.scene.person("person"))[0]
+    lying = replace(moving, fallen=frozenset({"person"}))
+    assert dangers_in(lying, [edge], {}, 0.5) == {}
+    assert bystander_walks(g, lying, ctx.scene.person("person")) == ([], None)
+
+
 def test_the_action_agent_takes_the_intention_agents_walking_options() -> None:
     """Who walks, and which targets lie aside of them, must be the same for Algorithm 1 and Algorithm 2."""
     parsers = []

@@ -7,7 +7,7 @@ import pytest
 
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.world_model import World
-from bridges.world.sensors import Sensors
+from bridges.world.sensors import LYING_HEIGHT, Sensors
 
 
 def run(sensors: Sensors, world: World, seconds: float) -> list:
@@ -67,3 +67,18 @@ def test_seeded_and_disabled() -> None:
     dets = {d.name: d for d in exact.ready(0.0)}
     assert dets["ball"].shape == s.scene().obstacle("ball").shape
     assert dets["person"].heading == 0.0
+
+
+def test_a_person_who_has_fallen_is_seen_lying() -> None:
+    s = load_scenario("paper_experiment1")
+    world = World.from_scenario(s)
+    exact = Sensors(replace(s.sensors, enabled=False), np.random.default_rng(0))
+    while not world.fallen():
+        exact.observe(world.scene(), world.fallen())
+        world.step()
+    standing = exact.ready(world.time)
+    exact.observe(replace(world.scene(), time=world.time + 1.0), world.fallen())
+    (lying,) = [d for d in exact.ready(world.time + 1.0) if d.kind == "person"]
+    assert world.fallen() == {"person"}
+    assert {d.height for d in standing if d.kind == "person"} == {s.people[0].eye_height}
+    assert lying.height == LYING_HEIGHT

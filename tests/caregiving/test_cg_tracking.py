@@ -35,3 +35,18 @@ def test_the_origin_of_a_walk_is_fitted_back_to_the_first_stamp_and_then_stays()
         assert math.dist((track.x, track.y), _position(2.0)) < 0.1
     # A line fitted over 21 detections of 4 cm error, at its end: about 2 cm, far below one detection's.
     assert float(np.sqrt(np.mean(np.square(misses)))) < 0.03
+
+
+def test_a_person_is_lower_only_when_each_of_their_newest_detections_is() -> None:
+    tracker = Tracker(0.04)
+
+    def detect(stamp: float, height: float) -> None:
+        shape = {"type": "circle", "x": 0.0, "y": 0.0, "r": 0.25}
+        tracker.update(stamp, [{"kind": "person", "shape": shape, "heading": 0.0, "target": False, "height": height}])
+
+    for k, height in enumerate((1.7, 1.7, 1.7, 0.3, 0.3, 1.7, 0.3, 0.3)):
+        detect(0.05 * k, height)
+        track = next(iter(tracker.tracks.values()))
+        assert not track.lower_than(0.85, 3)  # never three low in a row
+    detect(0.4, 0.3)
+    assert track.lower_than(0.85, 3) and not track.lower_than(0.85, 4) and not track.lower_than(0.2, 3)

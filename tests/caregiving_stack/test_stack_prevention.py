@@ -1,5 +1,5 @@
 """Prevention over the real processes: a saveable trial is saved; a move that trips a person is never sent,
-and one already under way is braked.
+and one already under way is braked; a person who has fallen is seen lying and guessed walking no more.
 
 Trials of seed 7 of the box-obstacle room, with exact sensors so that the closed loop sees what the oracle
 sees. The room runs at half speed: these tests check what the search decides, not how fast the pipeline is
@@ -22,12 +22,12 @@ from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.recorded_batch import read_batches
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.world_model import run_idle
-from agents.caregiving.names import HAS, INTENTION, OBJECT, ROBOT, WORLD
+from agents.caregiving.names import HAS, HAS_INTENTION, INTENTION, OBJECT, PERSON, ROBOT, WORLD
 from bridges.experiment.launch import Stack
 from bridges.experiment.oracle import oracle
 from bridges.experiment.trials import TrialRecord, open_harness
 from bridges.world.bridge import trial_for
-from wm import Graph, Node
+from wm import Event, Graph, Node
 
 SCENARIOS = Path(__file__).parent / "scenarios"
 SCENARIO = str(SCENARIOS / "box_obstacle_exact.yaml")
@@ -119,6 +119,49 @@ async def run_with_a_move_into_the_way(stack: Stack, scenario: str, pose: tuple[
             )
             g.insert_or_assign_edge(robot.id, move, HAS, {"status": "proposed", "updated_at": time.time()})
         return await run
+
+
+def test_a_person_who_has_fallen_is_seen_lying_and_guessed_walking_no_more(stack: Stack) -> None:
+    """Ana falls into the ball at once; Ben walks on for seconds. Perception marks her fallen in W within a few
+    frames of her fall; Algorithm 1 guesses no walk of hers after that and deletes those it had, while Ben's
+    are guessed on."""
+    scenario = str(SCENARIOS / "one_falls_one_walks_on.yaml")
+    r, people, guessed, left = asyncio.run(run_watching_guesses(stack, scenario))
+    (fall,) = r.outcome["collisions"]
+    lying = [name for name, p in people.items() if p.get("fallen")]
+    assert len(people) == 2 and len(lying) == 1, people
+    (ana,), (ben,) = lying, set(people) - set(lying)
+    fallen_at = float(people[ana]["fallen_at"])  # type: ignore[arg-type]
+    assert fall["time"] <= fallen_at <= fall["time"] + 0.5
+    assert math.dist(people[ana]["position"], fall["point"]) < 0.3  # type: ignore[arg-type]
+    assert any(at < fall["time"] for name, at in guessed if name == ana), "her walks were guessed before"
+    # An evaluation under way when she was marked may still land; none begun after it does.
+    late = [at for name, at in guessed if name == ana and at > fallen_at + 0.2]
+    assert late == [], f"walks of hers guessed after she fell: {late}"
+    assert ana not in left, "her guesses were deleted"
+    assert any(at > fallen_at + 1.0 for name, at in guessed if name == ben), "Ben's walks are guessed on"
+
+
+async def run_watching_guesses(
+    stack: Stack, scenario: str
+) -> tuple[TrialRecord, dict[str, dict[str, object]], list[tuple[str, float]], set[str]]:
+    """Run ``scenario``'s nominal trial; return its record, each person node's attributes and position at its end,
+    each ``has_intention`` written during it (person, simulated time), and the people who still have some."""
+    async with open_harness(stack.endpoint, GRAPH, name="test-harness") as harness:
+        g = harness.g
+        guessed: list[tuple[str, float]] = []
+
+        def on_guess(event: Event) -> None:
+            edge = g.find_edge(event.src, event.dst, HAS_INTENTION)  # type: ignore[arg-type]
+            if edge is not None and running_after(g, before):
+                guessed.append((g.get_node(edge.src).name, float(edge.get("at_time", 0.0))))
+
+        before = episode(g)
+        g.on(on_guess, kind=["edge_added", "edge_updated"], type=HAS_INTENTION)
+        r = await harness.run(0, None, timeout=60.0, scenario=scenario)
+        people = {n.name: {**n.attrs, "position": g.rt.pose2d(WORLD, n.id)[:2]} for n in g.nodes(PERSON)}
+        left = {g.get_node(e.src).name for e in g.edges(type=HAS_INTENTION)}
+        return r, people, guessed, left
 
 
 def balls(g: Graph) -> list[Node]:

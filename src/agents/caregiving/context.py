@@ -4,8 +4,8 @@ Perception keeps these in W: a ``world`` node (``room_size``, ``episode``), the
 ``robot`` node, ``person`` and ``object`` nodes, each placed by an RT edge from
 ``world`` (x, y, yaw). :func:`read_context` turns them into the immutable scene
 every imagination runs on, plus what the agents need beside it: node ids, the
-tracked position uncertainty, velocities and the wall time of the newest
-perception write behind the snapshot.
+tracked position uncertainty, velocities, the people perception sees fallen and
+the wall time of the newest perception write behind the snapshot.
 """
 
 from __future__ import annotations
@@ -35,6 +35,7 @@ class Context:
     sigma: dict[str, float]
     velocity: dict[str, tuple[float, float]]
     written_at: float
+    fallen: frozenset[str] = frozenset()  # people lying where they fell: they walk nowhere
 
     @cached_property
     def names(self) -> dict[int, str]:
@@ -65,6 +66,7 @@ def read_context(g: Graph) -> Context | None:
     ids: dict[str, int] = {}
     sigma: dict[str, float] = {}
     velocity: dict[str, tuple[float, float]] = {}
+    fallen: set[str] = set()
     written = 0.0
     obstacles = list(room.wall_obstacles())
     for node in g.nodes(OBJECT):
@@ -110,6 +112,8 @@ def read_context(g: Graph) -> Context | None:
         ids[node.name] = node.id
         sigma[node.name] = node.get("position_sigma", 0.0)
         velocity[node.name] = (vx, vy)
+        if node.get("fallen", False):
+            fallen.add(node.name)
         written = max(written, node.get("written_at", 0.0))
     r = robots[0]
     pose = _pose(g, r) or (0.0, 0.0, 0.0)
@@ -131,7 +135,7 @@ def read_context(g: Graph) -> Context | None:
     ids[r.name] = r.id
     stamp = max([world.get("sim_time", 0.0)] + [n.get("stamp", 0.0) for n in g.nodes(PERSON)])
     scene = Scene(room.bounds, tuple(obstacles), tuple(people), robot, stamp)
-    return Context(scene, episode_of(world), ids, sigma, velocity, written)
+    return Context(scene, episode_of(world), ids, sigma, velocity, written, frozenset(fallen))
 
 
 def episode_of(world: Node | None) -> int:

@@ -2,7 +2,8 @@
 
 ``python -m agents.caregiving.intention --graph G --connect EP [--scenario S]``
 
-Whenever a person moves in W: for each person tracked long enough, the targets
+Whenever a person moves in W: for each person tracked long enough and not
+fallen (someone lying where they fell walks nowhere; their guesses are deleted), the targets
 are the target objects inside their horizontal field of view; the vertical gaze
 range is split exactly into the classes that see the same objects
 (:func:`agents.caregiving.model.visibility.gaze_classes`), which covers every sampled gaze.
@@ -105,8 +106,10 @@ class Intention(Agent):
         people = []
         for p in ctx.scene.people:
             first = self.first_seen.setdefault(ctx.ids[p.name], ctx.scene.time)
-            if ctx.scene.time - first >= self.args.min_track:
+            if ctx.scene.time - first >= self.args.min_track and p.name not in ctx.fallen:
                 people.append(p.name)
+        if ctx.fallen:
+            self.writer.write(self.g, ctx, sorted(ctx.fallen), [])  # the fallen walk nowhere: their guesses end
         work = [self._evaluate_person(ctx, name) for name in people]
         self.cache.sweep()
         await asyncio.gather(*work)

@@ -10,7 +10,9 @@ It keeps, all placed by an RT edge from the ``world`` node:
   robot's generic model of people (fields of view, vertical gaze range), plus
   the tracked velocity, position uncertainty, sensor stamp and write time, and
   their walking speed: the model's, until their walk measures otherwise
-  (:mod:`agents.caregiving.walking_speed`);
+  (:mod:`agents.caregiving.walking_speed`), and whether they have ``fallen``:
+  their newest :data:`LOW_FRAMES` detections all lower than :data:`LYING_FRACTION`
+  of the height they stood at (``fallen_at``: the first such frame's stamp);
 * an ``object`` node per confirmed object track: kind, shape, size, target flag.
 
 Poses and the other high-rate attributes are volatile. An object's pose and size
@@ -37,6 +39,11 @@ from .names import OBJECT, PERSON, ROBOT, WORLD
 from .tracking import PERSON as PERSON_TRACK
 from .tracking import Track, Tracker
 from .walking_speed import WalkingSpeed
+
+#: A person is seen fallen when detected lower than this share of the height they stood at ...
+LYING_FRACTION = 0.5
+#: ... in this many frames in a row (one low frame, a stoop or a bad detection, is not a fall).
+LOW_FRAMES = 3
 
 
 class Perception(Agent):
@@ -193,6 +200,7 @@ class Perception(Agent):
                 )
             else:
                 g.update_node(node, volatile)
+                self._write_fallen(t, node, stamp)
         elif node is None:
             node = self.nodes[t.id] = g.insert_node(
                 OBJECT,
@@ -219,6 +227,13 @@ class Perception(Agent):
             if math.hypot(t.x - x, t.y - y) <= self.args.object_step and abs(t.heading - yaw) <= 0.02:
                 return  # an object's estimate only moves in steps, so the planners' cached masks stay valid
         g.rt.set_pose2d(WORLD, node, t.x, t.y, t.heading)
+
+    def _write_fallen(self, t: Track, node: int, stamp: float) -> None:
+        """Mark whether person ``t`` lies fallen, on their node, when that changes."""
+        person = self.g.get_node(node)
+        fallen = t.lower_than(LYING_FRACTION * person.get("eye_height", 0.0), LOW_FRAMES)
+        if fallen != person.get("fallen", False):
+            self.g.update_node(node, {"fallen": fallen, "fallen_at": stamp} if fallen else {"fallen": False})
 
 
 if __name__ == "__main__":

@@ -45,7 +45,8 @@ def risky_first(classes: tuple[GazeClass, ...], risky: float) -> tuple[float, ..
 
 
 def dangers_in(ctx: Context, risky: list[Edge], failed: Mapping[int, float], retry: float) -> Dangers:
-    """Each endangered person's most urgent danger that is not yet due, nor failed less than ``retry`` s ago.
+    """Each endangered person's most urgent danger that is not yet due, nor failed less than ``retry`` s ago
+    (nobody fallen is endangered any more).
 
     ``failed`` holds, by person node id, the simulated time their last search found no move.
     """
@@ -55,7 +56,7 @@ def dangers_in(ctx: Context, risky: list[Edge], failed: Mapping[int, float], ret
         person, target, obstacle = names.get(edge.src), names.get(edge.dst), names.get(edge.get("collision_object"))
         ttc = edge.get("time_to_collision", 0.0) - max(ctx.scene.time - edge.get("at_time", ctx.scene.time), 0.0)
         recent = ctx.scene.time - failed.get(edge.src, -math.inf) < retry
-        if person is None or target is None or obstacle is None or ttc <= 0.0 or recent:
+        if person is None or target is None or obstacle is None or ttc <= 0.0 or recent or person in ctx.fallen:
             continue
         flat = edge.get("path", ())
         p = ctx.scene.person(person)
@@ -81,7 +82,10 @@ def bystander_walks(
     guesses for them (those their heading matches), the latest first; before it has guessed any, on
     :func:`~agents.caregiving.model.guesses.unguessed_walks`. A move is then never judged with a walking
     person imagined standing still. ``walking`` says who walks, and which targets lie plainly aside.
+    Someone fallen walks nowhere: they lie where they are.
     """
+    if person.name in ctx.fallen:
+        return [], None
     guessed = sorted(
         (e for e in g.edges(type=HAS_INTENTION, src=ctx.ids[person.name]) if e.dst in ctx.names),
         key=lambda e: -e.get("updated_at", 0.0),

@@ -60,6 +60,11 @@ class Track:
         coef = _line(data, self.first)
         return float(coef[0, 0]), float(coef[0, 1])
 
+    def lower_than(self, height: float, frames: int) -> bool:
+        """Whether each of the newest ``frames`` detections (and at least that many) was lower than ``height``."""
+        recent = list(self.sizes)[-frames:]
+        return len(recent) == frames and all(h < height for *_, h in recent)
+
     def predict(self, stamp: float) -> tuple[float, float]:
         dt = stamp - self.last
         return self.x + self.vx * dt, self.y + self.vy * dt

@@ -18,7 +18,10 @@ danger showed:
   on the belief, the robot starting :attr:`Setup.delay` seconds after the look and
   :attr:`Setup.judging` seconds later per judgement, and its moves are commanded in
   the ground truth when they would be sent: a head start after its own judgement,
-  the move chosen (or braking) when the response ends.
+  the move chosen (or braking) when the response ends;
+* it looks on until nobody walks any more (or :data:`HORIZON` has passed): after
+  someone falls, at the others, as live. Someone lying where they fell is no
+  danger any more, as perception sees them lying.
 
 With :attr:`Setup.first_look_only`, only the first look acts and its move is driven
 on: what looking again buys.
@@ -117,7 +120,7 @@ def closed_loop(trial: Scenario, at: float, planner: GridPlanner, seed: tuple[in
     perception = Perception(trial.sensors, setup.noise, seed)
     policy = Policy(setup.threshold, SAMPLES, trial.scene().robot_name)
     now = at
-    while not loop.truth.done and not loop.truth.outcome().collisions and now < at + HORIZON:
+    while not loop.truth.done and now < at + HORIZON:
         if now >= loop.retry_after and (loop.looks == 0 or not setup.first_look_only):
             scene = perception.belief(loop.truth.scene(), now, loop.looks)
             _look(loop, scene, perception.uncertainty(scene, now, loop.looks), idle, now, policy, setup)

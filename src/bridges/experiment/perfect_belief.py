@@ -63,7 +63,8 @@ def spec_on(
     people: Sequence[str] | None = None,
 ) -> SearchSpec | None:
     """The spec of the dangers Algorithm 1 finds on ``scene`` (exact or believed) for the people who fall in ``idle``
-    (or for ``people``: on a belief, someone who falls in no truth may seem to, a false alarm).
+    (or for ``people``: on a belief, someone who falls in no truth may seem to, a false alarm), but those who
+    have already fallen by ``now``: they lie where they fell, as perception sees them, and walk nowhere.
 
     ``idle`` is the trial run to its end with the robot idle, ``now`` the truth at the scene's moment (what each
     person has seen so far). ``gazes`` says at which gaze each person's walk is imagined, and at which their
@@ -75,8 +76,9 @@ def spec_on(
     dangers: list[Danger] = []
     judged_at: dict[str, tuple[float, ...]] = {}
     known: dict[str, tuple[str, ...]] = {}
+    lying = now.fallen()
     for name in [c.person for c in idle.outcome().collisions] if people is None else people:
-        if name in judged_at:
+        if name in judged_at or name in lying:
             continue
         walker = idle.walker(name)
         seen = tuple(sorted(objects & now.walker(name).known.keys()))

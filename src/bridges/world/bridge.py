@@ -204,7 +204,7 @@ class WorldBridge:
                 world.step()
                 steps += 1
                 scene = world.scene()
-                trial.sensors.observe(scene)
+                trial.sensors.observe(scene, world.fallen())
                 ready = trial.sensors.ready(world.time)
                 if ready:
                     self._frames.put(

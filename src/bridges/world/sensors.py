@@ -5,7 +5,8 @@ person. Each detection gets Gaussian position noise (and heading noise for
 people), is dropped with probability ``dropout``, and becomes available
 ``latency`` seconds after the instant it describes. Each object's size is
 misjudged by a factor drawn once per object, uniform within +/- ``size_error``:
-shape error is a bias the robot lives with, not noise that averages away.
+shape error is a bias the robot lives with, not noise that averages away. A
+person who has fallen lies on the floor and is seen :data:`LYING_HEIGHT` high.
 With ``enabled: false`` the detections are exact and immediate.
 """
 
@@ -21,6 +22,9 @@ from agents.caregiving.model.geometry import Box, Circle, Shape
 from agents.caregiving.model.scenario import SensorSpec
 from agents.caregiving.model.scene import PERSON_KIND, Scene
 from agents.caregiving.model.visibility import WALL_KIND
+
+#: Metres: how high a person who has fallen is seen (a body lying on the floor).
+LYING_HEIGHT = 0.3
 
 
 @dataclass(frozen=True)
@@ -46,15 +50,15 @@ class Sensors:
         self._next_frame = 0.0
         self._queue: deque[tuple[float, Detection]] = deque()
 
-    def observe(self, scene: Scene) -> None:
-        """Take a frame if one is due at ``scene.time``."""
+    def observe(self, scene: Scene, fallen: frozenset[str] = frozenset()) -> None:
+        """Take a frame if one is due at ``scene.time``; the people ``fallen`` names lie where they fell."""
         if scene.time + 1e-9 < self._next_frame:
             return
         self._next_frame += 1.0 / self.spec.rate_hz
         while self._next_frame <= scene.time:
             self._next_frame += 1.0 / self.spec.rate_hz
         release = scene.time + (self.spec.latency if self.spec.enabled else 0.0)
-        for det in self._frame(scene):
+        for det in self._frame(scene, fallen):
             self._queue.append((release, det))
 
     def ready(self, now: float) -> list[Detection]:
@@ -64,14 +68,22 @@ class Sensors:
             out.append(self._queue.popleft()[1])
         return out
 
-    def _frame(self, scene: Scene) -> list[Detection]:
+    def _frame(self, scene: Scene, fallen: frozenset[str]) -> list[Detection]:
         dets = [
             Detection(scene.time, o.name, o.kind, o.shape, getattr(o.shape, "theta", 0.0), o.height, o.target)
             for o in scene.obstacles
             if o.kind != WALL_KIND
         ]
         dets += [
-            Detection(scene.time, p.name, PERSON_KIND, Circle(p.x, p.y, p.radius), p.heading, p.eye_height, False)
+            Detection(
+                scene.time,
+                p.name,
+                PERSON_KIND,
+                Circle(p.x, p.y, p.radius),
+                p.heading,
+                LYING_HEIGHT if p.name in fallen else p.eye_height,
+                False,
+            )
             for p in scene.people
         ]
         if not self.spec.enabled:

@@ -267,6 +267,10 @@ class World:
         """The people still walking."""
         return [w.state.name for w in self._walkers if w.status == "walking"]
 
+    def fallen(self) -> frozenset[str]:
+        """The people who have tripped: they lie where they fell."""
+        return frozenset(w.state.name for w in self._walkers if w.status == "collided")
+
     def someone_fell(self, excused: Mapping[str, str]) -> bool:
         """Whether someone has touched something or got stuck, but for the falls ``excused`` names ({person: object})."""
         for w in self._walkers:
