@@ -234,6 +234,7 @@ class Perception(Agent):
         fallen = t.lower_than(LYING_FRACTION * person.get("eye_height", 0.0), LOW_FRAMES)
         if fallen != person.get("fallen", False):
             self.g.update_node(node, {"fallen": fallen, "fallen_at": stamp} if fallen else {"fallen": False})
+            self.log.info("fallen" if fallen else "up again", person=person.name, at=round(stamp, 2))
 
 
 if __name__ == "__main__":
