@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass, field
-from itertools import count
+from itertools import count, islice
 from typing import Any
 
 import numpy as np
@@ -62,7 +62,7 @@ class Track:
 
     def lower_than(self, height: float, frames: int) -> bool:
         """Whether each of the newest ``frames`` detections (and at least that many) was lower than ``height``."""
-        recent = list(self.sizes)[-frames:]
+        recent = list(islice(reversed(self.sizes), frames))
         return len(recent) == frames and all(h < height for *_, h in recent)
 
     def predict(self, stamp: float) -> tuple[float, float]:
