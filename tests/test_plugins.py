@@ -65,7 +65,7 @@ def test_ontologies_come_from_plugins_and_the_default_falls_back_to_the_neutral_
 ) -> None:
     caregiving = wm.Ontology.named("caregiving")
     assert {"person", "robot", "intention"} <= set(caregiving.node_types) and "has_intention" in caregiving.edge_types
-    assert caregiving.node_type("person").show == ("fov", "speed", "velocity", "track_id")
+    assert caregiving.node_type("person").show == ("fov", "speed", "velocity", "track_id", "fallen")
     base = wm.Ontology.named("base")
     assert {"world", "agent"} <= set(base.node_types) and "RT" in base.edge_types
     assert "fov" not in base.attributes and "has_intention" not in base.node_types
