@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+from outcomes import fall
 
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.world_model import World
@@ -75,7 +76,7 @@ def test_recall_by_person_sees_the_miss_that_recall_by_trial_hides() -> None:
 
 def test_saving_one_of_two_who_fall_counts_by_person_though_the_trial_is_not_prevented() -> None:
     falls = (Faller("ana", 4.0, 0.5, fell_acting=False), Faller("ben", 6.0, 0.5, fell_acting=True))
-    record = TrialRecord(0, intentions=1, risky={"probability": 1.0}, outcome={"collisions": [{"person": "ben"}]})
+    record = TrialRecord(0, intentions=1, risky={"probability": 1.0}, outcome={"collisions": [fall("ben")]})
     scored = Scored(record, frozenset({"ana", "ben"}), saveable=False, falls=falls, saveable_people=frozenset({"ana"}))
     m = metrics([scored])
     assert m["prevented"] == 0 and m["oracle_saveable"] == 0

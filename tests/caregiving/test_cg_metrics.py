@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import pytest
+from outcomes import fall
 
 from bridges.experiment.experiment import Scored, metrics, pipeline_delay, prevention_line
+from bridges.experiment.falls_seen import FallMark, falls_seen
 from bridges.experiment.trials import TrialRecord
 
 #: Who collides with the robot idle: somebody (a truly risky trial), or nobody.
@@ -42,7 +44,7 @@ def test_action_rates_are_absent_without_detections() -> None:
 
 
 def _commanded(index: int, at: float, command: float | None, saveable: bool, late: bool, collided: bool) -> Scored:
-    outcome: dict[str, object] = {"collisions": [{"person": "p"}] if collided else []}
+    outcome: dict[str, object] = {"collisions": [fall("p")] if collided else []}
     if command is not None:
         outcome["commands"] = [{"time": command, "move": None, "accepted": True}]
     record = TrialRecord(index, intentions=1, risky={"probability": 1.0, "at_time": at}, outcome=outcome)
@@ -100,7 +102,7 @@ def test_a_person_tripped_by_the_robot_is_counted_even_where_somebody_else_falls
     trial 1 Ada falls either way and Ben only with the robot acting (no robot-caused trial, one person)."""
 
     def trial(index: int, fell_acting: list[str], fell_idle: frozenset[str]) -> Scored:
-        record = TrialRecord(index, intentions=1, outcome={"collisions": [{"person": p} for p in fell_acting]})
+        record = TrialRecord(index, intentions=1, outcome={"collisions": [fall(p) for p in fell_acting]})
         return Scored(record, fell_idle)
 
     scored = [
@@ -112,3 +114,18 @@ def test_a_person_tripped_by_the_robot_is_counted_even_where_somebody_else_falls
     assert m["robot_caused_collisions"] == 1
     assert m["robot_tripped_people"] == 2
     assert [s.robot_tripped for s in scored] == [["ben"], ["ben"], []]
+
+
+def test_a_fall_is_seen_by_the_first_mark_near_it_at_or_after_it_and_a_mark_of_no_fall_is_false() -> None:
+    marks = {
+        1: FallMark(5.2, (0.1, 0.0)),  # Ana, lying where she fell
+        2: FallMark(4.0, (3.0, 0.0)),  # before Ben's fall, and far from it: a fall seen where nobody fell
+        3: FallMark(7.3, (2.9, 0.1)),  # Ben, lying
+    }
+    falls = [fall("ana", 5.0, (0.0, 0.0)), fall("ben", 7.0, (3.0, 0.0)), fall("cy", 8.0, (-3.0, 0.0))]
+    seen = falls_seen(falls, marks.values())
+    assert seen.delays == (pytest.approx(0.2), pytest.approx(0.3), None) and seen.unmatched == 1
+    record = TrialRecord(0, intentions=1, outcome={"collisions": falls}, fall_marks=marks)
+    m = metrics([Scored(record, frozenset({"ana", "ben", "cy"}))])
+    assert (m["falls_acting"], m["falls_seen"], m["false_fall_marks"]) == (3, 2, 1)
+    assert m["fall_seen_after_s_p50"] == pytest.approx(0.25) and m["fall_seen_after_s_max"] == pytest.approx(0.3)

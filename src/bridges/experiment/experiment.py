@@ -43,7 +43,10 @@ the same broad set saves when commanded that much later;
 ``robot_caused_collisions`` counts trials that were safe with the robot idle and
 collided with it acting; ``robot_tripped_people`` counts, over every trial, the people who collided with
 the robot acting but not with it idle (in a room with several people, a trial in which somebody falls
-anyway can hide someone the robot tripped). ``head_starts`` counts trials in which the robot set off on a head start
+anyway can hide someone the robot tripped). ``falls_acting`` counts the falls of the trials as run,
+``falls_seen`` those perception marked ``fallen`` (:mod:`bridges.experiment.falls_seen`),
+``fall_seen_after_s_p50`` and ``_max`` how long after the fall, and ``false_fall_marks`` the marks
+of no fall. ``head_starts`` counts trials in which the robot set off on a head start
 while the search judged on (an intention with ``head_start`` set: the robot's first command, but not
 a move found to remove the danger, so not an action; ``head_start_ms_p50`` is its median time
 from the risky intention, and ``first_response_ms_mean`` and ``_p50`` time the robot's first intention of
@@ -83,6 +86,7 @@ from agents.caregiving.model.scenario import Scenario, load_scenario
 from bridges.world.bridge import trial_for
 
 from .fallers import Faller, fallers
+from .falls_seen import FallsSeen, falls_seen
 from .launch import Stack
 from .oracle import OracleVerdict, idle_run, oracle
 from .trials import TrialRecord, finite, open_harness
@@ -128,6 +132,11 @@ class Scored:
     def robot_tripped(self) -> list[str]:
         """The people who collided with the robot acting but not with it idle."""
         return sorted({c["person"] for c in self.record.outcome.get("collisions", [])} - self.idle_fallers)
+
+    @property
+    def seen(self) -> FallsSeen:
+        """Whether perception marked each fall of the trial as run, and how soon."""
+        return falls_seen(self.record.outcome.get("collisions", []), self.record.fall_marks.values())
 
     @property
     def discarded(self) -> bool:
@@ -189,6 +198,9 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
     saved = sum(not f.fell_acting for f in falls)
     saveable_falls = [f for s in valid for f in s.falls if f.person in s.saveable_people]
     saved_saveable = sum(not f.fell_acting for f in saveable_falls)
+    seen = [s.seen for s in scored]
+    fall_delays = [d for x in seen for d in x.delays]
+    seen_after = finite(fall_delays)
     return {
         "trials": len(scored),
         "discarded": len(scored) - len(valid),
@@ -246,6 +258,11 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "people_saveable": len(saveable_falls),
         "people_saved_saveable": saved_saveable,
         "person_prevention_rate_of_saveable": _ratio(saved_saveable, len(saveable_falls)),
+        "falls_acting": len(fall_delays),
+        "falls_seen": len(seen_after),
+        "fall_seen_after_s_p50": percentile(seen_after, 50),
+        "fall_seen_after_s_max": max(seen_after, default=None),
+        "false_fall_marks": sum(x.unmatched for x in seen),
     }
 
 
@@ -313,6 +330,11 @@ ROWS = [
     ("Prevented (of those)", "prevention_rate_of_saveable_after_delay"),
     ("Collisions the robot caused", "robot_caused_collisions"),
     ("People who fell only with the robot acting", "robot_tripped_people"),
+    ("People who fell, with the robot acting", "falls_acting"),
+    ("... seen lying by perception", "falls_seen"),
+    ("... this long after the fall (p50)", "fall_seen_after_s_p50"),
+    ("... at the most", "fall_seen_after_s_max"),
+    ("Falls seen where nobody fell", "false_fall_marks"),
     ("End to end p50", "e2e_ms_p50"),
     ("End to end p99", "e2e_ms_p99"),
 ]
@@ -444,6 +466,8 @@ def trial_json(s: Scored) -> dict[str, Any]:
         "decision_ms": r.decision_ms,
         "e2e_ms": r.e2e_ms,
         "collisions": r.outcome.get("collisions", []),
+        "fall_seen_after_s": list(s.seen.delays),
+        "fall_marks": [{"at_time": m.at_time, "at": list(m.at)} for m in r.fall_marks.values()],
         "falls": [
             {
                 "person": f.person,

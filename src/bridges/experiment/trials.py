@@ -4,7 +4,7 @@ The harness is itself a (passive) replica of W. For each trial it asks the
 world bridge to prepare it, waits until perception and the agents have cleared
 W for it, starts the clock, and records from its replica: whether any intention
 arose, the first risky ``has_intention`` (and each person's first, where they
-stood then), and the robot's first ``intention``
+stood then), each person's first ``fallen`` mark, and the robot's first ``intention``
 (with the wall-clock stamps their writers put on them), plus a snapshot of W at
 the moment of the action for the figures. The world's record of what really
 happened arrives on ``world/outcome``.
@@ -32,6 +32,7 @@ from wm import Event, Graph
 from wm.net.connection import close_session, open_session
 
 from .fallers import Flag
+from .falls_seen import FallMark
 
 log = logging.getLogger(__name__)
 
@@ -66,6 +67,7 @@ class TrialRecord:
     seen_risky_at: float | None = None
     seen_action_at: float | None = None
     flags: dict[int, Flag] = field(default_factory=dict)  # each person node's first risky intention
+    fall_marks: dict[int, FallMark] = field(default_factory=dict)  # each person node's first ``fallen`` mark
 
     @property
     def set_off(self) -> dict[str, Any] | None:
@@ -147,7 +149,7 @@ class Harness:
         self.messaging = Messaging(session, logging_guard(log))
         self.messaging.subscribe(keys.world_outcome(graph), self._on_outcome)
         self.messaging.start(self._tasks)
-        g.on(self._on_event, type=[HAS_INTENTION, INTENTION])
+        g.on(self._on_event, type=[HAS_INTENTION, INTENTION, PERSON])
 
     async def close(self) -> None:
         """Stop listening to the world bridge."""
@@ -175,6 +177,11 @@ class Harness:
             if rec.risky is None:
                 rec.risky, rec.seen_risky_at = dict(edge.attrs), time.time()
                 rec.snapshot = snapshot(self.g, None)
+        elif event.type == PERSON and event.kind.value == "node_updated" and event.id not in rec.fall_marks:
+            node = self.g.find_node(event.id)  # type: ignore[arg-type]
+            if node is not None and node.get("fallen"):
+                x, y, _ = self.g.rt.pose2d(WORLD, node.id)
+                rec.fall_marks[node.id] = FallMark(float(node.get("fallen_at", 0.0)), (x, y))
         elif event.type == INTENTION and event.kind.value == "node_added" and rec.action is None:
             node = self.g.find_node(event.id)  # type: ignore[arg-type]
             if node is None:
