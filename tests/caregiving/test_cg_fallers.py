@@ -8,7 +8,7 @@ from outcomes import fall
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.world_model import World
 from bridges.experiment.experiment import Scored, metrics
-from bridges.experiment.fallers import Faller, Flag, fallers, position_at
+from bridges.experiment.fallers import Faller, Mark, fallers, position_at
 from bridges.experiment.trials import TrialRecord
 
 
@@ -20,9 +20,9 @@ def _two_people() -> World:
     return idle
 
 
-def _flag(idle: World, person: str, at_time: float, off: float = 0.0) -> Flag:
+def _flag(idle: World, person: str, at_time: float, off: float = 0.0) -> Mark:
     x, y = position_at(idle, person, at_time)
-    return Flag(at_time, (x + off, y))
+    return Mark(at_time, (x + off, y))
 
 
 def test_a_fall_whose_person_was_flagged_before_it_counts_with_its_lead() -> None:

@@ -6,7 +6,8 @@ import pytest
 from outcomes import fall
 
 from bridges.experiment.experiment import Scored, metrics, pipeline_delay, prevention_line
-from bridges.experiment.falls_seen import FallMark, falls_seen
+from bridges.experiment.fallers import Mark
+from bridges.experiment.falls_seen import falls_seen
 from bridges.experiment.trials import TrialRecord
 
 #: Who collides with the robot idle: somebody (a truly risky trial), or nobody.
@@ -118,9 +119,9 @@ def test_a_person_tripped_by_the_robot_is_counted_even_where_somebody_else_falls
 
 def test_a_fall_is_seen_by_the_first_mark_near_it_at_or_after_it_and_a_mark_of_no_fall_is_false() -> None:
     marks = {
-        1: FallMark(5.2, (0.1, 0.0)),  # Ana, lying where she fell
-        2: FallMark(4.0, (3.0, 0.0)),  # before Ben's fall, and far from it: a fall seen where nobody fell
-        3: FallMark(7.3, (2.9, 0.1)),  # Ben, lying
+        1: Mark(5.2, (0.1, 0.0)),  # Ana, lying where she fell
+        2: Mark(4.0, (3.0, 0.0)),  # before Ben's fall, and far from it: a fall seen where nobody fell
+        3: Mark(7.3, (2.9, 0.1)),  # Ben, lying
     }
     falls = [fall("ana", 5.0, (0.0, 0.0)), fall("ben", 7.0, (3.0, 0.0)), fall("cy", 8.0, (-3.0, 0.0))]
     seen = falls_seen(falls, marks.values())

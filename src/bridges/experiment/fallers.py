@@ -4,7 +4,7 @@ whether the robot acting saved them.
 Table I counts a trial as predicted when any risky intention arose in it. In a room of several people
 that can hide a miss: a false alarm about one person makes the trial predicted while the person who
 falls is flagged late or never. Here each person's first risky ``has_intention`` the harness saw
-(:class:`Flag`) is matched to the true person who stood nearest the start of its imagined path at its
+(:class:`Mark`) is matched to the true person who stood nearest the start of its imagined path at its
 moment, and each person who falls with the robot idle is flagged when one of their own was written at
 or before their fall. A trial is prevented only when nobody falls; where two people fall in different
 places, no single move may save both, and saving one of them counts here, person by person.
@@ -20,8 +20,9 @@ from agents.caregiving.model.world_model import World
 
 
 @dataclass(frozen=True)
-class Flag:
-    """A person's first risky intention in W: its moment (simulated s) and where the person stood then."""
+class Mark:
+    """Something W showed of a person, a risky intention or a ``fallen`` mark: its moment (simulated s) and
+    where the person stood then."""
 
     at_time: float
     at: tuple[float, float]
@@ -50,7 +51,7 @@ def position_at(world: World, person: str, time: float) -> tuple[float, float]:
     return track[step]
 
 
-def fallers(idle: World, flags: Iterable[Flag], fell_acting: Collection[str]) -> tuple[Faller, ...]:
+def fallers(idle: World, flags: Iterable[Mark], fell_acting: Collection[str]) -> tuple[Faller, ...]:
     """The people who fell in ``idle`` (a world run with the robot idle), each with their first own flag;
     ``fell_acting`` names who fell with the robot acting."""
     people = idle.people()

@@ -31,8 +31,7 @@ from agents.messaging import Messaging, TaskSet, logging_guard
 from wm import Event, Graph
 from wm.net.connection import close_session, open_session
 
-from .fallers import Flag
-from .falls_seen import FallMark
+from .fallers import Mark
 
 log = logging.getLogger(__name__)
 
@@ -66,8 +65,8 @@ class TrialRecord:
     snapshot: Snapshot | None = None
     seen_risky_at: float | None = None
     seen_action_at: float | None = None
-    flags: dict[int, Flag] = field(default_factory=dict)  # each person node's first risky intention
-    fall_marks: dict[int, FallMark] = field(default_factory=dict)  # each person node's first ``fallen`` mark
+    flags: dict[int, Mark] = field(default_factory=dict)  # each person node's first risky intention
+    fall_marks: dict[int, Mark] = field(default_factory=dict)  # each person node's first ``fallen`` mark
 
     @property
     def set_off(self) -> dict[str, Any] | None:
@@ -173,7 +172,7 @@ class Harness:
                 return
             path: list[float] = list(edge.get("path") or [])
             if len(path) >= 2 and edge.src not in rec.flags:
-                rec.flags[edge.src] = Flag(float(edge.get("at_time", 0.0)), (float(path[0]), float(path[1])))
+                rec.flags[edge.src] = Mark(float(edge.get("at_time", 0.0)), (float(path[0]), float(path[1])))
             if rec.risky is None:
                 rec.risky, rec.seen_risky_at = dict(edge.attrs), time.time()
                 rec.snapshot = snapshot(self.g, None)
@@ -181,7 +180,7 @@ class Harness:
             node = self.g.find_node(event.id)  # type: ignore[arg-type]
             if node is not None and node.get("fallen"):
                 x, y, _ = self.g.rt.pose2d(WORLD, node.id)
-                rec.fall_marks[node.id] = FallMark(float(node.get("fallen_at", 0.0)), (x, y))
+                rec.fall_marks[node.id] = Mark(float(node.get("fallen_at", 0.0)), (x, y))
         elif event.type == INTENTION and event.kind.value == "node_added" and rec.action is None:
             node = self.g.find_node(event.id)  # type: ignore[arg-type]
             if node is None:
