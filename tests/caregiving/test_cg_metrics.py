@@ -124,9 +124,12 @@ def test_a_fall_is_seen_by_the_first_mark_near_it_at_or_after_it_and_a_mark_of_n
         3: Mark(7.3, (2.9, 0.1)),  # Ben, lying
     }
     falls = [fall("ana", 5.0, (0.0, 0.0)), fall("ben", 7.0, (3.0, 0.0)), fall("cy", 8.0, (-3.0, 0.0))]
-    seen = falls_seen(falls, marks.values())
-    assert seen.delays == (pytest.approx(0.2), pytest.approx(0.3), None) and seen.unmatched == 1
-    record = TrialRecord(0, intentions=1, outcome={"collisions": falls}, fall_marks=marks)
-    m = metrics([Scored(record, frozenset({"ana", "ben", "cy"}))])
-    assert (m["falls_acting"], m["falls_seen"], m["false_fall_marks"]) == (3, 2, 1)
+    # Dee, the last one walking, falls and the trial ends a step later: no frame could show her lying.
+    falls.append(fall("dee", 9.5, (1.0, 1.0)))
+    seen = falls_seen(falls, marks.values(), ended_at=9.55)
+    assert seen.delays == (pytest.approx(0.2), pytest.approx(0.3), None, None) and seen.unmatched == 1
+    assert seen.seeable == (True, True, True, False)
+    record = TrialRecord(0, intentions=1, outcome={"collisions": falls, "duration": 9.55}, fall_marks=marks)
+    m = metrics([Scored(record, frozenset({"ana", "ben", "cy", "dee"}))])
+    assert (m["falls_acting"], m["falls_seeable"], m["falls_seen"], m["false_fall_marks"]) == (4, 3, 2, 1)
     assert m["fall_seen_after_s_p50"] == pytest.approx(0.25) and m["fall_seen_after_s_max"] == pytest.approx(0.3)

@@ -141,8 +141,8 @@ def test_a_person_who_has_fallen_is_seen_lying_and_guessed_walking_no_more(stack
     assert late == [], f"walks of hers guessed after she fell: {late}"
     assert ana not in left, "her guesses were deleted"
     assert any(at > fallen_at + 1.0 for name, at in guessed if name == ben), "Ben's walks are guessed on"
-    seen = falls_seen(r.outcome["collisions"], r.fall_marks.values())  # as the experiment scores it
-    assert seen.unmatched == 0 and seen.delays == (pytest.approx(fallen_at - fall["time"]),)
+    seen = falls_seen(r.outcome["collisions"], r.fall_marks.values(), r.outcome["duration"])  # as scored
+    assert seen.unmatched == 0 and seen.seen == [pytest.approx(fallen_at - fall["time"])]
 
 
 async def run_watching_guesses(

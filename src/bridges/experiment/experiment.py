@@ -44,7 +44,8 @@ the same broad set saves when commanded that much later;
 collided with it acting; ``robot_tripped_people`` counts, over every trial, the people who collided with
 the robot acting but not with it idle (in a room with several people, a trial in which somebody falls
 anyway can hide someone the robot tripped). ``falls_acting`` counts the falls of the trials as run,
-``falls_seen`` those perception marked ``fallen`` (:mod:`bridges.experiment.falls_seen`),
+``falls_seeable`` those a second or more before their trial ended, ``falls_seen`` those of them
+perception marked ``fallen`` (:mod:`bridges.experiment.falls_seen`),
 ``fall_seen_after_s_p50`` and ``_max`` how long after the fall, and ``false_fall_marks`` the marks
 of no fall. ``head_starts`` counts trials in which the robot set off on a head start
 while the search judged on (an intention with ``head_start`` set: the robot's first command, but not
@@ -136,7 +137,8 @@ class Scored:
     @property
     def seen(self) -> FallsSeen:
         """Whether perception marked each fall of the trial as run, and how soon."""
-        return falls_seen(self.record.outcome.get("collisions", []), self.record.fall_marks.values())
+        outcome = self.record.outcome
+        return falls_seen(outcome.get("collisions", []), self.record.fall_marks.values(), outcome.get("duration", 0.0))
 
     @property
     def discarded(self) -> bool:
@@ -199,8 +201,7 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
     saveable_falls = [f for s in valid for f in s.falls if f.person in s.saveable_people]
     saved_saveable = sum(not f.fell_acting for f in saveable_falls)
     seen = [s.seen for s in scored]
-    fall_delays = [d for x in seen for d in x.delays]
-    seen_after = finite(fall_delays)
+    seen_after = [d for x in seen for d in x.seen]
     return {
         "trials": len(scored),
         "discarded": len(scored) - len(valid),
@@ -258,7 +259,8 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "people_saveable": len(saveable_falls),
         "people_saved_saveable": saved_saveable,
         "person_prevention_rate_of_saveable": _ratio(saved_saveable, len(saveable_falls)),
-        "falls_acting": len(fall_delays),
+        "falls_acting": sum(len(x.delays) for x in seen),
+        "falls_seeable": sum(sum(x.seeable) for x in seen),
         "falls_seen": len(seen_after),
         "fall_seen_after_s_p50": percentile(seen_after, 50),
         "fall_seen_after_s_max": max(seen_after, default=None),
@@ -331,7 +333,8 @@ ROWS = [
     ("Collisions the robot caused", "robot_caused_collisions"),
     ("People who fell only with the robot acting", "robot_tripped_people"),
     ("People who fell, with the robot acting", "falls_acting"),
-    ("... seen lying by perception", "falls_seen"),
+    ("... a second or more before the trial ended", "falls_seeable"),
+    ("... seen lying by perception, of those", "falls_seen"),
     ("... this long after the fall (p50)", "fall_seen_after_s_p50"),
     ("... at the most", "fall_seen_after_s_max"),
     ("Falls seen where nobody fell", "false_fall_marks"),
@@ -466,6 +469,7 @@ def trial_json(s: Scored) -> dict[str, Any]:
         "decision_ms": r.decision_ms,
         "e2e_ms": r.e2e_ms,
         "collisions": r.outcome.get("collisions", []),
+        "duration": r.outcome.get("duration"),
         "fall_seen_after_s": list(s.seen.delays),
         "fall_marks": [{"at_time": m.at_time, "at": list(m.at)} for m in r.fall_marks.values()],
         "falls": [
