@@ -68,6 +68,7 @@ import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -134,7 +135,7 @@ class Scored:
         """The people who collided with the robot acting but not with it idle."""
         return sorted({c["person"] for c in self.record.outcome.get("collisions", [])} - self.idle_fallers)
 
-    @property
+    @cached_property
     def seen(self) -> FallsSeen:
         """Whether perception marked each fall of the trial as run, and how soon."""
         outcome = self.record.outcome

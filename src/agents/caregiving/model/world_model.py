@@ -288,7 +288,9 @@ class World:
         """How close ``person``, passing what they are believed to walk into, came to it (negative: how deep they
         went through it); None when they pass nothing, or something that moves."""
         passed = self._passing.get(person)
-        body = next((o for o in self._static if passed is not None and o.name == passed.obstacle), None)
+        if passed is None:
+            return None
+        body = next((o for o in self._static if o.name == passed.obstacle), None)
         if body is None:
             return None
         w = self.walker(person)
