@@ -158,7 +158,7 @@ def test_searches_and_joint_imaginations_are_served_first() -> None:
         ([1, 2], "request: expected a mapping"),
         ({**SEARCH, "spec": None}, "request.spec: expected a mapping, got None"),
         ({**SEARCH, "uncertainty": {"samples": -3}}, "request.uncertainty.samples: expected a positive number"),
-        ({**SEARCH, "spec": {**SPEC, "dangers": []}}, "request.spec.dangers: expected at least one danger"),
+        ({**SEARCH, "spec": {**SPEC, "dangers": []}}, "request.spec.dangers: expected a danger, or a bystander"),
         ({**SEARCH, "spec": {**SPEC, "gazes": {}}}, "request.spec.gazes.person: is required"),
         ({**SEARCH, "spec": {**SPEC, "gazes": {"person": [4.0]}}}, "request.spec.gazes.person: expected one or more"),
         ({**SEARCH, "spec": {**SPEC, "delay": 60}}, "request.spec.delay: expected at most 5.0"),

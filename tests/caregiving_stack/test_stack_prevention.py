@@ -1,5 +1,6 @@
 """Prevention over the real processes: a saveable trial is saved; a move that trips a person is never sent,
-and one already under way is braked; a person who has fallen is seen lying and guessed walking no more.
+and one already under way is braked; a person who has fallen is seen lying and guessed walking no more, and
+the robot raises an alert and goes to them.
 
 Trials of seed 7 of the box-obstacle room, with exact sensors so that the closed loop sees what the oracle
 sees. The room runs at half speed: these tests check what the search decides, not how fast the pipeline is
@@ -14,6 +15,7 @@ import math
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from stack_helpers import GRAPH, run_trial
@@ -22,7 +24,7 @@ from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.recorded_batch import read_batches
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.world_model import run_idle
-from agents.caregiving.names import HAS, HAS_INTENTION, INTENTION, OBJECT, PERSON, ROBOT, WORLD
+from agents.caregiving.names import ALERT, GO_TO, HAS, HAS_INTENTION, INTENTION, OBJECT, PERSON, ROBOT, WORLD
 from bridges.experiment.falls_seen import falls_seen
 from bridges.experiment.launch import Stack
 from bridges.experiment.oracle import oracle
@@ -143,6 +145,44 @@ def test_a_person_who_has_fallen_is_seen_lying_and_guessed_walking_no_more(stack
     assert any(at > fallen_at + 1.0 for name, at in guessed if name == ben), "Ben's walks are guessed on"
     seen = falls_seen(r.outcome["collisions"], r.fall_marks.values(), r.outcome["duration"])  # as scored
     assert seen.unmatched == 0 and seen.seen == [pytest.approx(fallen_at - fall["time"])]
+
+
+def test_someone_fallen_gets_an_alert_and_the_robot_goes_to_them_clear_of_whoever_walks_on(stack: Stack) -> None:
+    """Ana falls into the ball out of the robot's reach; Ben walks on. Once perception marks her fallen, the
+    assist agent raises an alert about her and sends the robot to a pose beside her, judged clear of Ben: the
+    robot drives towards her and Ben walks on untouched. A move made to help is no action against a danger,
+    and the experiment does not time it as one."""
+    scenario = str(SCENARIOS / "one_falls_one_walks_on.yaml")
+    r, people, intentions = asyncio.run(run_keeping_intentions(stack, scenario))
+    (fall,) = r.outcome["collisions"]
+    ana = next(p for p in people.values() if p.get("fallen"))
+    (alert,) = [i for i in intentions if i["action"] == ALERT]
+    assert alert["status"] == "raised" and alert["target"] == alert["person"] == ana["id"]
+    assert f"{ana['name']} has fallen" in alert["reason"]
+    (going,) = [i for i in intentions if i["action"] == GO_TO]
+    assert going["person"] == ana["id"] and going["at_time"] >= ana["fallen_at"]
+    assert math.dist(going["final_pose"][:2], ana["position"]) < 1.0
+    sent = [c for c in r.outcome["commands"] if c["action"] == GO_TO]
+    assert sent and sent[0]["accepted"] and sent[0]["time"] < ana["fallen_at"] + 0.5
+    robot = r.outcome["tracks"]["robot"]
+    start, end = robot[0][1:3], robot[-1][1:3]
+    assert math.dist(end, ana["position"]) < math.dist(start, ana["position"]) - 1.0, "the robot drove towards her"
+    assert fall["person"] == "ana" and r.action is None
+
+
+async def run_keeping_intentions(
+    stack: Stack, scenario: str
+) -> tuple[TrialRecord, dict[str, dict[str, Any]], list[dict[str, Any]]]:
+    """Run ``scenario``'s nominal trial; return its record, each person node's attributes (with its id and
+    position) and each robot intention's attributes, as W holds them at its end."""
+    async with open_harness(stack.endpoint, GRAPH, name="test-harness") as harness:
+        g = harness.g
+        r = await harness.run(0, None, timeout=60.0, scenario=scenario)
+        people = {
+            n.name: {**n.attrs, "id": n.id, "name": n.name, "position": g.rt.pose2d(WORLD, n.id)[:2]}
+            for n in g.nodes(PERSON)
+        }
+        return r, people, [dict(n.attrs) for n in g.nodes(INTENTION)]
 
 
 async def run_watching_guesses(

@@ -1,4 +1,4 @@
-"""The caregiving application: the robot's five agents and the model of the room they imagine with.
+"""The caregiving application: the robot's six agents and the model of the room they imagine with.
 
 ``model`` is the like-me model (geometry, what a person sees, grid planning, walking rollouts, the
 world model stepped for the joint imagination). The world bridge steps the same model as ground truth,

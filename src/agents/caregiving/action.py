@@ -55,7 +55,7 @@ from wm import Event, Node
 
 from ..runtime import Agent, main, on
 from .context import Context, episode_of, read_context
-from .names import HAS_INTENTION, WORLD
+from .names import GO_TO, HAS_INTENTION, WORLD
 from .odometry import OdometryClock
 from .risk_options import add_risk_arguments, add_walking_arguments, size_error, walking
 from .robot_intentions import (
@@ -188,8 +188,12 @@ class Action(Agent):
             if self._write(ctx, verdict, dangers, None, None, "", started, head_start=True):
                 led = move_under_way(self.g)
 
+        # A head start, or a move to someone fallen, is not made for this danger: it gets no second look.
         under_way = (
-            UnderWay(move_of(current, ctx), self.doubted == current.name or bool(current.get("head_start")))
+            UnderWay(
+                move_of(current, ctx),
+                self.doubted == current.name or bool(current.get("head_start")) or current.get("action") == GO_TO,
+            )
             if current is not None
             else None
         )

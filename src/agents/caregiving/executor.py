@@ -2,7 +2,7 @@
 
 ``python -m agents.caregiving.executor --graph G --connect EP``
 
-A ``proposed`` robot ``intention`` (``move_to`` with a ``final_pose``, or ``stop``)
+A ``proposed`` robot ``intention`` (``move_to`` or ``go_to`` with a ``final_pose``, or ``stop``)
 is sent as a command on ``robot/cmd``; it becomes ``active`` when the world accepts it
 and ``failed`` when it refuses (no path) or cannot be reached. An active
 intention is ``done`` once the robot, as placed in W, rests at the final pose
@@ -26,7 +26,7 @@ from wm import Event, Node
 from ..messaging import MessageError
 from ..runtime import Agent, every, main, on
 from .context import episode_of
-from .names import HAS, INTENTION, ROBOT, WORLD
+from .names import HAS, INTENTION, MOVES, ROBOT, STOP, WORLD
 
 
 class Executor(Agent):
@@ -54,10 +54,10 @@ class Executor(Agent):
         world = self.g.find_node(WORLD)
         episode = episode_of(world)
         for node in self.g.nodes(INTENTION):
-            if node.get("status") != "proposed" or node.get("action") not in ("move_to", "stop"):
+            if node.get("status") != "proposed" or node.get("action") not in MOVES:
                 continue
-            request: dict[str, Any] = {"trial": episode, "move": None}  # None: brake to a stop
-            if node.get("action") == "move_to":
+            request: dict[str, Any] = {"trial": episode, "move": None, "action": node.get("action")}  # None: brake
+            if node.get("action") != STOP:
                 x, y, heading = node.get("final_pose")
                 request["move"] = {"target": str(node.get("target")), "x": x, "y": y, "heading": heading}
             try:
@@ -85,7 +85,7 @@ class Executor(Agent):
             if node.get("status") != "active":
                 continue
             resting = robots[0].get("speed", 0.0) < 1e-3
-            if node.get("action") == "stop":
+            if node.get("action") == STOP:
                 arrived = True
             else:
                 x, y, _ = self.g.rt.pose2d(WORLD, robots[0].id)

@@ -30,6 +30,14 @@ KNOWS = "knows"  # person -> object they have surely seen and remember
 HAS = "has"  # robot -> its intention; world -> agent
 IN = "in"
 
+# the robot's intentions (their `action`)
+MOVE_TO = "move_to"  # drive to a pose to prevent a fall (Algorithm 2)
+STOP = "stop"  # brake to a stop
+GO_TO = "go_to"  # drive to someone who has fallen, to help
+ALERT = "alert"  # someone has fallen: not a move, a call for help
+MOVES = (MOVE_TO, STOP, GO_TO)  # the intentions the executor drives
+PREVENTING = (MOVE_TO, STOP)  # the moves made against a danger: what the experiment times and scores
+
 # what the experiment's reaction time measures: a risky HAS_INTENTION answered by a new INTENTION node
 RISKY_EDGE = HAS_INTENTION
 ACTION_NODE = INTENTION

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping
+from typing import Any
 
 from agents.caregiving.model.candidates import Danger
 from agents.caregiving.model.guesses import DEFAULT_WALKING, Walking, unguessed_walks
@@ -25,7 +26,7 @@ from agents.caregiving.model.world_model import Walk
 from wm import Edge, Graph, Node
 
 from .context import Context
-from .names import HAS, HAS_INTENTION, INTENTION, KNOWS
+from .names import HAS, HAS_INTENTION, INTENTION, KNOWS, MOVE_TO, STOP
 
 #: The statuses of a move under way (or about to be).
 LIVE = ("proposed", "active")
@@ -138,7 +139,7 @@ def move_under_way(g: Graph) -> Node | None:
 
 def move_of(node: Node, ctx: Context) -> RobotMove | None:
     """The move an intention drives (its target named as in ``ctx``), ``None`` for a stop."""
-    if node.get("action") == "stop":
+    if node.get("action") == STOP:
         return None
     x, y, heading = node.get("final_pose")
     target = node.get("target")
@@ -181,29 +182,43 @@ def write_intention(
     if unsaved:
         reason += f"; not saved: {unsaved} (no single move keeps everyone safe)"
     what = (
-        {"action": "move_to", "target": ctx.ids.get(move.target, 0), "final_pose": [move.x, move.y, move.heading]}
+        {"action": MOVE_TO, "target": ctx.ids.get(move.target, 0), "final_pose": [move.x, move.y, move.heading]}
         if move is not None
-        else {"action": "stop", "target": ctx.ids[robot.name]}
+        else {"action": STOP, "target": ctx.ids[robot.name]}
     )
+    add_intention(
+        g,
+        ctx,
+        name,
+        {
+            **what,
+            "status": "proposed",
+            "person": edge.src,
+            "observed_at": edge.get("observed_at", 0.0),
+            "risk_at": edge.get("updated_at", 0.0),
+            "time_to_collision": danger.time_to_collision,
+            "in_time": chosen.in_time(danger.time_to_collision),
+            "head_start": head_start,
+            "reason": reason,
+        },
+        under_way,
+    )
+    return edge, danger
+
+
+def add_intention(g: Graph, ctx: Context, name: str, attrs: dict[str, Any], under_way: Node | None = None) -> int:
+    """Insert a robot ``intention`` node (``attrs`` with its ``action`` and ``status``), linked ``robot -has->`` it,
+    superseding ``under_way`` (the move under way, if it is one); its node id."""
+    robot = ctx.scene.robot
+    assert robot is not None
+    now = time.time()
     with g.batch():
         if under_way is not None and g.find_node(under_way.id) is not None:
             g.update_node(under_way.id, {"status": "superseded"})
         node = g.insert_node(
             INTENTION,
-            f"{what['action']}_{ctx.episode}_{name}",
-            {
-                **what,
-                "status": "proposed",
-                "created_at": time.time(),
-                "person": edge.src,
-                "observed_at": edge.get("observed_at", 0.0),
-                "risk_at": edge.get("updated_at", 0.0),
-                "at_time": ctx.scene.time,
-                "time_to_collision": danger.time_to_collision,
-                "in_time": chosen.in_time(danger.time_to_collision),
-                "head_start": head_start,
-                "reason": reason,
-            },
+            f"{attrs['action']}_{ctx.episode}_{name}",
+            {**attrs, "created_at": now, "at_time": ctx.scene.time},
         )
-        g.insert_or_assign_edge(ctx.ids[robot.name], node, HAS, {"status": "proposed", "updated_at": time.time()})
-    return edge, danger
+        g.insert_or_assign_edge(ctx.ids[robot.name], node, HAS, {"status": attrs["status"], "updated_at": now})
+    return node

@@ -34,8 +34,8 @@ commanded when the danger first became observable: ``oracle_saveable`` counts
 those trials (``oracle_standoff_saveable`` with stand-offs only) and
 ``prevention_rate_of_saveable`` is the prevention rate over them. No pipeline
 can act at that very moment: ``pipeline_delay_ms_p50`` is the run's median time
-from the context that first showed a danger to the robot's first command in the
-world (simulated time: Algorithm 1 and the search after the context was read,
+from the context that first showed a danger to the robot's first command against a
+danger in the world (simulated time: Algorithm 1 and the search after the context was read,
 the command, and the wait for the world's next step), and
 ``oracle_saveable_after_delay`` counts the truly risky trials that some move of
 the same broad set saves when commanded that much later;
@@ -85,6 +85,7 @@ from rich.table import Table
 
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import Scenario, load_scenario
+from agents.caregiving.names import MOVE_TO, PREVENTING
 from bridges.world.bridge import trial_for
 
 from .fallers import Faller, fallers
@@ -165,11 +166,13 @@ def action_rate(detected: list[Scored], in_time: bool = False) -> float | None:
 
 
 def pipeline_delay(scored: list[Scored]) -> float | None:
-    """The run's median delay (simulated s) from the context that first showed a danger to the robot's first command."""
+    """The run's median delay (simulated s) from the context that first showed a danger to the robot's first command
+    against a danger (a move to someone who has fallen is not one)."""
     delays = [
-        max(s.record.outcome["commands"][0]["time"] - s.record.risky["at_time"], 0.0)
+        max(first[0]["time"] - s.record.risky["at_time"], 0.0)
         for s in scored
-        if s.record.risky is not None and s.record.outcome.get("commands")
+        if s.record.risky is not None
+        and (first := [c for c in s.record.outcome.get("commands", []) if c.get("action", MOVE_TO) in PREVENTING])
     ]
     return statistics.median(delays) if delays else None
 

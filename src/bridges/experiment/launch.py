@@ -1,7 +1,7 @@
 """Start the caregiving stack with ``wm launch`` and its shipped launch file, and stop it by PID.
 
 The stack is :data:`LAUNCH_FILE` (``deploy/launch/one-host.toml`` links to it): ``wm serve`` as the
-Zenoh router on a free loopback port, and the world bridge and the five agents as its clients (no
+Zenoh router on a free loopback port, and the world bridge and the six agents as its clients (no
 multicast). The harness only fills in the file's variables; which processes run, and how, is the
 launch file's business. Each process writes ``<logdir>/<name>.log``; :meth:`Stack.start` returns
 once every one of them has said it is ready.

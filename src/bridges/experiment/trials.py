@@ -26,7 +26,7 @@ import zenoh
 import wm
 from agents.caregiving import keys
 from agents.caregiving.context import read_context
-from agents.caregiving.names import HAS_INTENTION, INTENTION, KNOWS, OBJECT, PERSON, WORLD
+from agents.caregiving.names import HAS_INTENTION, INTENTION, KNOWS, OBJECT, PERSON, PREVENTING, WORLD
 from agents.messaging import Messaging, TaskSet, logging_guard
 from wm import Event, Graph
 from wm.net.connection import close_session, open_session
@@ -183,7 +183,7 @@ class Harness:
                 rec.fall_marks[node.id] = Mark(float(node.get("fallen_at", 0.0)), (x, y))
         elif event.type == INTENTION and event.kind.value == "node_added" and rec.action is None:
             node = self.g.find_node(event.id)  # type: ignore[arg-type]
-            if node is None:
+            if node is None or node.get("action") not in PREVENTING:  # an alert, or a move to someone fallen
                 return
             if node.get("head_start"):
                 rec.head_start = rec.head_start or dict(node.attrs)

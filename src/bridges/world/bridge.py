@@ -42,6 +42,7 @@ from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.scenario import Scenario, load_scenario, sample_trial
 from agents.caregiving.model.scene import shape_to_wire
 from agents.caregiving.model.world_model import World
+from agents.caregiving.names import MOVE_TO, MOVES, STOP
 from agents.messaging import Messaging, logging_guard
 
 from .sensors import Detection, Sensors
@@ -167,15 +168,20 @@ class WorldBridge:
         self.scenario = scenario
 
     async def command(self, request: Any) -> dict[str, Any]:
-        """``{"trial": N, "move": {target, x, y, heading} | None}``: drive there, or brake."""
+        """``{"trial": N, "move": {target, x, y, heading} | None, "action"?}``: drive there, or brake.
+
+        ``action`` is the robot intention's (default ``move_to``, or ``stop`` with no move): the trial's
+        record keeps it, so that a move made for another reason than a danger is told apart.
+        """
         f = Fields(request, "command", RequestError)
         trial = self.trial
         if trial is None or int(f.number("trial")) != trial.number or not self._running():
             raise RequestError(f"command: trial {f.number('trial'):g} is not running")
         move = RobotMove.optional_from(f, "move")
+        action = f.string("action", MOVE_TO if move is not None else STOP, choices=frozenset(MOVES))
         accepted = trial.world.command_robot(move)
         trial.commands.append(
-            {"time": trial.world.time, "move": move.to_wire() if move else None, "accepted": accepted}
+            {"time": trial.world.time, "move": move.to_wire() if move else None, "accepted": accepted, "action": action}
         )
         return {"trial": trial.number, "accepted": accepted, "time": trial.world.time}
 

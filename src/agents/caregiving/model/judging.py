@@ -101,7 +101,7 @@ def judge(
             )
             continue
         sampled = a.risk or NO_RISK
-        if endangered and sampled.probability > 0.0 and sampled.person not in (None, *endangered):
+        if endangered is not None and sampled.probability > 0.0 and sampled.person not in (None, *endangered):
             falls.append(Fall(k, str(sampled.person), sampled.obstacle, sampled.point))
             refused = refused or (
                 f"{sampled.person}, a bystander, may walk into {sampled.obstacle} (sampled risk {sampled.probability:.2f})"

@@ -100,8 +100,24 @@ def standoff_moves(scene: Scene, target: str, gap: float = 0.1, count: int = 8) 
 
 def standoff_poses(scene: Scene, target: str, gap: float = 0.1, count: int = 8) -> list[RobotMove]:
     """Every pose around ``target``, ``gap`` metres from its boundary and facing it, whether the robot fits or not."""
+    return _poses_around(scene, target, scene.obstacle(target).shape, gap, count)
+
+
+def moves_beside(scene: Scene, person: str, gap: float, count: int = 12) -> list[RobotMove]:
+    """Poses beside ``person`` (``gap`` metres from their body, facing them) where the robot fits, nearest first.
+
+    Where the robot goes to someone who needs it (see :mod:`agents.caregiving.model.go_to`): the nearest
+    pose is the soonest reached.
+    """
     robot = _robot(scene)
-    shape = scene.obstacle(target).shape
+    poses = _poses_around(scene, person, scene.person(person).body().shape, gap, count)
+    fitting = [m for m in poses if robot_fits(scene, m)]
+    return sorted(fitting, key=lambda m: math.hypot(m.x - robot.x, m.y - robot.y))
+
+
+def _poses_around(scene: Scene, target: str, shape: Circle | Box, gap: float, count: int) -> list[RobotMove]:
+    """``count`` poses round ``shape`` (named ``target``), ``gap`` metres from its boundary, facing it."""
+    robot = _robot(scene)
     half = max(robot.length, robot.width) / 2
     moves = []
     for k in range(count):

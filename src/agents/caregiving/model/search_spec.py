@@ -29,6 +29,9 @@ T = TypeVar("T")
 class SearchSpec:
     """What a search must protect: the dangers, every gaze class to imagine their people at, and the bystanders.
 
+    A spec with no danger judges moves made for another reason (going to someone who has fallen) with the
+    bystanders alone: a move must trip none of them, nor raise their risk.
+
     ``gazes`` maps each endangered person to the gaze pitches (one per gaze class) their walk is imagined at;
     ``bystanders`` are the other people's walks, imagined alongside so that a move never trips them: each
     bystander's first walk is their likeliest, in every walk set; a later walk of the same bystander is one
@@ -111,6 +114,8 @@ class SearchSpec:
                 walks = dict(first)
                 walks[d.person] = self._walk(d, gaze)
                 sets.append(tuple(walks.values()) + tuple(likeliest.values()))
+        if not self.dangers and likeliest:
+            sets.append(tuple(likeliest.values()))  # no danger (the robot going to someone): the walkers alone
         for w in others:
             sets.append(tuple(first.values()) + tuple({**likeliest, w.person: w}.values()))
         return sets
@@ -154,8 +159,6 @@ class SearchSpec:
     def from_fields(cls, f: Fields) -> SearchSpec:
         """Parse :meth:`to_wire` output nested in a larger message; every endangered person needs a gaze."""
         dangers = tuple(Danger.from_fields(d) for d in f.children("dangers"))
-        if not dangers:
-            raise f.fail("dangers", "expected at least one danger")
         gazes_f, known_f = f.child("gazes"), f.child("known", {})
         gazes: dict[str, tuple[float, ...]] = {}
         for d in dangers:
@@ -164,6 +167,8 @@ class SearchSpec:
                 raise gazes_f.fail(d.person, "expected one or more pitches in [-pi/2, pi/2] rad")
             gazes[d.person] = values
         bystanders = tuple(walk_from_fields(w) for w in f.children("bystanders", []))
+        if not dangers and not bystanders:
+            raise f.fail("dangers", "expected a danger, or a bystander to judge moves beside")
 
         def bystander(entry: Fields) -> Walk:
             walk = walk_from_fields(entry.child("walk"))

@@ -1,0 +1,132 @@
+"""The assist agent: the robot's answer to a fall it could not prevent. It raises an alert and goes to the person.
+
+``python -m agents.caregiving.assist --graph G --connect EP [--scenario S]``
+
+When perception marks a person ``fallen`` in W, the agent raises an ``alert`` about them at once, and ends
+it if they are seen standing again (:mod:`agents.caregiving.fall_response`). It then sends the robot to
+them: a ``go_to`` the nearest pose beside them that harms nobody still walking, judged by the simulator as
+Algorithm 2's moves are (:mod:`agents.caregiving.model.go_to`). With nobody walking, there is nobody to
+harm, and the nearest pose is taken.
+
+Preventing a fall comes first. While any move is under way, the robot is left to it: the action agent
+judges a ``go_to`` under way as it judges its own moves when a danger lands, and replaces it if it must.
+When no pose harms nobody, the agent tries again ``--retry`` simulated seconds later. Once the robot
+has reached someone still lying there, it stays.
+"""
+
+from __future__ import annotations
+
+import argparse
+from itertools import count
+
+from agents.caregiving import keys
+from agents.caregiving.model.go_to import GAP, going_to
+from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES
+from agents.caregiving.model.robot_moves import moves_beside
+from agents.caregiving.model.rollout import DT
+from agents.caregiving.model.uncertainty import Uncertainty
+from wm import Event
+
+from ..runtime import Agent, main, on
+from .context import Context, episode_of, read_context
+from .fall_response import alerts, end_alert, fallen, raise_alert, seen_to, write_go_to
+from .names import PERSON, WORLD
+from .odometry import OdometryClock
+from .risk_options import add_risk_arguments, add_walking_arguments, size_error, walking
+from .robot_intentions import move_under_way, search_spec
+from .search_client import SearchClient, SearchTerms
+from .set_off import SetOff
+
+
+class Assist(Agent):
+    """Raises an alert about each person who has fallen, and sends the robot to them."""
+
+    name = "assist"
+
+    @classmethod
+    def add_arguments(cls, parser: argparse.ArgumentParser) -> None:
+        add_risk_arguments(parser)
+        add_walking_arguments(parser)
+        parser.add_argument(
+            "--retry", type=float, default=0.5, help="simulated seconds before a pose is looked for again"
+        )
+        parser.add_argument(
+            "--dispatch", type=float, default=DT, help="simulated seconds from writing a move to the world acting on it"
+        )
+
+    async def setup(self) -> None:
+        self.size_error = size_error(self.args)
+        self.searches = SearchClient(self.ask, keys.imagine(self.args.graph), self.log)
+        self.clock = OdometryClock()
+        self.set_off = SetOff(self.clock, self.args.dispatch)
+        self.names = count(1)
+        self.episode: int | None = None
+        self.tried: dict[int, float] = {}  # person node id -> simulated time no pose beside them was harmless
+
+    @on(type=[PERSON, WORLD], kind=["node_added", "node_updated"], coalesce=True)
+    async def attend(self, _events: list[Event]) -> None:
+        """Raise and end alerts as people fall and get up, and send the robot to someone lying there."""
+        lying, raised = fallen(self.g), alerts(self.g)
+        if not lying and not raised:
+            return
+        ctx = read_context(self.g)
+        if ctx is None:
+            return
+        if ctx.episode != self.episode:
+            self.episode, self.tried = ctx.episode, {}
+            self.clock.reset()
+        for person, alert in raised.items():
+            if person in ctx.names and person not in {n.id for n in lying}:  # not one W no longer holds
+                end_alert(self.g, alert)
+                self.log.info("alert ended", person=ctx.names[person], because="seen standing again")
+        for n in lying:
+            if n.id not in raised and self._current(ctx):
+                raise_alert(self.g, ctx, n, str(next(self.names)))
+                self.log.warning("alert raised", person=n.name, fallen_at=n.get("fallen_at"))
+        await self._go_to_someone(ctx)
+
+    async def _go_to_someone(self, ctx: Context) -> None:
+        """Send the robot to the first person lying there, unless a move is under way or it is with someone."""
+        here = {p.name for p in ctx.scene.people}
+        lying = [n for n in fallen(self.g) if n.name in here]
+        waiting = [n for n in lying if ctx.scene.time - self.tried.get(n.id, -1e9) >= self.args.retry]
+        if not waiting or move_under_way(self.g) is not None or seen_to(self.g) & {n.id for n in lying}:
+            return
+        person = waiting[0].name
+        moves = moves_beside(ctx.scene, person, GAP)
+        spec = search_spec(self.g, ctx, {}, None, walking(self.args))
+        if not moves:
+            move, why = None, "no pose beside them where the robot fits"
+        elif not spec.bystanders:
+            move, why = moves[0], "nobody walks"
+        else:
+            found = await self.searches.run(going_to(spec, moves), self._terms(ctx))
+            chosen = found.chosen if found is not None else None
+            move = chosen.move if chosen is not None else None
+            refused = sorted({v.reason for v in found.verdicts})[:3] if found is not None else ["search refused"]
+            why = chosen.reason if chosen is not None else "; ".join(refused)
+        if move is None:
+            self.tried[waiting[0].id] = ctx.scene.time
+            self.log.info("no harmless pose beside them yet", person=person, why=why[:300])
+            return
+        if move_under_way(self.g) is not None or not self._current(ctx):
+            return  # a move to prevent a fall came meanwhile, or the trial ended
+        write_go_to(self.g, ctx, person, move, why, str(next(self.names)))
+        self.log.info("going to", person=person, x=round(move.x, 2), y=round(move.y, 2), why=why)
+
+    def _current(self, ctx: Context) -> bool:
+        """Whether ``ctx`` is still of the trial under way (W is cleared for the next one)."""
+        return episode_of(self.g.find_node(WORLD)) == ctx.episode
+
+    def _terms(self, ctx: Context) -> SearchTerms:
+        return SearchTerms(
+            lambda: self.set_off.delay(self.g, ctx.scene.time),
+            lambda: self.clock.rate(self.g),
+            Uncertainty(self.size_error, ctx.sigma, self.args.samples),
+            self.args.risk_threshold,
+            DEFAULT_MAX_MOVES,  # for generated candidates; the moves here are given
+        )
+
+
+if __name__ == "__main__":
+    main(Assist)

@@ -1,0 +1,51 @@
+"""The robot's side of W when someone has fallen: the alert, the move to them, and how the other agents see both."""
+
+from dataclasses import replace
+
+import wm
+from agents.caregiving.context import Context
+from agents.caregiving.fall_response import alerts, end_alert, fallen, raise_alert, seen_to, write_go_to
+from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.names import ALERT, GO_TO, HAS, INTENTION, OBJECT, PERSON, ROBOT
+from agents.caregiving.robot_intentions import move_of, move_under_way
+
+
+def w() -> tuple[wm.Graph, Context]:
+    """A replica of the paper room with its person lying where they fell, and a context on it at 2 s."""
+    scene = replace(load_scenario("paper_experiment1").scene(), time=2.0)
+    g = wm.Graph()
+    ids = {p.name: g.insert_node(PERSON, p.name, {"fallen": True, "fallen_at": 1.85}) for p in scene.people}
+    ids |= {o.name: g.insert_node(OBJECT, o.name) for o in scene.obstacles if o.kind != "wall"}
+    assert scene.robot is not None
+    ids[scene.robot.name] = g.insert_node(ROBOT, scene.robot.name)
+    return g, Context(scene, 3, ids, {}, {}, 0.0, frozenset({"person"}))
+
+
+def test_an_alert_names_who_fell_and_when_and_is_no_move() -> None:
+    g, ctx = w()
+    (person,) = fallen(g)
+    alert = raise_alert(g, ctx, person, "1")
+    node = g.get_node(alert)
+    assert node.get("action") == ALERT and node.get("status") == "raised"
+    assert node.get("target") == node.get("person") == person.id
+    assert node.get("reason") == "person has fallen (seen lying at 1.85 s)"
+    assert g.find_edge(ctx.ids["robot"], alert, HAS) is not None
+    assert alerts(g) == {person.id: node} and move_under_way(g) is None  # the executor and the action agent skip it
+    end_alert(g, node)
+    assert alerts(g) == {} and g.get_node(alert).get("status") == "ended"
+
+
+def test_a_move_to_someone_fallen_is_the_move_under_way_and_says_whom_it_is_for() -> None:
+    g, ctx = w()
+    move = RobotMove("person", -2.0, 0.6, -1.2)
+    going = write_go_to(g, ctx, "person", move, "everyone imagined walks clear", "2")
+    node = g.get_node(going)
+    assert node.get("action") == GO_TO and node.get("status") == "proposed" and node.get("at_time") == 2.0
+    assert node.get("final_pose") == (-2.0, 0.6, -1.2) and node.get("person") == ctx.ids["person"]
+    assert seen_to(g) == {ctx.ids["person"]}
+    under_way = move_under_way(g)
+    assert under_way is not None and under_way.id == going and move_of(under_way, ctx) == move
+    g.update_node(going, {"status": "superseded"})  # a move against a danger replaced it
+    assert seen_to(g) == set() and move_under_way(g) is None
+    assert [n.get("action") for n in g.nodes(INTENTION)] == [GO_TO]
