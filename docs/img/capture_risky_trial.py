@@ -3,7 +3,7 @@
     python docs/img/capture_risky_trial.py [--out docs/img/wm-view.png] [--rate R] [--scale S] [--attempts N]
 
 1. Starts the caregiving stack of ``make demo`` (:func:`bridges.experiment.demo.demo_stack`:
-   the world bridge listening on a free loopback port, the five agents connected to it,
+   the world bridge listening on a free loopback port, the six agents connected to it,
    multicast scouting off).
 2. Starts ``wm view`` for the same graph on a free loopback port, as one more child of
    the stack, and opens the page in headless Chromium (:mod:`wm.monitoring.chromium`).

@@ -4,10 +4,18 @@ from dataclasses import replace
 
 import wm
 from agents.caregiving.context import Context
-from agents.caregiving.fall_response import alerts, end_alert, fallen, raise_alert, seen_to, write_go_to
+from agents.caregiving.fall_response import (
+    alerts,
+    end_alert,
+    fallen,
+    raise_alert,
+    seen_to,
+    someone_in_danger,
+    write_go_to,
+)
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.scenario import load_scenario
-from agents.caregiving.names import ALERT, GO_TO, HAS, INTENTION, OBJECT, PERSON, ROBOT
+from agents.caregiving.names import ALERT, GO_TO, HAS, HAS_INTENTION, INTENTION, OBJECT, PERSON, ROBOT
 from agents.caregiving.robot_intentions import move_of, move_under_way
 
 
@@ -49,3 +57,13 @@ def test_a_move_to_someone_fallen_is_the_move_under_way_and_says_whom_it_is_for(
     g.update_node(going, {"status": "superseded"})  # a move against a danger replaced it
     assert seen_to(g) == set() and move_under_way(g) is None
     assert [n.get("action") for n in g.nodes(INTENTION)] == [GO_TO]
+
+
+def test_a_risky_walk_keeps_the_robot_from_going_unless_it_is_of_someone_fallen() -> None:
+    g, ctx = w()
+    g.insert_or_assign_edge(ctx.ids["person"], ctx.ids["couch"], HAS_INTENTION, {"risky": True})
+    assert not someone_in_danger(g)  # a guess of someone lying there, not yet pruned
+    g.update_node(ctx.ids["person"], {"fallen": False})
+    assert someone_in_danger(g)
+    g.insert_or_assign_edge(ctx.ids["person"], ctx.ids["couch"], HAS_INTENTION, {"risky": False})
+    assert not someone_in_danger(g)

@@ -8,8 +8,9 @@ them: a ``go_to`` the nearest pose beside them that harms nobody still walking, 
 Algorithm 2's moves are (:mod:`agents.caregiving.model.go_to`). With nobody walking, there is nobody to
 harm, and the nearest pose is taken.
 
-Preventing a fall comes first. While any move is under way, the robot is left to it: the action agent
-judges a ``go_to`` under way as it judges its own moves when a danger lands, and replaces it if it must.
+Preventing a fall comes first. While any move is under way, or Algorithm 1 holds a risky walk of someone
+not fallen, the robot is left where it is: the action agent judges a ``go_to`` under way as it judges its
+own moves when a danger lands, and replaces it if it must.
 When no pose harms nobody, the agent tries again ``--retry`` simulated seconds later. Once the robot
 has reached someone still lying there, it stays.
 """
@@ -29,7 +30,7 @@ from wm import Event
 
 from ..runtime import Agent, main, on
 from .context import Context, episode_of, read_context
-from .fall_response import alerts, end_alert, fallen, raise_alert, seen_to, write_go_to
+from .fall_response import alerts, end_alert, fallen, raise_alert, seen_to, someone_in_danger, write_go_to
 from .names import PERSON, WORLD
 from .odometry import OdometryClock
 from .risk_options import add_risk_arguments, add_walking_arguments, size_error, walking
@@ -86,11 +87,12 @@ class Assist(Agent):
         await self._go_to_someone(ctx)
 
     async def _go_to_someone(self, ctx: Context) -> None:
-        """Send the robot to the first person lying there, unless a move is under way or it is with someone."""
+        """Send the robot to the first person lying there, unless a move is under way, someone walks into danger
+        (the robot may be standing where it keeps them from it), or the robot is with someone fallen already."""
         here = {p.name for p in ctx.scene.people}
         lying = [n for n in fallen(self.g) if n.name in here]
         waiting = [n for n in lying if ctx.scene.time - self.tried.get(n.id, -1e9) >= self.args.retry]
-        if not waiting or move_under_way(self.g) is not None or seen_to(self.g) & {n.id for n in lying}:
+        if not waiting or self._busy() or seen_to(self.g) & {n.id for n in lying}:
             return
         person = waiting[0].name
         moves = moves_beside(ctx.scene, person, GAP)
@@ -105,14 +107,18 @@ class Assist(Agent):
             move = chosen.move if chosen is not None else None
             refused = sorted({v.reason for v in found.verdicts})[:3] if found is not None else ["search refused"]
             why = chosen.reason if chosen is not None else "; ".join(refused)
+        self.tried[waiting[0].id] = ctx.scene.time  # a pose the world then refuses is not sent again at once
         if move is None:
-            self.tried[waiting[0].id] = ctx.scene.time
             self.log.info("no harmless pose beside them yet", person=person, why=why[:300])
             return
-        if move_under_way(self.g) is not None or not self._current(ctx):
-            return  # a move to prevent a fall came meanwhile, or the trial ended
+        if self._busy() or not self._current(ctx):
+            return  # a danger, or a move against it, came meanwhile; or the trial ended
         write_go_to(self.g, ctx, person, move, why, str(next(self.names)))
         self.log.info("going to", person=person, x=round(move.x, 2), y=round(move.y, 2), why=why)
+
+    def _busy(self) -> bool:
+        """Whether the robot is needed against a danger, or already on a move."""
+        return move_under_way(self.g) is not None or someone_in_danger(self.g)
 
     def _current(self, ctx: Context) -> bool:
         """Whether ``ctx`` is still of the trial under way (W is cleared for the next one)."""

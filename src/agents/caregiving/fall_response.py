@@ -16,7 +16,7 @@ from agents.caregiving.model.robot_moves import RobotMove
 from wm import Graph, Node
 
 from .context import Context
-from .names import ALERT, GO_TO, INTENTION, PERSON
+from .names import ALERT, GO_TO, HAS_INTENTION, INTENTION, PERSON
 from .robot_intentions import add_intention
 
 RAISED, ENDED = "raised", "ended"
@@ -37,6 +37,12 @@ def alerts(g: Graph) -> dict[int, Node]:
 def seen_to(g: Graph) -> set[int]:
     """The people (node ids) the robot is going to, or has reached."""
     return {n.get("person") for n in g.nodes(INTENTION) if n.get("action") == GO_TO and n.get("status") in SEEING_TO}
+
+
+def someone_in_danger(g: Graph) -> bool:
+    """Whether Algorithm 1 holds a risky walk of someone not fallen: the robot is needed there first."""
+    down = {n.id for n in fallen(g)}
+    return any(e.get("risky") and e.src not in down for e in g.edges(type=HAS_INTENTION))
 
 
 def raise_alert(g: Graph, ctx: Context, person: Node, name: str) -> int:
