@@ -17,12 +17,14 @@ Every mode counts those who fell only with the robot acting (``tripped``), and l
 someone and those that tripped someone. ``--known-gaze`` judges moves at each endangered person's true gaze
 alone, as no sensor could, which shows what the gaze classes cost. ``--false-alarms`` has Algorithm 1 look at
 everyone still walking, as live, so that a person believed to fall who passes in the truth is a danger too
-(by default only those who fall with the robot idle are). The draws are
+(by default only those who fall with the robot idle are). ``--assist`` sends the robot, once nobody is in
+danger, to someone lying where they fell, as the assist agent does: what answering a fall costs the others.
+The draws are
 seeded per trial, so two versions are compared on the same beliefs. The runs are shared between two
 processes.
 
     python bench/bench_closed_loop.py [--draws N] [--look S] [--retry S] [--first-look-only]
-        [--no-sampled-risk] [--known-gaze] [--false-alarms] [--belief-noise KIND] [--json PATH]
+        [--no-sampled-risk] [--known-gaze] [--false-alarms] [--assist] [--belief-noise KIND] [--json PATH]
         [--every-room | --people PATH | RUN ...]
 """
 
@@ -164,6 +166,11 @@ def main() -> None:
         help="look for dangers in everyone still walking, as live, not only in those who fall with the robot idle",
     )
     p.add_argument(
+        "--assist",
+        action="store_true",
+        help="after a fall, send the robot at rest to the person as the assist agent does, clear of the walkers",
+    )
+    p.add_argument(
         "--belief-noise",
         choices=sorted(BELIEF_NOISE),
         default="all",
@@ -194,6 +201,7 @@ def main() -> None:
         known_gaze=args.known_gaze,
         false_alarms=args.false_alarms,
         max_moves=args.max_moves,
+        assist=args.assist,
     )
     found = closed_loops(args.runs, args.draws, setup, people)
     benchlib.report_draws(
@@ -211,6 +219,7 @@ def main() -> None:
             "known_gaze": args.known_gaze,
             "false_alarms": args.false_alarms,
             "max_moves": args.max_moves,
+            "assist": args.assist,
             "people": str(args.people) if args.people else None,
         },
         found,

@@ -5,8 +5,12 @@ acting on the first look alone, the robot's move fails in the truth; looking aga
 action agent does, the response replaces it and the person is saved. And on the exact scene with no delay, a
 robot that knew the person's gaze saves one the gaze classes lose. In a room of three, a head start left
 under way while each danger is searched alone trips nobody, and with false alarms on, the loop acts on a
-danger Algorithm 1 sees in someone who falls in no truth.
+danger Algorithm 1 sees in someone who falls in no truth. With the assist agent's answer to a fall on, the
+robot goes to someone lying where they fell, clear of whoever walks on.
 """
+
+import math
+from pathlib import Path
 
 import pytest
 from recorded_cases import HELD_OUT, JUDGING, THRESHOLD
@@ -158,3 +162,23 @@ def test_someone_who_has_fallen_is_no_danger_any_more() -> None:
         assert spec is not None and [d.person for d in spec.dangers] == dangers
         assert now.fallen() == frozenset(set(["bo", "cy"]) - set(dangers))
         assert "bo" not in {w.person for w in spec.bystanders}
+
+
+@pytest.mark.parametrize("assist", [False, True])
+def test_with_assist_the_robot_goes_to_someone_fallen_clear_of_whoever_walks_on(assist: bool) -> None:
+    """Ana falls into the ball out of the robot's reach; Ben walks on for four seconds more. With the assist on, the
+    first look that finds no danger sends the robot to her, and Ben walks on untouched."""
+    scenario = load_scenario(
+        Path(__file__).parents[1] / "caregiving_stack" / "scenarios" / "one_falls_one_walks_on.yaml"
+    )
+    trial, planner = trial_for(scenario, 0, None), GridPlanner(scenario.scene().bounds)
+    exact = Noise(0.0, 0.0, 0.0)
+    setup = Setup(delay=0.05, judging=0.008, look=0.5, retry=0.5, first_look_only=False, noise=exact, assist=assist)
+    loop = closed_loop(trial, 0.3, planner, (0, 0), setup)
+    assert [c.person for c in loop.truth.outcome().collisions] == ["ana"]
+    robot, ana, start = loop.truth.scene().robot, loop.truth.walker("ana").state, trial.scene().robot
+    assert robot is not None and start is not None
+    gained = math.dist((start.x, start.y), (ana.x, ana.y)) - math.dist((robot.x, robot.y), (ana.x, ana.y))
+    assert (loop.gone_to, loop.responses.get("go_to", 0), gained > 2.0) == (
+        ("ana", 1, True) if assist else (None, 0, False)
+    )

@@ -62,7 +62,7 @@ class Assist(Agent):
         self.set_off = SetOff(self.clock, self.args.dispatch)
         self.names = count(1)
         self.episode: int | None = None
-        self.tried: dict[int, float] = {}  # person node id -> simulated time no pose beside them was harmless
+        self.tried: dict[int, float] = {}  # person node id -> simulated time a pose beside them was last looked for
 
     @on(type=[PERSON, WORLD], kind=["node_added", "node_updated"], coalesce=True)
     async def attend(self, _events: list[Event]) -> None:

@@ -21,7 +21,11 @@ danger showed:
   the move chosen (or braking) when the response ends;
 * it looks on until nobody walks any more (or :data:`HORIZON` has passed): after
   someone falls, at the others, as live. Someone lying where they fell is no
-  danger any more, as perception sees them lying.
+  danger any more, as perception sees them lying;
+* with :attr:`Setup.assist`, a look that finds no danger, with the robot at rest and
+  someone lying where they fell, sends the robot to them as the assist agent does
+  (:mod:`agents.caregiving.model.go_to`, the walkers on their true walks): what
+  answering a fall costs the others.
 
 With :attr:`Setup.first_look_only`, only the first look acts and its move is driven
 on: what looking again buys.
@@ -35,19 +39,21 @@ from functools import partial
 
 import numpy as np
 
+from agents.caregiving.model.go_to import GAP, going_to
 from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.response import Ask, Asked, Keep, NoMove, Policy, Send, UnderWay, drive, respond
-from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.robot_moves import RobotMove, moves_beside
 from agents.caregiving.model.scenario import Scenario, SensorSpec
 from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.world_model import World
 
 from .beliefs import SAMPLES, Noise, belief, search_uncertainty
 from .oracle import idle_run, world_at
-from .perfect_belief import Gazes, spec_on
+from .perfect_belief import Gazes, spec_on, walks_on
 
 #: Seconds past the danger's moment after which a trial's loop stops looking (the truth then runs to its end).
 HORIZON = 10.0
@@ -74,6 +80,7 @@ class Setup:
     known_gaze: bool = False
     false_alarms: bool = False
     max_moves: int = DEFAULT_MAX_MOVES
+    assist: bool = False
 
 
 @dataclass
@@ -88,6 +95,7 @@ class Loop:
     commands: int = 0
     judged: int = 0
     responses: dict[str, int] = field(default_factory=dict)
+    gone_to: str | None = None  # whom the robot was sent to, lying where they fell
 
 
 @dataclass(frozen=True)
@@ -138,6 +146,8 @@ def _look(
     people = loop.truth.walking() if setup.false_alarms else None
     spec = spec_on(scene, idle, loop.truth, setup.delay, gazes, people)
     if spec is None:
+        if setup.assist:
+            _go_to_someone_fallen(loop, scene, uncertainty, now, setup)
         return
     loop.looks += 1
     spec = replace(spec, current=loop.under_way.move if loop.under_way is not None else None)
@@ -175,6 +185,31 @@ def _look(
                 _command(loop, ended, None)
                 loop.under_way = UnderWay(None, second_look=True)
             loop.retry_after = now + setup.retry
+
+
+def _go_to_someone_fallen(loop: Loop, scene: Scene, uncertainty: Uncertainty, now: float, setup: Setup) -> None:
+    """Send the robot, at rest, to the first person lying where they fell, as the assist agent does: the first pose
+    beside them that harms nobody walking on the belief ``scene`` (the nearest, with nobody walking)."""
+    robot = loop.truth.scene().robot
+    lying = sorted(loop.truth.fallen() & {p.name for p in scene.people})
+    if loop.gone_to is not None or not lying or robot is None or robot.speed > 0.0:
+        return
+    moves = moves_beside(scene, lying[0], GAP)
+    spec = SearchSpec((), {}, {}, walks_on(scene, loop.truth, loop.truth.walking()))
+    if not moves or not spec.bystanders:
+        return
+
+    def run(ask: Ask) -> Asked:
+        item = ask.item(setup.delay, uncertainty, setup.threshold, setup.max_moves, setup.judging)
+        return Asked(item.run(scene, partial(serve_one, scene)))
+
+    found = drive(going_to(spec, moves), run)
+    loop.judged += found.judged if found is not None else 0
+    if found is None or found.chosen is None:
+        return
+    _command(loop, now + setup.delay + setup.judging * found.judged, found.chosen.move)
+    loop.under_way, loop.gone_to = UnderWay(found.chosen.move, second_look=True), lying[0]
+    loop.responses["go_to"] = loop.responses.get("go_to", 0) + 1
 
 
 def _command(loop: Loop, at: float, move: RobotMove | None) -> None:

@@ -10,7 +10,7 @@ them. This separates what the move search can do from what perception's noise co
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from enum import Enum
 
 from agents.caregiving.model.candidates import Danger
@@ -99,9 +99,16 @@ def spec_on(
     if not dangers:
         return None
     # The others walk to their true targets beside them, as the action agent imagines them on their likeliest walk.
-    others = (now.walker(name) for name in now.walking() if name not in judged_at)
-    bystanders = tuple(Walk(w.state.name, w.target, w.gaze, tuple(sorted(objects & w.known.keys()))) for w in others)
+    bystanders = walks_on(scene, now, [name for name in now.walking() if name not in judged_at])
     return SearchSpec(tuple(dangers), judged_at, known, bystanders, None, delay)
+
+
+def walks_on(scene: Scene, now: World, people: Iterable[str]) -> tuple[Walk, ...]:
+    """Each of ``people``'s walk in the truth ``now`` (their target and gaze), knowing the objects and the robot
+    of ``scene`` they have seen so far."""
+    objects = {o.name for o in scene.obstacles if o.kind != WALL_KIND} | {scene.robot_name}
+    walkers = (now.walker(name) for name in people)
+    return tuple(Walk(w.state.name, w.target, w.gaze, tuple(sorted(objects & w.known.keys()))) for w in walkers)
 
 
 def outcome_in_truth(
