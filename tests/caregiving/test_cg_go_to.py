@@ -9,7 +9,7 @@ import pytest
 
 from agents.caregiving.model.errors import RequestError
 from agents.caregiving.model.geometry import point_distance
-from agents.caregiving.model.go_to import GAP, going_to
+from agents.caregiving.model.go_to import GAP, KEEP_CLEAR, going_to
 from agents.caregiving.model.move_search import SearchItem
 from agents.caregiving.model.response import Ask, Asked, drive
 from agents.caregiving.model.robot_moves import moves_beside, robot_fits
@@ -26,10 +26,14 @@ EXACT = Uncertainty(0.0, {}, 1)
 BEN = Walk("ben", "couch", math.radians(8))
 
 
-def room(ana: tuple[float, float], robot: tuple[float, float, float]) -> Scene:
-    """Ana lying at ``ana``, Ben setting off for the couch along y = -1.5, the robot at ``robot`` (x, y, heading)."""
+def room(
+    ana: tuple[float, float], robot: tuple[float, float, float], ben: tuple[float, float, float] | None = None
+) -> Scene:
+    """Ana lying at ``ana``, Ben walking to the couch along y = -1.5 (from its start, or from ``ben``: x, y,
+    heading), the robot at ``robot`` (x, y, heading)."""
     scene = load_scenario(str(STACK_SCENARIOS / "one_falls_one_walks_on.yaml")).scene()
-    people = tuple(p.moved(*ana, p.heading) if p.name == "ana" else p for p in scene.people)
+    moved = {"ana": (*ana, 0.0), **({"ben": ben} if ben is not None else {})}
+    people = tuple(p.moved(*moved[p.name]) if p.name in moved else p for p in scene.people)
     assert scene.robot is not None
     return replace(scene, people=people, robot=replace(scene.robot, x=robot[0], y=robot[1], heading=robot[2]))
 
@@ -63,22 +67,23 @@ def test_the_poses_beside_someone_face_them_at_the_gap_and_the_nearest_comes_fir
     assert drives == sorted(drives)
 
 
-def test_a_pose_whose_drive_walks_someone_into_the_robot_is_passed_over_for_one_that_harms_nobody() -> None:
-    """Ana lies north of Ben's way; the robot starts south of it. Driving to the three poses nearest it, the
-    robot crosses Ben's way as he comes, and he walks into it; the search goes on to a pose he passes clear of."""
-    scene = room((1.0, 0.3), (1.2, -2.6, math.pi / 2))
-    found = search(scene, SearchSpec((), {}, {}, (BEN,)))
-    refused = [v for v in found.verdicts if not v.clear]
-    assert len(refused) >= 1 and all(v.reason.startswith("ben walks into robot") for v in refused)
-    assert found.chosen is not None and found.chosen is found.verdicts[-1] and found.chosen.safe(0.2)
-    assert found.chosen.move == moves_beside(scene, "ana", GAP)[len(refused)]
+def test_while_someone_comes_the_robot_waits_rather_than_cross_their_way_or_pass_near_them() -> None:
+    """Ana lies north of Ben's way; the robot starts south of it. While Ben comes, every pose beside her has the
+    robot cross his way as he comes: he walks into it, or it passes him closer than it keeps from anyone."""
+    found = search(room((1.0, 0.3), (1.2, -2.6, math.pi / 2)), SearchSpec((), {}, {}, (BEN,)))
+    reasons = [v.reason for v in found.verdicts]
+    assert found.chosen is None and len(reasons) == len(moves_beside(room((1.0, 0.3), (1.2, -2.6, 0.0)), "ana", GAP))
+    assert reasons[0].startswith("ben walks into robot")
+    near = [int(r.split(" passes ")[1].split(" cm")[0]) for r in reasons if " passes " in r]
+    assert near and all(0 < cm < KEEP_CLEAR * 100 for cm in near)
+    assert all(r.startswith("ben walks into robot") or " passes " in r for r in reasons)
 
 
-def test_with_nobody_in_its_way_the_nearest_pose_is_taken() -> None:
-    scene = room((2.0, -0.6), (2.0, -2.6, math.pi / 2))
+def test_once_they_have_gone_by_the_nearest_pose_is_taken() -> None:
+    scene = room((1.0, 0.3), (1.2, -2.6, math.pi / 2), ben=(2.0, -1.5, 0.0))
     found = search(scene, SearchSpec((), {}, {}, (BEN,)))
-    assert found.chosen is not None and found.chosen.move == moves_beside(scene, "ana", GAP)[0]
-    assert len(found.verdicts) == 1
+    assert found.chosen is not None and found.chosen.safe(0.2)
+    assert found.chosen.move == moves_beside(scene, "ana", GAP)[0] and len(found.verdicts) == 1
 
 
 def test_a_search_for_no_danger_travels_with_its_walkers_and_needs_one() -> None:

@@ -162,6 +162,7 @@ def test_searches_and_joint_imaginations_are_served_first() -> None:
         ({**SEARCH, "spec": {**SPEC, "gazes": {}}}, "request.spec.gazes.person: is required"),
         ({**SEARCH, "spec": {**SPEC, "gazes": {"person": [4.0]}}}, "request.spec.gazes.person: expected one or more"),
         ({**SEARCH, "spec": {**SPEC, "delay": 60}}, "request.spec.delay: expected at most 5.0"),
+        ({**SEARCH, "spec": {**SPEC, "keep_clear": -0.5}}, "request.spec.keep_clear: expected a non-negative number"),
         ({**SEARCH, "threshold": 2}, "request.threshold: expected at most 1.0"),
         ({**SEARCH, "max_moves": 0}, "request.max_moves: expected a positive number"),
         (

@@ -40,16 +40,21 @@ class RobotMargin:
 
     Perception may hold a person up to :data:`MARGIN_SIGMAS` sigmas of their position off, so an imagined
     pass closer than that may be a touch in truth. Someone who knows where the resting robot stands walks
-    round it by their own plan, wherever they really are, and is not held to the margin.
+    round it by their own plan, wherever they really are, and is not held to the margin. ``floor`` is the
+    least the robot keeps from anyone, whatever perception's error: a move made for no danger (see
+    :attr:`SearchSpec.keep_clear`) has no reason to pass near anyone.
     """
 
     robot: str
     sigma: Mapping[str, float]
+    floor: float = 0.0
 
     @classmethod
-    def of(cls, robot: str | None, uncertainty: Uncertainty) -> RobotMargin | None:
-        """The margin of ``robot`` under perception's ``uncertainty``; None for a scene without a robot."""
-        return cls(robot, uncertainty.sigma) if robot is not None else None
+    def of(cls, robot: str | None, uncertainty: Uncertainty, spec: SearchSpec | None = None) -> RobotMargin | None:
+        """The margin of ``robot`` under perception's ``uncertainty`` (and ``spec``'s floor); None for a scene
+        without a robot."""
+        floor = spec.keep_clear if spec is not None else 0.0
+        return cls(robot, uncertainty.sigma, floor) if robot is not None else None
 
     def error(self, person: str, obstacle: str) -> float:
         """How far off perception may hold ``person`` from ``obstacle``: the margin's sigmas of both errors."""
@@ -57,7 +62,7 @@ class RobotMargin:
 
     def too_close(self, walk: WalkOutcome) -> bool:
         """Whether the walk passes the robot closer than the margin for that person."""
-        return walk.robot_clearance < MARGIN_SIGMAS * self.sigma.get(walk.walk.person, 0.0)
+        return walk.robot_clearance < max(MARGIN_SIGMAS * self.sigma.get(walk.walk.person, 0.0), self.floor)
 
 
 def judge(
@@ -204,7 +209,7 @@ def _judged_in_turn(
     A move clear in the first walk set is then held to :func:`_harmless_if_missed` (a search may settle for
     one that is clear there and fails only at other gaze classes).
     """
-    margin = RobotMargin.of(robot, uncertainty)
+    margin = RobotMargin.of(robot, uncertainty, spec)
     first = [answers[0]()]
     verdict = judge(move, first, spec, margin)
     if not verdict.clear:
@@ -291,7 +296,7 @@ def judge_lead(
         before[k] if k < len(before) and not _excuses_more(before[k], item.falling) else imagine(item)
         for k, item in enumerate(excused.items(move, None))
     ]
-    return judge(move, answers, excused, RobotMargin.of(robot, uncertainty)), answers
+    return judge(move, answers, excused, RobotMargin.of(robot, uncertainty, spec)), answers
 
 
 def _excuses_more(answer: Answer, falling: Mapping[str, str]) -> bool:

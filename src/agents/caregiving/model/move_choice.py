@@ -136,7 +136,7 @@ class NoWorse:
         if walk_set not in self._idle:
             self.prepare()
             item = self.spec.items(self.spec.current, self.uncertainty)[walk_set]
-            margin = RobotMargin.of(self.robot, self.uncertainty)
+            margin = RobotMargin.of(self.robot, self.uncertainty, self.spec)
             self._idle[walk_set] = judge(self.spec.current, [self.imagine(item)], self.spec, margin)
         return self._idle[walk_set]
 

@@ -24,6 +24,9 @@ from .world_model import Walk
 
 T = TypeVar("T")
 
+#: Metres: the most a spec may ask the robot to keep from anyone (a room's width).
+MAX_KEEP_CLEAR = 5.0
+
 
 @dataclass(frozen=True)
 class SearchSpec:
@@ -48,6 +51,8 @@ class SearchSpec:
     refuses a move only where the move raises it.
     ``current`` is the move the robot is driving now (if any), which it keeps for ``delay`` seconds.
     ``lead`` is a head start the search sent (see :func:`~agents.caregiving.model.move_search.search`), driven for ``lead_for`` seconds after that.
+    ``keep_clear`` is the least the robot keeps from anyone while it drives (see
+    :class:`~agents.caregiving.model.judging.RobotMargin`): a move made for no danger gives way widely.
     """
 
     dangers: tuple[Danger, ...]
@@ -61,6 +66,7 @@ class SearchSpec:
     lead_for: float = 0.0
     falls_anyway: tuple[tuple[Walk, str], ...] = ()
     risks_anyway: tuple[tuple[Walk, float], ...] = ()
+    keep_clear: float = 0.0
 
     def falling_in(self, walks: Iterable[Walk]) -> dict[str, str]:
         """The falls that do not refuse a move in a walk set of ``walks``: ``falling``'s, and ``falls_anyway``'s
@@ -153,6 +159,7 @@ class SearchSpec:
             "lead_for": self.lead_for,
             "falls_anyway": [{"walk": walk_to_wire(w), "object": hit} for w, hit in self.falls_anyway],
             "risks_anyway": [{"walk": walk_to_wire(w), "risk": risk} for w, risk in self.risks_anyway],
+            "keep_clear": self.keep_clear,
         }
 
     @classmethod
@@ -192,6 +199,7 @@ class SearchSpec:
             f.number("lead_for", 0.0, non_negative=True, at_most=MAX_DELAY),
             falls,
             risks,
+            f.number("keep_clear", 0.0, non_negative=True, at_most=MAX_KEEP_CLEAR),
         )
 
 
