@@ -47,7 +47,6 @@ from agents.caregiving.model.response import (
     respond,
     set_off_sooner,
 )
-from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import Verdict
@@ -68,7 +67,7 @@ from .robot_intentions import (
     write_intention,
 )
 from .search_client import SearchClient, SearchTerms
-from .set_off import SetOff
+from .set_off import SetOff, add_dispatch_argument
 
 
 class Action(Agent):
@@ -87,13 +86,7 @@ class Action(Agent):
             default=0.5,
             help="simulated seconds before a danger no move removed is searched again (at its next update after that)",
         )
-        parser.add_argument(
-            "--dispatch",
-            type=float,
-            default=DT,
-            help="simulated seconds from writing a move to the world acting on it: the world takes a command at its "
-            "next step, so one step (default) covers the executor's hop and the wait for it",
-        )
+        add_dispatch_argument(parser)
 
     async def setup(self) -> None:
         self.size_error = size_error(self.args)
@@ -253,9 +246,10 @@ class Action(Agent):
 
     def _terms(self, ctx: Context) -> SearchTerms:
         """What each search of a response on ``ctx`` is asked with."""
-        return SearchTerms(
-            lambda: self.set_off.delay(self.g, ctx.scene.time),
-            lambda: self.clock.rate(self.g),
+        return SearchTerms.reading(
+            self.g,
+            ctx.scene.time,
+            self.set_off,
             Uncertainty(self.size_error, ctx.sigma, self.args.samples),
             self.args.risk_threshold,
             self.args.max_moves,

@@ -24,7 +24,6 @@ from agents.caregiving import keys
 from agents.caregiving.model.go_to import GAP, going_to
 from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES
 from agents.caregiving.model.robot_moves import moves_beside
-from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.uncertainty import Uncertainty
 from wm import Event
 
@@ -36,7 +35,7 @@ from .odometry import OdometryClock
 from .risk_options import add_risk_arguments, add_walking_arguments, size_error, walking
 from .robot_intentions import move_under_way, search_spec
 from .search_client import SearchClient, SearchTerms
-from .set_off import SetOff
+from .set_off import SetOff, add_dispatch_argument
 
 
 class Assist(Agent):
@@ -51,9 +50,7 @@ class Assist(Agent):
         parser.add_argument(
             "--retry", type=float, default=0.5, help="simulated seconds before a pose is looked for again"
         )
-        parser.add_argument(
-            "--dispatch", type=float, default=DT, help="simulated seconds from writing a move to the world acting on it"
-        )
+        add_dispatch_argument(parser)
 
     async def setup(self) -> None:
         self.size_error = size_error(self.args)
@@ -125,9 +122,10 @@ class Assist(Agent):
         return episode_of(self.g.find_node(WORLD)) == ctx.episode
 
     def _terms(self, ctx: Context) -> SearchTerms:
-        return SearchTerms(
-            lambda: self.set_off.delay(self.g, ctx.scene.time),
-            lambda: self.clock.rate(self.g),
+        return SearchTerms.reading(
+            self.g,
+            ctx.scene.time,
+            self.set_off,
             Uncertainty(self.size_error, ctx.sigma, self.args.samples),
             self.args.risk_threshold,
             DEFAULT_MAX_MOVES,  # for generated candidates; the moves here are given

@@ -20,8 +20,10 @@ from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.response import Ask, Asked, JudgingTime
 from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import SearchResult, Verdict
+from wm import Graph
 
 from ..logs import AgentLogger
+from .set_off import SetOff
 
 T = TypeVar("T")
 
@@ -52,6 +54,13 @@ class SearchTerms:
     uncertainty: Uncertainty
     threshold: float
     max_moves: int
+
+    @classmethod
+    def reading(
+        cls, g: Graph, time: float, set_off: SetOff, uncertainty: Uncertainty, threshold: float, max_moves: int
+    ) -> SearchTerms:
+        """The terms of searches on a context of ``time``, their delay and rate read from W as each one starts."""
+        return cls(lambda: set_off.delay(g, time), lambda: set_off.clock.rate(g), uncertainty, threshold, max_moves)
 
 
 class SearchClient:

@@ -10,6 +10,7 @@ where people are elsewhere, so the move is held until then.
 
 from __future__ import annotations
 
+import argparse
 import asyncio
 from dataclasses import dataclass
 
@@ -18,6 +19,17 @@ from wm import Graph
 
 from ..logs import AgentLogger
 from .odometry import OdometryClock
+
+
+def add_dispatch_argument(parser: argparse.ArgumentParser) -> None:
+    """``--dispatch``, of the agents that write robot moves: what :attr:`SetOff.dispatch` is."""
+    parser.add_argument(
+        "--dispatch",
+        type=float,
+        default=DT,
+        help="simulated seconds from writing a move to the world acting on it: the world takes a command at its "
+        "next step, so one step (default) covers the executor's hop and the wait for it",
+    )
 
 
 @dataclass
