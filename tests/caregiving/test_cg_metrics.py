@@ -133,3 +133,25 @@ def test_a_fall_is_seen_by_the_first_mark_near_it_at_or_after_it_and_a_mark_of_n
     m = metrics([Scored(record, frozenset({"ana", "ben", "cy", "dee"}))])
     assert (m["falls_acting"], m["falls_seeable"], m["falls_seen"], m["false_fall_marks"]) == (4, 3, 2, 1)
     assert m["fall_seen_after_s_p50"] == pytest.approx(0.25) and m["fall_seen_after_s_max"] == pytest.approx(0.3)
+
+
+def test_a_move_to_someone_fallen_is_no_command_against_a_danger() -> None:
+    """The robot sent to someone lying there before any move against the danger: the pipeline's delay is timed to
+    the first command against it, or not at all."""
+    going = {"time": 0.7, "move": {"target": "1", "x": 0.0, "y": 0.0, "heading": 0.0}, "accepted": True}
+    late = _commanded(0, 0.5, 0.9, True, True, True)
+    late.record.outcome["commands"].insert(0, {**going, "action": "go_to"})
+    only = _commanded(1, 0.5, None, True, False, True)
+    only.record.outcome["commands"] = [{**going, "action": "go_to"}]
+    assert pipeline_delay([late]) == pytest.approx(0.4) and pipeline_delay([only]) is None
+
+
+def test_each_person_marked_fallen_is_answered_with_an_alert_and_the_robot_sent_to_them() -> None:
+    marks = {1: Mark(5.2, (0.1, 0.0)), 3: Mark(7.3, (2.9, 0.1))}
+    answers = {"alert": {1: 5.25, 3: 7.4}, "go_to": {1: 5.6, 7: 2.0}}  # node 7: not marked fallen, no answer
+    record = TrialRecord(
+        0, intentions=1, outcome={"collisions": [], "duration": 9.0}, fall_marks=marks, answers=answers
+    )
+    m = metrics([Scored(record, NOBODY)])
+    assert (m["fall_marks"], m["falls_alerted"], m["fallen_gone_to"]) == (2, 2, 1)
+    assert m["alert_after_mark_s_max"] == pytest.approx(0.1)

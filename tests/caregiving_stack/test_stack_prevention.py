@@ -168,6 +168,7 @@ def test_someone_fallen_gets_an_alert_and_the_robot_goes_to_them_clear_of_whoeve
     start, end = robot[0][1:3], robot[-1][1:3]
     assert math.dist(end, ana["position"]) < math.dist(start, ana["position"]) - 1.0, "the robot drove towards her"
     assert fall["person"] == "ana" and r.action is None
+    assert r.answers[ALERT] == {ana["id"]: alert["at_time"]} and r.answers[GO_TO] == {ana["id"]: going["at_time"]}
 
 
 async def run_keeping_intentions(

@@ -47,7 +47,9 @@ anyway can hide someone the robot tripped). ``falls_acting`` counts the falls of
 ``falls_seeable`` those a second or more before their trial ended, ``falls_seen`` those of them
 perception marked ``fallen`` (:mod:`bridges.experiment.falls_seen`),
 ``fall_seen_after_s_p50`` and ``_max`` how long after the fall, and ``false_fall_marks`` the marks
-of no fall. ``head_starts`` counts trials in which the robot set off on a head start
+of no fall. ``fall_marks`` counts the people marked fallen, ``falls_alerted`` those the robot raised an
+alert about (``alert_after_mark_s_max``: how long after the mark, at the most) and ``fallen_gone_to`` those
+it was sent to (the assist agent's answer to a fall). ``head_starts`` counts trials in which the robot set off on a head start
 while the search judged on (an intention with ``head_start`` set: the robot's first command, but not
 a move found to remove the danger, so not an action; ``head_start_ms_p50`` is its median time
 from the risky intention, and ``first_response_ms_mean`` and ``_p50`` time the robot's first intention of
@@ -85,7 +87,7 @@ from rich.table import Table
 
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import Scenario, load_scenario
-from agents.caregiving.names import MOVE_TO, PREVENTING
+from agents.caregiving.names import ALERT, GO_TO, MOVE_TO, PREVENTING
 from bridges.world.bridge import trial_for
 
 from .fallers import Faller, fallers
@@ -205,6 +207,7 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
     saveable_falls = [f for s in valid for f in s.falls if f.person in s.saveable_people]
     saved_saveable = sum(not f.fell_acting for f in saveable_falls)
     seen = [s.seen for s in scored]
+    alerted = answered(scored, ALERT)
     seen_after = [d for x in seen for d in x.seen]
     return {
         "trials": len(scored),
@@ -269,7 +272,23 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
         "fall_seen_after_s_p50": percentile(seen_after, 50),
         "fall_seen_after_s_max": max(seen_after, default=None),
         "false_fall_marks": sum(x.unmatched for x in seen),
+        "fall_marks": sum(len(s.record.fall_marks) for s in scored),
+        "falls_alerted": len(alerted),
+        "alert_after_mark_s_max": max(alerted, default=None),
+        "fallen_gone_to": len(answered(scored, GO_TO)),
     }
+
+
+def answered(scored: list[Scored], action: str) -> list[float]:
+    """For each person perception marked fallen whom the robot answered with ``action`` (an alert, or going to
+    them), the simulated seconds from the mark to the first such intention."""
+    return [
+        firsts[node] - mark.at_time
+        for s in scored
+        for firsts in [s.record.answers.get(action, {})]
+        for node, mark in s.record.fall_marks.items()
+        if node in firsts
+    ]
 
 
 def _fmt(key: str, value: Any) -> str:
@@ -342,6 +361,10 @@ ROWS = [
     ("... this long after the fall (p50)", "fall_seen_after_s_p50"),
     ("... at the most", "fall_seen_after_s_max"),
     ("Falls seen where nobody fell", "false_fall_marks"),
+    ("People marked fallen", "fall_marks"),
+    ("... with an alert raised about them", "falls_alerted"),
+    ("... the alert this long after the mark (at the most)", "alert_after_mark_s_max"),
+    ("... the robot sent to them", "fallen_gone_to"),
     ("End to end p50", "e2e_ms_p50"),
     ("End to end p99", "e2e_ms_p99"),
 ]
@@ -476,6 +499,9 @@ def trial_json(s: Scored) -> dict[str, Any]:
         "duration": r.outcome.get("duration"),
         "fall_seen_after_s": list(s.seen.delays),
         "fall_marks": [{"at_time": m.at_time, "at": list(m.at)} for m in r.fall_marks.values()],
+        "fall_answers": {
+            action: [firsts[n] for n in r.fall_marks if n in firsts] for action, firsts in r.answers.items()
+        },
         "falls": [
             {
                 "person": f.person,
