@@ -25,7 +25,7 @@ from agents.caregiving.model.go_to import GAP, going_to
 from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES
 from agents.caregiving.model.robot_moves import moves_beside
 from agents.caregiving.model.uncertainty import Uncertainty
-from wm import Event
+from wm import Event, Node
 
 from ..runtime import Agent, main, on
 from .context import Context, episode_of, read_context
@@ -73,21 +73,22 @@ class Assist(Agent):
         if ctx.episode != self.episode:
             self.episode, self.tried = ctx.episode, {}
             self.clock.reset()
+        down = {n.id for n in lying}
         for person, alert in raised.items():
-            if person in ctx.names and person not in {n.id for n in lying}:  # not one W no longer holds
+            if person in ctx.names and person not in down:  # not one W no longer holds
                 end_alert(self.g, alert)
                 self.log.info("alert ended", person=ctx.names[person], because="seen standing again")
         for n in lying:
             if n.id not in raised and self._current(ctx):
                 raise_alert(self.g, ctx, n, str(next(self.names)))
                 self.log.warning("alert raised", person=n.name, fallen_at=n.get("fallen_at"))
-        await self._go_to_someone(ctx)
-
-    async def _go_to_someone(self, ctx: Context) -> None:
-        """Send the robot to the first person lying there, unless a move is under way, someone walks into danger
-        (the robot may be standing where it keeps them from it), or the robot is with someone fallen already."""
         here = {p.name for p in ctx.scene.people}
-        lying = [n for n in fallen(self.g) if n.name in here]
+        await self._go_to_someone(ctx, [n for n in lying if n.name in here])
+
+    async def _go_to_someone(self, ctx: Context, lying: list[Node]) -> None:
+        """Send the robot to the first of ``lying`` (the people fallen in ``ctx``, the earliest fall first), unless a
+        move is under way, someone walks into danger (the robot may be standing where it keeps them from it), or
+        the robot is with someone fallen already."""
         waiting = [n for n in lying if ctx.scene.time - self.tried.get(n.id, -1e9) >= self.args.retry]
         if not waiting or self._busy() or seen_to(self.g) & {n.id for n in lying}:
             return

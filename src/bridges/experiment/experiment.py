@@ -144,6 +144,12 @@ class Scored:
         outcome = self.record.outcome
         return falls_seen(outcome.get("collisions", []), self.record.fall_marks.values(), outcome.get("duration", 0.0))
 
+    def answers(self, action: str) -> dict[int, float]:
+        """The people perception marked fallen whom the robot answered with ``action`` (an alert, or going to them),
+        by node: the simulated time of its first such intention."""
+        firsts = self.record.answers.get(action, {})
+        return {node: firsts[node] for node in self.record.fall_marks if node in firsts}
+
     @property
     def discarded(self) -> bool:
         return self.record.intentions == 0
@@ -280,15 +286,9 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
 
 
 def answered(scored: list[Scored], action: str) -> list[float]:
-    """For each person perception marked fallen whom the robot answered with ``action`` (an alert, or going to
-    them), the simulated seconds from the mark to the first such intention."""
-    return [
-        firsts[node] - mark.at_time
-        for s in scored
-        for firsts in [s.record.answers.get(action, {})]
-        for node, mark in s.record.fall_marks.items()
-        if node in firsts
-    ]
+    """For each person perception marked fallen whom the robot answered with ``action``, the simulated seconds
+    from the mark to the first such intention."""
+    return [at - s.record.fall_marks[node].at_time for s in scored for node, at in s.answers(action).items()]
 
 
 def _fmt(key: str, value: Any) -> str:
@@ -499,9 +499,7 @@ def trial_json(s: Scored) -> dict[str, Any]:
         "duration": r.outcome.get("duration"),
         "fall_seen_after_s": list(s.seen.delays),
         "fall_marks": [{"at_time": m.at_time, "at": list(m.at)} for m in r.fall_marks.values()],
-        "fall_answers": {
-            action: [firsts[n] for n in r.fall_marks if n in firsts] for action, firsts in r.answers.items()
-        },
+        "fall_answers": {action: list(s.answers(action).values()) for action in r.answers},
         "falls": [
             {
                 "person": f.person,

@@ -26,7 +26,7 @@ import zenoh
 import wm
 from agents.caregiving import keys
 from agents.caregiving.context import read_context
-from agents.caregiving.names import ALERT, GO_TO, HAS_INTENTION, INTENTION, KNOWS, OBJECT, PERSON, WORLD
+from agents.caregiving.names import HAS_INTENTION, INTENTION, KNOWS, OBJECT, PERSON, PREVENTING, WORLD
 from agents.messaging import Messaging, TaskSet, logging_guard
 from wm import Event, Graph
 from wm.net.connection import close_session, open_session
@@ -67,7 +67,7 @@ class TrialRecord:
     seen_action_at: float | None = None
     flags: dict[int, Mark] = field(default_factory=dict)  # each person node's first risky intention
     fall_marks: dict[int, Mark] = field(default_factory=dict)  # each person node's first ``fallen`` mark
-    answers: dict[str, dict[int, float]] = field(default_factory=dict)  # ALERT, GO_TO: person node -> first at_time
+    answers: dict[str, dict[int, float]] = field(default_factory=dict)  # alert, go_to: person node -> first at_time
 
     @property
     def set_off(self) -> dict[str, Any] | None:
@@ -184,7 +184,7 @@ class Harness:
                 rec.fall_marks[node.id] = Mark(float(node.get("fallen_at", 0.0)), (x, y))
         elif event.type == INTENTION and event.kind.value == "node_added":
             node = self.g.find_node(event.id)  # type: ignore[arg-type]
-            if node is not None and node.get("action") in (ALERT, GO_TO):  # the answer to a fall, not to a danger
+            if node is not None and node.get("action") not in PREVENTING:  # an answer to a fall, not to a danger
                 firsts = rec.answers.setdefault(node.get("action"), {})
                 firsts.setdefault(int(node.get("person", 0)), float(node.get("at_time", 0.0)))
                 return
