@@ -1,6 +1,7 @@
 """The robot's side of W when someone has fallen: the alert, the move to them, and how the other agents see both."""
 
 from dataclasses import replace
+from pathlib import Path
 
 import wm
 from agents.caregiving.context import Context
@@ -8,6 +9,7 @@ from agents.caregiving.fall_response import (
     alerts,
     end_alert,
     fallen,
+    going_spec,
     raise_alert,
     seen_to,
     someone_in_danger,
@@ -67,3 +69,19 @@ def test_a_risky_walk_keeps_the_robot_from_going_unless_it_is_of_someone_fallen(
     assert someone_in_danger(g)
     g.insert_or_assign_edge(ctx.ids["person"], ctx.ids["couch"], HAS_INTENTION, {"risky": False})
     assert not someone_in_danger(g)
+
+
+def test_a_move_to_someone_fallen_imagines_whoever_is_up_setting_off_though_nothing_is_guessed_of_them() -> None:
+    """Two people: one lying there, one standing with no walk guessed (or tracked too briefly to tell). The spec
+    a move to the fallen is judged with imagines the one standing on the walks ahead of them, not standing still."""
+    scene = load_scenario(Path(__file__).parents[1] / "caregiving_stack" / "scenarios" / "one_falls_one_walks_on.yaml")
+    scene_now = replace(scene.scene(), time=2.0)
+    g = wm.Graph()
+    ids = {p.name: g.insert_node(PERSON, p.name) for p in scene_now.people}
+    ids |= {o.name: g.insert_node(OBJECT, o.name) for o in scene_now.obstacles if o.kind != "wall"}
+    assert scene_now.robot is not None
+    ids[scene_now.robot.name] = g.insert_node(ROBOT, scene_now.robot.name)
+    ctx = Context(scene_now, 3, ids, {}, {}, 0.0, frozenset({"ana"}))
+    spec = going_spec(g, ctx)
+    assert spec.dangers == () and spec.bystanders and {w.person for w in spec.bystanders} == {"ben"}
+    assert {w.target for w in spec.bystanders} <= {o.name for o in scene_now.obstacles if o.target}

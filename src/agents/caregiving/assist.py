@@ -5,8 +5,9 @@
 When perception marks a person ``fallen`` in W, the agent raises an ``alert`` about them at once, and ends
 it if they are seen standing again (:mod:`agents.caregiving.fall_response`). It then sends the robot to
 them: a ``go_to`` the nearest pose beside them that harms nobody still walking, judged by the simulator as
-Algorithm 2's moves are (:mod:`agents.caregiving.model.go_to`). With nobody walking, there is nobody to
-harm, and the nearest pose is taken.
+Algorithm 2's moves are (:mod:`agents.caregiving.model.go_to`), everyone else imagined on the walks they may
+be on, or may set off on (:func:`~agents.caregiving.fall_response.going_spec`). With nobody else up, there
+is nobody to harm, and the nearest pose is taken.
 
 Preventing a fall comes first. While any move is under way, or Algorithm 1 holds a risky walk of someone
 not fallen, the robot is left where it is: the action agent judges a ``go_to`` under way as it judges its
@@ -29,11 +30,20 @@ from wm import Event, Node
 
 from ..runtime import Agent, main, on
 from .context import Context, episode_of, read_context
-from .fall_response import alerts, end_alert, fallen, raise_alert, seen_to, someone_in_danger, write_go_to
+from .fall_response import (
+    alerts,
+    end_alert,
+    fallen,
+    going_spec,
+    raise_alert,
+    seen_to,
+    someone_in_danger,
+    write_go_to,
+)
 from .names import PERSON, WORLD
 from .odometry import OdometryClock
 from .risk_options import add_risk_arguments, add_walking_arguments, size_error, walking
-from .robot_intentions import move_under_way, search_spec
+from .robot_intentions import move_under_way
 from .search_client import SearchClient, SearchTerms
 from .set_off import SetOff, add_dispatch_argument
 
@@ -94,11 +104,11 @@ class Assist(Agent):
             return
         person = waiting[0].name
         moves = moves_beside(ctx.scene, person, GAP)
-        spec = search_spec(self.g, ctx, {}, None, walking(self.args))
+        spec = going_spec(self.g, ctx, walking(self.args))
         if not moves:
             move, why = None, "no pose beside them where the robot fits"
         elif not spec.bystanders:
-            move, why = moves[0], "nobody walks"
+            move, why = moves[0], "nobody else is up"
         else:
             found = await self.searches.run(going_to(spec, moves), self._terms(ctx))
             chosen = found.chosen if found is not None else None

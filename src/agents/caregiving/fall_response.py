@@ -12,12 +12,16 @@ and ``person`` the node id of the person who has fallen:
 
 from __future__ import annotations
 
+from dataclasses import replace
+
+from agents.caregiving.model.guesses import DEFAULT_WALKING, Walking, unguessed_walks
 from agents.caregiving.model.robot_moves import RobotMove
+from agents.caregiving.model.search_spec import SearchSpec
 from wm import Graph, Node
 
 from .context import Context
 from .names import ALERT, GO_TO, HAS_INTENTION, INTENTION, PERSON
-from .robot_intentions import add_intention
+from .robot_intentions import add_intention, search_spec
 
 RAISED, ENDED = "raised", "ended"
 #: The statuses of a ``go_to`` on its way or arrived: the robot is seeing to that person.
@@ -43,6 +47,18 @@ def someone_in_danger(g: Graph) -> bool:
     """Whether Algorithm 1 holds a risky walk of someone not fallen: the robot is needed there first."""
     down = {n.id for n in fallen(g)}
     return any(e.get("risky") and e.src not in down for e in g.edges(type=HAS_INTENTION))
+
+
+def going_spec(g: Graph, ctx: Context, walking: Walking = DEFAULT_WALKING) -> SearchSpec:
+    """The spec a move to someone fallen is judged with: no danger, and everyone not fallen on the walks they may
+    be on (:func:`~agents.caregiving.robot_intentions.bystander_walks`). Someone with none (standing, or tracked
+    too briefly to tell) is imagined setting off on the walks ahead of them: a move made for no danger does not
+    take their stillness for granted."""
+    spec = search_spec(g, ctx, {}, None, walking)
+    imagined = {w.person for w in spec.bystanders}
+    unknown = [p for p in ctx.scene.people if p.name not in imagined and p.name not in ctx.fallen]
+    more = tuple(w for p in unknown for w in unguessed_walks(p, ctx.scene.obstacles, walking.aside))
+    return replace(spec, bystanders=spec.bystanders + more)
 
 
 def raise_alert(g: Graph, ctx: Context, person: Node, name: str) -> int:
