@@ -22,13 +22,13 @@ and raises :class:`~agents.caregiving.model.errors.ReplyError` on anything else.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from .errors import ReplyError
 from .fields import Fields
 from .imagine import Imagination
-from .joint import JointImagination, joint_risk
+from .joint import JointImagination, walk_risks, worst_risk
 from .scene import Scene
 from .uncertainty import Risk, Uncertainty
 from .verdict import SearchResult
@@ -48,6 +48,8 @@ class Answer:
     search: SearchResult | None = None  # a "search" item's verdicts and chosen move
     risk: Risk | None = None  # when the item asked for its uncertainty to be sampled
     error: str | None = None  # why the item was not imagined
+    #: A sampled joint item's colliding worlds by person (see :attr:`Risk.worlds`); not on the wire.
+    worlds: Mapping[str, int] | None = field(default=None, compare=False)
 
 
 def joint_answer(
@@ -61,11 +63,14 @@ def joint_answer(
 
     A move whose nominal imagination already fails (for a fall ``falling`` does not name) is refused whatever
     the sampled risk: none is sampled. ``anyway`` holds bystanders' sampled risks with the robot as it is,
-    which the risk leaves out where the move does not raise them (see :func:`joint_risk`).
+    which the risk leaves out where the move does not raise them (see :func:`~agents.caregiving.model.joint.joint_risk`).
     """
     if uncertainty is None or not joint.safe_given(falling):
         return Answer(joint=joint)
-    return Answer(joint=joint, risk=joint_risk(scene, joint, uncertainty, falling, anyway))
+    risks = walk_risks(scene, joint, uncertainty, falling)
+    return Answer(
+        joint=joint, risk=worst_risk(risks, anyway), worlds={person: r.worlds for person, r in risks.items()}
+    )
 
 
 @dataclass(frozen=True)

@@ -221,13 +221,15 @@ def joint_risk(
     ``anyway`` holds bystanders' sampled risks with the robot as it is (``{person: probability}``): a walk whose
     risk is no higher than that is left out too, a risk the robot does not bring.
     """
+    return worst_risk(walk_risks(scene, joint, u, falling), anyway)
+
+
+def worst_risk(risks: Mapping[str, Risk], anyway: Mapping[str, float] | None = None) -> Risk:
+    """The largest of the walks' ``risks`` (``{person: risk}``), leaving out those no higher than ``anyway``'s
+    (see :func:`joint_risk`)."""
     anyway = anyway or {}
-    risks = [
-        r
-        for person, r in walk_risks(scene, joint, u, falling).items()
-        if person not in anyway or r.probability > anyway[person]
-    ]
-    return max(risks, key=lambda r: r.probability, default=NO_RISK)
+    raised = [r for person, r in risks.items() if person not in anyway or r.probability > anyway[person]]
+    return max(raised, key=lambda r: r.probability, default=NO_RISK)
 
 
 def walk_from_fields(f: Fields) -> Walk:

@@ -84,9 +84,11 @@ def judge(
     arrival, risk, worst, refused = None, 0.0, "", ""
     falls: list[Fall] = []
     near: Fall | None = None
+    worlds: list[Mapping[str, int] | None] = []
     for k, a in enumerate(answers):
         if a.joint is None:
             return Verdict(move, False, 1.0, None, f"not imagined: {a.error}")
+        worlds.append(a.worlds)
         if not a.joint.robot_reachable:
             return Verdict(move, False, 1.0, None, "the robot cannot reach the pose")
         arrival = a.joint.robot_arrival if arrival is None else arrival
@@ -118,9 +120,11 @@ def judge(
             near = Fall(k, str(sampled.person), sampled.obstacle, sampled.point) if touching else None
     if falls:
         # A move refused in the first walk set (the gaze class found risky) was not imagined in the others.
-        return Verdict(move, False, 1.0 if falls[0].walk_set == 0 else risk, arrival, refused, tuple(falls))
+        return Verdict(
+            move, False, 1.0 if falls[0].walk_set == 0 else risk, arrival, refused, tuple(falls), worlds=tuple(worlds)
+        )
     reason = f"everyone imagined walks clear; sampled risk {risk:.2f}" + (f" ({worst})" if risk > 0 else "")
-    return Verdict(move, True, risk, arrival, reason, near=near)
+    return Verdict(move, True, risk, arrival, reason, near=near, worlds=tuple(worlds))
 
 
 def _excused(falling: Mapping[str, str] | SearchSpec | None, joint: JointImagination) -> Mapping[str, str]:

@@ -10,12 +10,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from .judging import Imagine, RobotMargin, judge
 from .search_spec import SearchSpec
 from .uncertainty import Uncertainty
-from .verdict import Verdict
+from .verdict import Fall, Verdict
+
+#: The share of sampled worlds in which a move may walk someone into something that, in the same world, they pass
+#: clear of with the robot as it is (see :meth:`NoWorse.worsened`): one world in 64, sampling's own grain.
+MADE_WORSE = 1 / 64
 
 #: Candidates judged past the first clear move that halves the idle risk before the search settles for the
 #: least risky clear move: each one judged sends whichever move is chosen later (see docs/caregiving.md).
@@ -131,6 +135,43 @@ class NoWorse:
         nobody, and whoever falls with it falls with the robot as it is too (:meth:`as_idle`)."""
         imagined = verdict.clear or bool(verdict.falls)
         return imagined and not verdict.trips(self.robot) and self.as_idle(verdict)
+
+    def worsened(self, verdict: Verdict) -> Verdict:
+        """``verdict``, refused if its move brings someone a fall the robot as it is does not: in more than
+        :data:`MADE_WORSE` of the sampled worlds, they walk into something they pass clear of in the same world
+        with the robot as it is.
+
+        A move's sampled risk may be lower than the robot's as it is and still lie in other worlds: the person,
+        walking round the robot, passes the obstacle on its other side, and perception's belief cannot tell
+        which side they truly have room on. Only walk sets where everyone walks clear with the robot as it is,
+        at the belief's centre, are compared: where someone falls there, the move is judged by whether it
+        saves them.
+        """
+        if not verdict.clear or verdict.risk == 0.0:
+            return verdict
+        allowed = MADE_WORSE * max(self.uncertainty.samples, 1)
+        for k, worlds in enumerate(verdict.worlds):
+            if not worlds or not any(worlds.values()):
+                continue
+            idle = self._idle_in(k).worlds
+            as_it_is = idle[0] if idle else None
+            if as_it_is is None:
+                continue
+            for person, colliding in worlds.items():
+                worse = (colliding & ~as_it_is.get(person, 0)).bit_count()
+                if worse > allowed:
+                    near = verdict.near if verdict.near is not None and verdict.near.person == person else None
+                    fall = Fall(k, person, near.obstacle if near else None, near.point if near else None)
+                    return replace(
+                        verdict,
+                        clear=False,
+                        risk=1.0 if k == 0 else verdict.risk,
+                        reason=f"{person} walks into something in {worse} of {self.uncertainty.samples} sampled "
+                        "worlds where the robot as it is keeps them clear",
+                        falls=(fall,),
+                        near=None,
+                    )
+        return verdict
 
     def _idle_in(self, walk_set: int) -> Verdict:
         if walk_set not in self._idle:

@@ -217,7 +217,7 @@ class _Judging:
         read_off = driven_on(self.scene, self.lead_sent(), first, answers, self.imagine, self.uncertainty)
         if read_off is not None and self.excusable(read_off, knew) and self.know_as_it_is():
             read_off = driven_on(self.scene, self.lead_sent(), first, answers, self.imagine, self.uncertainty)
-        verdicts += [read_off] if read_off is not None else []
+        verdicts += [self.no_worse.worsened(read_off)] if read_off is not None else []
         second = next(positions, None)
         if second is None:  # a head start is for a search that judges on past its first candidate
             del verdicts[:]
@@ -253,11 +253,12 @@ class _Judging:
 
         One judged without knowing differs only where a bystander's fall or sampled risk refused it (a fall
         that happens anyway neither ends an imagination nor counts in the sampled risk): then the robot as it
-        is is imagined, and if someone does fall anyway, the candidate is judged again.
+        is is imagined, and if someone does fall anyway, the candidate is judged again. Either way, it is held to
+        :meth:`NoWorse.worsened`.
         """
         if self.excusable(verdict, knew) and self.know_as_it_is():
-            return self.judged_at(k, move)
-        return verdict
+            verdict = self.judged_at(k, move)
+        return self.no_worse.worsened(verdict)
 
     def judged_at(self, k: int, move: RobotMove | None) -> Verdict:
         """:func:`judge_move` of ``move`` as the k-th candidate, with the spec as the search knows it now."""

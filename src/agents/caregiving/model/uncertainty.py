@@ -17,8 +17,14 @@ object sampled larger or closer than it is, beside them in a tight room). If
 they walk away from it, that is no fall: their contact with it counts only from
 when they come back to it after being clear. Walking into it, it counts at once.
 
-It returns the fraction of sampled worlds with a contact, and the earliest
-contact among them (time, point, obstacle). Obstacles that no sampled world
+The sampled worlds are shared between imagined walks: world ``k`` displaces each
+person and resizes and displaces each obstacle by draws of its own, keyed by the
+uncertainty's seed and the entity's name, so two walks of the same person (with
+the robot idle and with a move, say) meet the same worlds and can be compared
+world by world.
+
+It returns the fraction of sampled worlds with a contact, which of them (a
+bitmask), and the earliest contact among them (time, point, obstacle). Obstacles that no sampled world
 (within five sigmas and the largest size) brings within reach of the walk are
 skipped, which keeps the cost flat in cluttered rooms.
 """
@@ -26,6 +32,7 @@ skipped, which keeps the cost flat in cluttered rooms.
 from __future__ import annotations
 
 import math
+import zlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
@@ -51,13 +58,15 @@ class Uncertainty:
 @dataclass(frozen=True)
 class Risk:
     """Collision probability over the sampled worlds and the earliest sampled contact; ``person``, whose
-    imagined walk it is, where several people's walks were sampled (a joint imagination's risk)."""
+    imagined walk it is, where several people's walks were sampled (a joint imagination's risk); ``worlds``,
+    which sampled worlds collide (bit ``k`` for world ``k``), kept where it was sampled and not on the wire."""
 
     probability: float
     time: float | None
     point: tuple[float, float] | None
     obstacle: str | None
     person: str | None = None
+    worlds: int = field(default=0, compare=False)
 
 
 NO_RISK = Risk(0.0, None, None, None)
@@ -76,13 +85,12 @@ def collision_risk(scene: Scene, im: Imagination, u: Uncertainty, dt: float = DT
     ]
     if not unseen:
         return NO_RISK
-    rng = np.random.default_rng(u.seed)
     n = max(int(u.samples), 1)
     times, points = trajectory(np.asarray(im.path), person.speed, dt)
     length = polyline_length(np.asarray(im.path))
     walked = times * person.speed
     fade = 1.0 - np.clip(walked / max(length, 1e-9), 0.0, 1.0)
-    shift = rng.normal(0.0, u.sigma.get(im.person, 0.0), (n, 2))
+    shift = _draws(u, im.person).normal(0.0, u.sigma.get(im.person, 0.0), (n, 2))
     walkers = points[None, :, :] + shift[:, None, :] * fade[None, :, None]  # (n, steps, 2)
     first = np.full(n, len(times))
     hit = np.full(n, -1)
@@ -91,9 +99,9 @@ def collision_risk(scene: Scene, im: Imagination, u: Uncertainty, dt: float = DT
         if reach(o.shape, TAIL * u.sigma.get(o.name, 0.0) + bounding_radius(o.shape) / (1 - u.size_error)):
             continue  # no sampled world brings this obstacle within reach of the walk
         exact = o.kind == ROBOT_KIND
-        sigma = 0.0 if exact else u.sigma.get(o.name, 0.0)
+        rng = _draws(u, o.name)
         scale = np.ones(n) if exact else 1.0 / rng.uniform(1 - u.size_error, 1 + u.size_error, n)
-        offset = rng.normal(0.0, sigma, (n, 2))
+        offset = np.zeros((n, 2)) if exact else rng.normal(0.0, u.sigma.get(o.name, 0.0), (n, 2))
         clear = _clearances(o.shape, walkers, offset, scale) - person.radius  # (n, steps)
         touching = contacts(clear)
         idx = np.where(touching.any(axis=1), touching.argmax(axis=1), len(times))
@@ -106,7 +114,15 @@ def collision_risk(scene: Scene, im: Imagination, u: Uncertainty, dt: float = DT
     step = int(first[k])
     obstacle = unseen[int(hit[k])]
     point = closest_boundary_point(obstacle.shape, walkers[k, step])[0]
-    return Risk(float(colliding.mean()), float(times[step]), (float(point[0]), float(point[1])), obstacle.name)
+    worlds = int.from_bytes(np.packbits(colliding, bitorder="little").tobytes(), "little")
+    return Risk(
+        float(colliding.mean()), float(times[step]), (float(point[0]), float(point[1])), obstacle.name, None, worlds
+    )
+
+
+def _draws(u: Uncertainty, name: str) -> np.random.Generator:
+    """The random draws of entity ``name`` in ``u``'s sampled worlds: the same for every walk imagined under ``u``."""
+    return np.random.default_rng((u.seed, zlib.crc32(name.encode())))
 
 
 def _reach(points: np.ndarray, radius: float) -> Callable[[Circle | Box, float], bool]:

@@ -11,7 +11,8 @@ chosen move by position among its verdicts, so the two cannot disagree.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 from .fields import Fields
@@ -54,7 +55,10 @@ class Verdict:
     ``falls`` holds the first fall of each walk set imagined that is not clear (a move refused in the
     first set is not imagined in the others). ``risk`` is sampled over the sets that are clear: 1.0 when
     the first is not. ``near`` is where a clear move's largest sampled risk lies: the walk set, whose walk,
-    what they may touch and the earliest sampled contact (``None`` when no risk was sampled).
+    what they may touch and the earliest sampled contact (``None`` when no risk was sampled). ``worlds``
+    holds, per walk set imagined, the sampled worlds each person's walk collides in (see
+    :attr:`~agents.caregiving.model.uncertainty.Risk.worlds`; ``None`` where none were sampled): they are
+    compared with the robot's as it is in the process that judged, and are not on the wire.
     """
 
     move: RobotMove | None
@@ -64,6 +68,7 @@ class Verdict:
     reason: str
     falls: tuple[Fall, ...] = ()
     near: Fall | None = None
+    worlds: tuple[Mapping[str, int] | None, ...] = field(default=(), compare=False, repr=False)
 
     def safe(self, threshold: float) -> bool:
         """Clear in every walk set, and the sampled risk under ``threshold``."""
