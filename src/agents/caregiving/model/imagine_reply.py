@@ -68,9 +68,7 @@ def joint_answer(
     if uncertainty is None or not joint.safe_given(falling):
         return Answer(joint=joint)
     risks = walk_risks(scene, joint, uncertainty, falling)
-    return Answer(
-        joint=joint, risk=worst_risk(risks, anyway), worlds={person: r.worlds for person, r in risks.items()}
-    )
+    return Answer(joint=joint, risk=worst_risk(risks, anyway), worlds={person: r.worlds for person, r in risks.items()})
 
 
 @dataclass(frozen=True)
