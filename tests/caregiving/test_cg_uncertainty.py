@@ -49,6 +49,22 @@ def test_seen_or_remembered_obstacles_are_not_a_risk() -> None:
     assert "plant" in looking_up.seen and not looking_up.collided
 
 
+def test_each_sampled_world_is_the_same_whatever_else_is_sampled_beside_it() -> None:
+    """Each entity's draws are its own: a plant sampled near the walk, never touched, leaves the ball's worlds as
+    they were, so two walks past different things can be compared world by world."""
+    scene = load_scenario("paper_experiment1").scene()
+    ball = next(o for o in scene.obstacles if o.name == "ball")
+    grazed = replace(ball, shape=replace(ball.shape, y=ball.shape.y + 0.38))  # passed by a centimetre
+    scene = replace(scene, obstacles=tuple(grazed if o.name == "ball" else o for o in scene.obstacles))
+    im = imagine_person(scene, "person", "couch", GAZE)
+    u = Uncertainty(0.2, {"ball": 0.05, "person": 0.05, "plant": 0.05}, samples=64)
+    alone = collision_risk(scene, im, u)
+    assert 0.0 < alone.probability < 1.0 and alone.worlds.bit_count() == round(alone.probability * 64)
+    plant = replace(ball, name="plant", shape=Box(0.0, -0.55, 0.1, 0.1, 0.0))  # within reach, 20 cm off the walk
+    with_plant = replace(scene, obstacles=(plant, *scene.obstacles))
+    assert collision_risk(with_plant, im, u).worlds == alone.worlds
+
+
 def _ball_next_to_person(gap: float, behind: bool) -> tuple[Scene, Imagination]:
     """The paper's room with the ball moved right behind (or in front of) the person, ``gap`` m clear of them."""
     scene = load_scenario("paper_experiment1").scene()
