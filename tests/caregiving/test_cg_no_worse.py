@@ -30,8 +30,8 @@ def recorded_search() -> tuple[Scene, SearchItem]:
 def _worlds(scene: Scene, item: SearchItem, move: RobotMove | None) -> int:
     """The sampled worlds in which the person falls with ``move`` (None: the robot as it is), in the first walk set."""
     answer = serve_one(scene, item.spec.items(move or item.spec.current, item.uncertainty)[0])
-    assert answer.worlds is not None
-    return answer.worlds["person_4"]
+    assert answer.risks is not None
+    return answer.risks["person_4"].worlds
 
 
 def test_a_stand_off_that_lowers_the_sampled_risk_but_makes_other_worlds_fall_is_refused() -> None:
@@ -42,7 +42,9 @@ def test_a_stand_off_that_lowers_the_sampled_risk_but_makes_other_worlds_fall_is
     found = serve_one(scene, item).search
     assert found is not None and found.chosen is not None
     refused = next(v for v in found.verdicts if v.move == STAND_OFF)
-    assert not refused.clear and "sampled worlds where the robot as it is keeps them clear" in refused.reason
+    assert not refused.clear and refused.falls[0].obstacle == "ball_3"
+    assert refused.reason.startswith("person_4 may walk into ball_3 in ")
+    assert refused.reason.endswith(" of 64 sampled worlds where the robot as it is keeps them clear")
     assert found.chosen.move != STAND_OFF
     chosen = _worlds(scene, item, found.chosen.move)
     assert (chosen & ~idle).bit_count() <= move_choice.MADE_WORSE * item.uncertainty.samples

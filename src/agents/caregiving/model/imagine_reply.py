@@ -48,8 +48,9 @@ class Answer:
     search: SearchResult | None = None  # a "search" item's verdicts and chosen move
     risk: Risk | None = None  # when the item asked for its uncertainty to be sampled
     error: str | None = None  # why the item was not imagined
-    #: A sampled joint item's colliding worlds by person (see :attr:`Risk.worlds`); not on the wire.
-    worlds: Mapping[str, int] | None = field(default=None, compare=False)
+    #: A sampled joint item's risk of each person's walk, by person, with its worlds (see :attr:`Risk.worlds`);
+    #: not on the wire.
+    risks: Mapping[str, Risk] | None = field(default=None, compare=False)
 
 
 def joint_answer(
@@ -68,7 +69,7 @@ def joint_answer(
     if uncertainty is None or not joint.safe_given(falling):
         return Answer(joint=joint)
     risks = walk_risks(scene, joint, uncertainty, falling)
-    return Answer(joint=joint, risk=worst_risk(risks, anyway), worlds={person: r.worlds for person, r in risks.items()})
+    return Answer(joint=joint, risk=worst_risk(risks, anyway), risks=risks)
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ from .joint import JointImagination, WalkOutcome, walk_risks
 from .robot_moves import RobotMove
 from .scene import Scene
 from .search_spec import SearchSpec
-from .uncertainty import NO_RISK, Uncertainty
+from .uncertainty import NO_RISK, Risk, Uncertainty
 from .verdict import Fall, Verdict
 from .world_model import Passing
 
@@ -84,11 +84,11 @@ def judge(
     arrival, risk, worst, refused = None, 0.0, "", ""
     falls: list[Fall] = []
     near: Fall | None = None
-    worlds: list[Mapping[str, int] | None] = []
+    by_person: list[Mapping[str, Risk] | None] = []
     for k, a in enumerate(answers):
         if a.joint is None:
             return Verdict(move, False, 1.0, None, f"not imagined: {a.error}")
-        worlds.append(a.worlds)
+        by_person.append(a.risks)
         if not a.joint.robot_reachable:
             return Verdict(move, False, 1.0, None, "the robot cannot reach the pose")
         arrival = a.joint.robot_arrival if arrival is None else arrival
@@ -121,10 +121,16 @@ def judge(
     if falls:
         # A move refused in the first walk set (the gaze class found risky) was not imagined in the others.
         return Verdict(
-            move, False, 1.0 if falls[0].walk_set == 0 else risk, arrival, refused, tuple(falls), worlds=tuple(worlds)
+            move,
+            False,
+            1.0 if falls[0].walk_set == 0 else risk,
+            arrival,
+            refused,
+            tuple(falls),
+            sampled=tuple(by_person),
         )
     reason = f"everyone imagined walks clear; sampled risk {risk:.2f}" + (f" ({worst})" if risk > 0 else "")
-    return Verdict(move, True, risk, arrival, reason, near=near, worlds=tuple(worlds))
+    return Verdict(move, True, risk, arrival, reason, near=near, sampled=tuple(by_person))
 
 
 def _excused(falling: Mapping[str, str] | SearchSpec | None, joint: JointImagination) -> Mapping[str, str]:

@@ -150,25 +150,24 @@ class NoWorse:
         if not verdict.clear or verdict.risk == 0.0:
             return verdict
         allowed = MADE_WORSE * max(self.uncertainty.samples, 1)
-        for k, worlds in enumerate(verdict.worlds):
-            if not worlds or not any(worlds.values()):
+        for k, sampled in enumerate(verdict.sampled):
+            if not sampled or not any(r.worlds for r in sampled.values()):
                 continue
-            idle = self._idle_in(k).worlds
+            idle = self._idle_in(k).sampled
             as_it_is = idle[0] if idle else None
             if as_it_is is None:
                 continue
-            for person, colliding in worlds.items():
-                worse = (colliding & ~as_it_is.get(person, 0)).bit_count()
+            for person, risk in sampled.items():
+                kept_clear = as_it_is[person].worlds if person in as_it_is else 0
+                worse = (risk.worlds & ~kept_clear).bit_count()
                 if worse > allowed:
-                    near = verdict.near if verdict.near is not None and verdict.near.person == person else None
-                    fall = Fall(k, person, near.obstacle if near else None, near.point if near else None)
                     return replace(
                         verdict,
                         clear=False,
                         risk=1.0 if k == 0 else verdict.risk,
-                        reason=f"{person} walks into something in {worse} of {self.uncertainty.samples} sampled "
-                        "worlds where the robot as it is keeps them clear",
-                        falls=(fall,),
+                        reason=f"{person} may walk into {risk.obstacle} in {worse} of {self.uncertainty.samples} "
+                        "sampled worlds where the robot as it is keeps them clear",
+                        falls=(Fall(k, person, risk.obstacle, risk.point),),
                         near=None,
                     )
         return verdict

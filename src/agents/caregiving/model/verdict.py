@@ -17,6 +17,7 @@ from typing import Any
 
 from .fields import Fields
 from .robot_moves import RobotMove
+from .uncertainty import Risk
 
 
 @dataclass(frozen=True)
@@ -55,9 +56,9 @@ class Verdict:
     ``falls`` holds the first fall of each walk set imagined that is not clear (a move refused in the
     first set is not imagined in the others). ``risk`` is sampled over the sets that are clear: 1.0 when
     the first is not. ``near`` is where a clear move's largest sampled risk lies: the walk set, whose walk,
-    what they may touch and the earliest sampled contact (``None`` when no risk was sampled). ``worlds``
-    holds, per walk set imagined, the sampled worlds each person's walk collides in (see
-    :attr:`~agents.caregiving.model.uncertainty.Risk.worlds`; ``None`` where none were sampled): they are
+    what they may touch and the earliest sampled contact (``None`` when no risk was sampled). ``sampled``
+    holds, per walk set imagined, each person's sampled risk with the worlds their walk collides in (see
+    :attr:`~agents.caregiving.model.uncertainty.Risk.worlds`; ``None`` where none was sampled): they are
     compared with the robot's as it is in the process that judged, and are not on the wire.
     """
 
@@ -68,7 +69,7 @@ class Verdict:
     reason: str
     falls: tuple[Fall, ...] = ()
     near: Fall | None = None
-    worlds: tuple[Mapping[str, int] | None, ...] = field(default=(), compare=False, repr=False)
+    sampled: tuple[Mapping[str, Risk] | None, ...] = field(default=(), compare=False, repr=False)
 
     def safe(self, threshold: float) -> bool:
         """Clear in every walk set, and the sampled risk under ``threshold``."""
