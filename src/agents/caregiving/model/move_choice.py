@@ -151,8 +151,8 @@ class NoWorse:
             return verdict
         allowed = MADE_WORSE * max(self.uncertainty.samples, 1)
         for k, sampled in enumerate(verdict.sampled):
-            if not sampled or not any(r.worlds for r in sampled.values()):
-                continue
+            if not sampled or all(r.worlds.bit_count() <= allowed for r in sampled.values()):
+                continue  # too few falls to be worse in too many worlds: the robot as it is need not be imagined
             idle = self._idle_in(k).sampled
             as_it_is = idle[0] if idle else None
             if as_it_is is None:
