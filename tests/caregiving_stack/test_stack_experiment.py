@@ -91,3 +91,35 @@ def test_short_experiment_writes_table_json_and_figures(tmp_path: Path) -> None:
     again = experiment("--only", "0", "--logs", str(logs))
     assert again.returncode == 0, again.stderr[-3000:]
     assert (logs / "world.log").read_text().count("launch: starting") == 2
+
+
+def test_a_stand_off_that_walks_her_into_the_ball_where_the_idle_robot_keeps_her_clear_is_never_sent(
+    tmp_path: Path,
+) -> None:
+    """The paper's room at seed 12011, trial 21, in real time: she passes the ball by 2.2 cm with the robot idle
+    and is flagged. The stand-off sent before lowered her sampled risk, but in worlds of its own she walked round
+    the robot into the ball, and in the truth she did, in every run. It is refused for those worlds, a move is
+    still sent, and nobody falls."""
+    out, logs = tmp_path / "out.json", tmp_path / "logs"
+    done = subprocess.run(
+        [*WM, "experiment", "paper_experiment1", "--seed", "12011", "--rate", "1", "--only", "21"]
+        + ["--json", str(out), "--logs", str(logs), "--record-searches"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=240,
+        cwd=REPO,
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    result = json.loads(out.read_text())
+    trial = result["per_trial"][0]
+    assert trial["index"] == 21 and not trial["truly_risky"] and trial["predicted"] and trial["acted"]
+    assert not trial["collided"] and result["robot_caused_collisions"] == 0
+    verdicts = [
+        v
+        for batch in read_batches(logs / "searches")
+        for answer in batch.reply.results
+        if answer.search is not None
+        for v in answer.search.verdicts
+    ]
+    assert any(v.reason.endswith("sampled worlds where the robot as it is keeps them clear") for v in verdicts)
