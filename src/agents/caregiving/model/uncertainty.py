@@ -35,6 +35,7 @@ import math
 import zlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
@@ -90,7 +91,7 @@ def collision_risk(scene: Scene, im: Imagination, u: Uncertainty, dt: float = DT
     length = polyline_length(np.asarray(im.path))
     walked = times * person.speed
     fade = 1.0 - np.clip(walked / max(length, 1e-9), 0.0, 1.0)
-    shift = _draws(u, im.person).normal(0.0, u.sigma.get(im.person, 0.0), (n, 2))
+    shift = _shift(u.seed, im.person, n, u.sigma.get(im.person, 0.0))
     walkers = points[None, :, :] + shift[:, None, :] * fade[None, :, None]  # (n, steps, 2)
     first = np.full(n, len(times))
     hit = np.full(n, -1)
@@ -99,9 +100,11 @@ def collision_risk(scene: Scene, im: Imagination, u: Uncertainty, dt: float = DT
         if reach(o.shape, TAIL * u.sigma.get(o.name, 0.0) + bounding_radius(o.shape) / (1 - u.size_error)):
             continue  # no sampled world brings this obstacle within reach of the walk
         exact = o.kind == ROBOT_KIND
-        rng = _draws(u, o.name)
-        scale = np.ones(n) if exact else 1.0 / rng.uniform(1 - u.size_error, 1 + u.size_error, n)
-        offset = np.zeros((n, 2)) if exact else rng.normal(0.0, u.sigma.get(o.name, 0.0), (n, 2))
+        scale, offset = (
+            (np.ones(n), np.zeros((n, 2)))
+            if exact
+            else _resized(u.seed, o.name, n, u.sigma.get(o.name, 0.0), u.size_error)
+        )
         clear = _clearances(o.shape, walkers, offset, scale) - person.radius  # (n, steps)
         touching = contacts(clear)
         idx = np.where(touching.any(axis=1), touching.argmax(axis=1), len(times))
@@ -120,9 +123,27 @@ def collision_risk(scene: Scene, im: Imagination, u: Uncertainty, dt: float = DT
     )
 
 
-def _draws(u: Uncertainty, name: str) -> np.random.Generator:
-    """The random draws of entity ``name`` in ``u``'s sampled worlds: the same for every walk imagined under ``u``."""
-    return np.random.default_rng((u.seed, zlib.crc32(name.encode())))
+def _draws(seed: int, name: str) -> np.random.Generator:
+    """The random draws of entity ``name`` in the sampled worlds of ``seed``: the same for every walk imagined."""
+    return np.random.default_rng((seed, zlib.crc32(name.encode())))
+
+
+@lru_cache(maxsize=1024)
+def _shift(seed: int, name: str, n: int, sigma: float) -> np.ndarray:
+    """Person ``name``'s displacement in each of ``n`` worlds (read-only: one array serves every walk of theirs)."""
+    shift = _draws(seed, name).normal(0.0, sigma, (n, 2))
+    shift.flags.writeable = False
+    return shift
+
+
+@lru_cache(maxsize=1024)
+def _resized(seed: int, name: str, n: int, sigma: float, size_error: float) -> tuple[np.ndarray, np.ndarray]:
+    """Object ``name``'s scale and displacement in each of ``n`` worlds (read-only, as :func:`_shift`)."""
+    rng = _draws(seed, name)
+    scale = 1.0 / rng.uniform(1 - size_error, 1 + size_error, n)
+    offset = rng.normal(0.0, sigma, (n, 2))
+    scale.flags.writeable = offset.flags.writeable = False
+    return scale, offset
 
 
 def _reach(points: np.ndarray, radius: float) -> Callable[[Circle | Box, float], bool]:
