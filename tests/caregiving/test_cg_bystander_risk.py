@@ -5,7 +5,7 @@ from functools import partial
 
 from recorded_cases import DELAY, HELD_OUT, JUDGING, THRESHOLD, recorded_case
 
-from agents.caregiving.model.joint import joint_risk, walk_risks
+from agents.caregiving.model.joint import walk_risks, worst_risk
 from agents.caregiving.model.judging import as_it_is, judge_move
 from agents.caregiving.model.move_search import search
 from agents.caregiving.model.service import serve_one
@@ -47,9 +47,10 @@ def test_a_walks_risk_counts_only_above_its_risk_with_the_robot_as_it_is() -> No
     joint = serve_one(scene, item).joint
     assert joint is not None
     falling = spec.letting_dangers_fall().falling
-    ben = walk_risks(scene, joint, uncertainty, falling)["ben"].probability
+    risks = walk_risks(scene, joint, uncertainty, falling)
+    ben = risks["ben"].probability
     assert ben > 0.0
 
-    assert joint_risk(scene, joint, uncertainty, falling).person == "ben"
-    assert joint_risk(scene, joint, uncertainty, falling, {"ben": ben}).probability < ben
-    assert joint_risk(scene, joint, uncertainty, falling, {"ben": ben / 2}).person == "ben"
+    assert worst_risk(risks).person == "ben"
+    assert worst_risk(risks, {"ben": ben}).probability < ben
+    assert worst_risk(risks, {"ben": ben / 2}).person == "ben"

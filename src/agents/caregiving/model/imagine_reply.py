@@ -64,7 +64,7 @@ def joint_answer(
 
     A move whose nominal imagination already fails (for a fall ``falling`` does not name) is refused whatever
     the sampled risk: none is sampled. ``anyway`` holds bystanders' sampled risks with the robot as it is,
-    which the risk leaves out where the move does not raise them (see :func:`~agents.caregiving.model.joint.joint_risk`).
+    which the risk leaves out where the move does not raise them (see :func:`~agents.caregiving.model.joint.worst_risk`).
     """
     if uncertainty is None or not joint.safe_given(falling):
         return Answer(joint=joint)

@@ -208,25 +208,13 @@ def walk_risks(scene: Scene, joint: JointImagination, u: Uncertainty, falling: C
     }
 
 
-def joint_risk(
-    scene: Scene,
-    joint: JointImagination,
-    u: Uncertainty,
-    falling: Collection[str] = (),
-    anyway: Mapping[str, float] | None = None,
-) -> Risk:
-    """The likeliest collision over the sampled worlds, worst walk first, leaving out the people ``falling`` anyway;
-    it names whose walk it is.
+def worst_risk(risks: Mapping[str, Risk], anyway: Mapping[str, float] | None = None) -> Risk:
+    """The likeliest collision over the sampled worlds among the walks' ``risks`` (``{person: risk}``, as
+    :func:`walk_risks` gives them); it names whose walk it is.
 
     ``anyway`` holds bystanders' sampled risks with the robot as it is (``{person: probability}``): a walk whose
-    risk is no higher than that is left out too, a risk the robot does not bring.
+    risk is no higher than that is left out, a risk the robot does not bring.
     """
-    return worst_risk(walk_risks(scene, joint, u, falling), anyway)
-
-
-def worst_risk(risks: Mapping[str, Risk], anyway: Mapping[str, float] | None = None) -> Risk:
-    """The largest of the walks' ``risks`` (``{person: risk}``), leaving out those no higher than ``anyway``'s
-    (see :func:`joint_risk`)."""
     anyway = anyway or {}
     raised = [r for person, r in risks.items() if person not in anyway or r.probability > anyway[person]]
     return max(raised, key=lambda r: r.probability, default=NO_RISK)
