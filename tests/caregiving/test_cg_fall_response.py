@@ -21,15 +21,20 @@ from agents.caregiving.names import ALERT, GO_TO, HAS, HAS_INTENTION, INTENTION,
 from agents.caregiving.robot_intentions import move_of, move_under_way
 
 
-def w() -> tuple[wm.Graph, Context]:
-    """A replica of the paper room with its person lying where they fell, and a context on it at 2 s."""
-    scene = replace(load_scenario("paper_experiment1").scene(), time=2.0)
+def w(
+    scenario: str | Path = "paper_experiment1", lying: frozenset[str] = frozenset({"person"})
+) -> tuple[wm.Graph, Context]:
+    """A replica of ``scenario``'s room with the people ``lying`` where they fell, and a context on it at 2 s."""
+    scene = replace(load_scenario(scenario).scene(), time=2.0)
     g = wm.Graph()
-    ids = {p.name: g.insert_node(PERSON, p.name, {"fallen": True, "fallen_at": 1.85}) for p in scene.people}
+    ids = {
+        p.name: g.insert_node(PERSON, p.name, {"fallen": True, "fallen_at": 1.85} if p.name in lying else {})
+        for p in scene.people
+    }
     ids |= {o.name: g.insert_node(OBJECT, o.name) for o in scene.obstacles if o.kind != "wall"}
     assert scene.robot is not None
     ids[scene.robot.name] = g.insert_node(ROBOT, scene.robot.name)
-    return g, Context(scene, 3, ids, {}, {}, 0.0, frozenset({"person"}))
+    return g, Context(scene, 3, ids, {}, {}, 0.0, lying)
 
 
 def test_an_alert_names_who_fell_and_when_and_is_no_move() -> None:
@@ -74,14 +79,9 @@ def test_a_risky_walk_keeps_the_robot_from_going_unless_it_is_of_someone_fallen(
 def test_a_move_to_someone_fallen_imagines_whoever_is_up_setting_off_though_nothing_is_guessed_of_them() -> None:
     """Two people: one lying there, one standing with no walk guessed (or tracked too briefly to tell). The spec
     a move to the fallen is judged with imagines the one standing on the walks ahead of them, not standing still."""
-    scene = load_scenario(Path(__file__).parents[1] / "caregiving_stack" / "scenarios" / "one_falls_one_walks_on.yaml")
-    scene_now = replace(scene.scene(), time=2.0)
-    g = wm.Graph()
-    ids = {p.name: g.insert_node(PERSON, p.name) for p in scene_now.people}
-    ids |= {o.name: g.insert_node(OBJECT, o.name) for o in scene_now.obstacles if o.kind != "wall"}
-    assert scene_now.robot is not None
-    ids[scene_now.robot.name] = g.insert_node(ROBOT, scene_now.robot.name)
-    ctx = Context(scene_now, 3, ids, {}, {}, 0.0, frozenset({"ana"}))
+    g, ctx = w(
+        Path(__file__).parents[1] / "caregiving_stack" / "scenarios" / "one_falls_one_walks_on.yaml", frozenset({"ana"})
+    )
     spec = going_spec(g, ctx)
     assert spec.dangers == () and spec.bystanders and {w.person for w in spec.bystanders} == {"ben"}
-    assert {w.target for w in spec.bystanders} <= {o.name for o in scene_now.obstacles if o.target}
+    assert {w.target for w in spec.bystanders} <= {o.name for o in ctx.scene.obstacles if o.target}
