@@ -54,3 +54,30 @@ def test_a_walks_risk_counts_only_above_its_risk_with_the_robot_as_it_is() -> No
     assert worst_risk(risks).person == "ben"
     assert worst_risk(risks, {"ben": ben}).probability < ben
     assert worst_risk(risks, {"ben": ben / 2}).person == "ben"
+
+
+def test_a_bystanders_other_walk_is_told_its_risk_with_the_robot_as_it_is_too() -> None:
+    """Two people heading for two obstacles at seed 24007, trial 1: a person walks towards a ball while a visitor
+    heads for the door, and perception leaves it open that the visitor heads for the couch instead.
+
+    On the walk to the couch the visitor may walk into the shoe whatever the robot does. That walk is imagined
+    in a walk set of its own; told only what befalls the likeliest walks with the robot as it is, the search
+    let the visitor's risk there refuse every move and found none. Told that walk's risk too, it sends the
+    first stand-off, which saves the person in the ground truth.
+    """
+    at = 0.55
+    trial, planner, scene, spec = recorded_case("two_people_two_obstacles", 24007, 1, at)
+    uncertainty = perception_uncertainty(scene, trial.sensors, at, 0)
+    imagine = partial(serve_one, scene)
+    visitor = spec.bystanders[0]
+    spec = replace(spec, bystanders=(visitor, replace(visitor, target="couch")))
+
+    told = as_it_is(spec, imagine, scene, uncertainty)
+    assert [(w.target, risk > 0.0) for w, risk in told.risks_anyway] == [("couch", True)]
+
+    result = search(scene, spec, imagine, uncertainty, THRESHOLD, 32, judging=JUDGING, head_start=lambda lead: None)
+    assert result.chosen is result.verdicts[0] and result.chosen.safe(THRESHOLD)
+    assert saved_in_truth(trial, at, planner, DELAY, JUDGING, result)
+
+    untold = judge_move(spec, result.chosen.move, imagine, uncertainty, scene.robot_name)
+    assert not untold.clear and untold.reason.startswith("visitor, a bystander, may walk into shoe")

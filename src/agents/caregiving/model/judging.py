@@ -24,7 +24,7 @@ from .scene import Scene
 from .search_spec import SearchSpec
 from .uncertainty import NO_RISK, Risk, Uncertainty
 from .verdict import Fall, Verdict
-from .world_model import Passing
+from .world_model import Passing, Walk
 
 #: Sigmas of perception's error in a person's position that the robot keeps clear of them when they cannot
 #: keep clear of it themselves (see :class:`RobotMargin`).
@@ -142,32 +142,37 @@ def _excused(falling: Mapping[str, str] | SearchSpec | None, joint: JointImagina
 
 def as_it_is(spec: SearchSpec, imagine: Imagine, scene: Scene, uncertainty: Uncertainty) -> SearchSpec:
     """``spec`` told what befalls the bystanders with the robot as it is, the dangers' and ``falling``'s own falls
-    let happen, in the first walk set: each one's walk and what they walk into on it (``falls_anyway``), and
-    the others' sampled risks under ``uncertainty`` (``risks_anyway``, those over zero).
+    let happen: on each walk a bystander may be on, what they walk into (``falls_anyway``), or else their
+    sampled risk under ``uncertainty`` (``risks_anyway``, those over zero).
 
     Such a fall happens whatever the robot does, so it must not refuse every move that saves someone else,
     and such a risk refuses only a move that raises it. Walking into the robot is not among the falls: that
-    one the robot can undo by moving.
+    one the robot can undo by moving. The first walk set tells each bystander's likeliest walk; each walk set
+    that brings a bystander's other walk is imagined for that walk.
     """
     if not spec.bystanders:
         return spec
     let_fall = spec.letting_dangers_fall()
-    joint = imagine(replace(let_fall.items(spec.current, None)[0], until_first_fall=False)).joint
-    if joint is None:
-        return spec
     bystanders = {w.person for w in spec.bystanders} - set(let_fall.falling)
-    falls = tuple(
-        (w.walk, w.collision_object)
-        for w in joint.walks
-        if w.collision_object is not None and w.walk.person in bystanders and w.collision_object != scene.robot_name
-    )
-    walking = {w.walk.person: w.walk for w in joint.walks if w.walk.person in bystanders and not w.collided}
-    risks = walk_risks(scene, joint, uncertainty, {w.walk.person for w in joint.walks} - set(walking))
-    return replace(
-        spec,
-        falls_anyway=falls,
-        risks_anyway=tuple((walking[p], r.probability) for p, r in risks.items() if r.probability > 0.0),
-    )
+    told: set[Walk] = set()
+    falls: list[tuple[Walk, str]] = []
+    risks: list[tuple[Walk, float]] = []
+    for item in let_fall.items(spec.current, None):
+        new = {w for w in item.walks if w.person in bystanders} - told
+        joint = imagine(replace(item, until_first_fall=False)).joint if new else None
+        if joint is None:
+            continue
+        told |= new
+        outcomes = [w for w in joint.walks if w.walk in new]
+        falls += [
+            (w.walk, w.collision_object)
+            for w in outcomes
+            if w.collision_object is not None and w.collision_object != scene.robot_name
+        ]
+        walking = {w.walk.person: w.walk for w in outcomes if not w.collided}
+        sampled = walk_risks(scene, joint, uncertainty, {w.walk.person for w in joint.walks} - set(walking))
+        risks += [(walking[p], r.probability) for p, r in sampled.items() if r.probability > 0.0]
+    return replace(spec, falls_anyway=tuple(falls), risks_anyway=tuple(risks))
 
 
 def judge_move(
