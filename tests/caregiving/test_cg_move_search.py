@@ -14,6 +14,7 @@ from agents.caregiving.model.guesses import unguessed_walks
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.imagine_reply import Answer, decode_answer, encode_answer
 from agents.caregiving.model.imagine_request import JointItem, uncertainty_to_wire
+from agents.caregiving.model.joint import worst_risk
 from agents.caregiving.model.judging import as_it_is, judge, judge_move
 from agents.caregiving.model.move_choice import NoWorse, Settles, choose, gives_up, holds, replaces
 from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES, search
@@ -163,15 +164,19 @@ def test_a_bystanders_sampled_risk_refuses_a_move_the_endangered_persons_does_no
     answer = serve_one(scene, spec.items(front, UNCERTAINTY)[0])
     assert answer.risk is not None and answer.risk.person == "person"  # a joint risk names whose walk it is
 
-    def with_risk_of(person: str) -> Answer:
-        return replace(answer, risk=Risk(0.14, 2.0, (1.0, 0.5), "footstool", person))
+    def with_risks(**of: float) -> Answer:
+        risks = {person: Risk(p, 2.0, (1.0, 0.5), "footstool", person) for person, p in of.items()}
+        return replace(answer, risk=worst_risk(risks), risks=risks)
 
-    own = judge(front, [with_risk_of("person")], spec)
+    own = judge(front, [with_risks(person=0.14)], spec)
     assert own.clear and own.risk == pytest.approx(0.14) and own.safe(0.2)  # the endangered person's: kept
-    brought = judge(front, [with_risk_of("ada")], spec)
+    brought = judge(front, [with_risks(ada=0.14)], spec)
     assert not brought.clear and brought.falls == (Fall(0, "ada", "footstool", (1.0, 0.5)),)
     assert brought.reason == "ada, a bystander, may walk into footstool (sampled risk 0.14)"
-    assert judge(front, [with_risk_of("ada")]).clear  # without a spec there are no dangers to tell her from
+    assert judge(front, [with_risks(ada=0.14)]).clear  # without a spec there are no dangers to tell her from
+    # A bystander's risk below the endangered person's is brought all the same.
+    below = judge(front, [with_risks(person=0.3, ada=0.05)], spec)
+    assert not below.clear and below.reason == "ada, a bystander, may walk into footstool (sampled risk 0.05)"
 
 
 def ball_verdict(clear: bool, risk: float, fall_in: int | None = None, into: str | None = "ball") -> Verdict:

@@ -208,16 +208,17 @@ def walk_risks(scene: Scene, joint: JointImagination, u: Uncertainty, falling: C
     }
 
 
-def worst_risk(risks: Mapping[str, Risk], anyway: Mapping[str, float] | None = None) -> Risk:
-    """The likeliest collision over the sampled worlds among the walks' ``risks`` (``{person: risk}``, as
-    :func:`walk_risks` gives them); it names whose walk it is.
-
-    ``anyway`` holds bystanders' sampled risks with the robot as it is (``{person: probability}``): a walk whose
-    risk is no higher than that is left out, a risk the robot does not bring.
-    """
+def raised_risks(risks: Mapping[str, Risk], anyway: Mapping[str, float] | None = None) -> list[Risk]:
+    """The walks' ``risks`` (``{person: risk}``, as :func:`walk_risks` gives them) that the robot brings: all but
+    those no higher than ``anyway``, the bystanders' sampled risks with the robot as it is
+    (``{person: probability}``)."""
     anyway = anyway or {}
-    raised = [r for person, r in risks.items() if person not in anyway or r.probability > anyway[person]]
-    return max(raised, key=lambda r: r.probability, default=NO_RISK)
+    return [r for person, r in risks.items() if person not in anyway or r.probability > anyway[person]]
+
+
+def worst_risk(risks: Mapping[str, Risk], anyway: Mapping[str, float] | None = None) -> Risk:
+    """The likeliest collision over the sampled worlds among the :func:`raised_risks`; it names whose walk it is."""
+    return max(raised_risks(risks, anyway), key=lambda r: r.probability, default=NO_RISK)
 
 
 def walk_from_fields(f: Fields) -> Walk:

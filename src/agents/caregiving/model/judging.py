@@ -18,7 +18,7 @@ from functools import partial
 
 from .imagine_reply import Answer, joint_answer
 from .imagine_request import JointItem
-from .joint import JointImagination, WalkOutcome, walk_risks
+from .joint import JointImagination, WalkOutcome, raised_risks, walk_risks
 from .robot_moves import RobotMove
 from .scene import Scene
 from .search_spec import SearchSpec
@@ -75,12 +75,11 @@ def judge(
 
     A fall that ``falling`` names (``{bystander: object}``, or a spec's :meth:`SearchSpec.falling_in` the
     answer's walks) does not refuse the move. With ``margin``, a walk that passes the robot closer than it
-    allows refuses the move as a fall into the robot. Given a spec, a sampled risk that is a bystander's
-    (someone none of its dangers is about) refuses the move as a fall of theirs: the risk a move may keep is
-    the endangered person's, and a bystander's is one it may bring. (Whether the robot as it is brings them
-    as much is not asked: the largest sampled risk of a walk set is all an answer holds.)
+    allows refuses the move as a fall into the robot. Given a spec, a bystander's sampled risk (someone none of
+    its dangers is about) above their risk with the robot as it is refuses the move as a fall of theirs (see
+    :func:`_bystanders_risk`): the risk a move may keep is the endangered person's, and a bystander's is one
+    it may bring.
     """
-    endangered = {d.person for d in falling.dangers} if isinstance(falling, SearchSpec) else None
     arrival, risk, worst, refused = None, 0.0, "", ""
     falls: list[Fall] = []
     near: Fall | None = None
@@ -107,13 +106,14 @@ def judge(
                 or f"{close.walk.person} passes {gap} from the robot at gaze {math.degrees(close.walk.gaze):.0f} deg"
             )
             continue
-        sampled = a.risk or NO_RISK
-        if endangered is not None and sampled.probability > 0.0 and sampled.person not in (None, *endangered):
-            falls.append(Fall(k, str(sampled.person), sampled.obstacle, sampled.point))
+        brought = _bystanders_risk(a, falling) if isinstance(falling, SearchSpec) else None
+        if brought is not None:
+            falls.append(Fall(k, str(brought.person), brought.obstacle, brought.point))
             refused = refused or (
-                f"{sampled.person}, a bystander, may walk into {sampled.obstacle} (sampled risk {sampled.probability:.2f})"
+                f"{brought.person}, a bystander, may walk into {brought.obstacle} (sampled risk {brought.probability:.2f})"
             )
             continue
+        sampled = a.risk or NO_RISK
         if sampled.probability >= risk:
             risk, worst = sampled.probability, sampled.obstacle or ""
             touching = sampled.probability > 0.0 and sampled.person is not None
@@ -131,6 +131,24 @@ def judge(
         )
     reason = f"everyone imagined walks clear; sampled risk {risk:.2f}" + (f" ({worst})" if risk > 0 else "")
     return Verdict(move, True, risk, arrival, reason, near=near, sampled=tuple(by_person))
+
+
+def _bystanders_risk(answer: Answer, spec: SearchSpec) -> Risk | None:
+    """The likeliest sampled risk in ``answer`` that the move brings a bystander (someone none of ``spec``'s dangers
+    is about), above their risk with the robot as it is; None if it brings none.
+
+    Every walk's risk is looked at, not only the answer's worst: a bystander's risk below the endangered
+    person's is brought all the same.
+    """
+    assert answer.joint is not None
+    endangered = {d.person for d in spec.dangers}
+    anyway = spec.anyway_in(w.walk for w in answer.joint.walks)
+    brought = [
+        r
+        for r in raised_risks(answer.risks or {}, anyway)
+        if r.probability > 0.0 and r.person not in (None, *endangered)
+    ]
+    return max(brought, key=lambda r: r.probability, default=None)
 
 
 def _excused(falling: Mapping[str, str] | SearchSpec | None, joint: JointImagination) -> Mapping[str, str]:
