@@ -11,12 +11,15 @@ from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import item_from_wire, serve_one
 
+DATA = Path(__file__).parent / "data"
 #: A search recorded live: crossing hall, seed 8521, trial 3, 5.0 s into the trial, on perception's belief.
-RECORDED = Path(__file__).parent / "data" / "crossing_hall_s8521_trial3_search.json"
+RECORDED = DATA / "crossing_hall_s8521_trial3_search.json"
+#: The search for a pose beside someone fallen, recorded live: crossing hall, seed 24007, trial 5, at 5.65 s.
+GOING_TO = DATA / "crossing_hall_s24007_trial5_going_to.json"
 
 
-def recorded_search() -> tuple[Scene, SearchItem]:
-    data = json.loads(RECORDED.read_text())
+def recorded_search(path: Path = RECORDED) -> tuple[Scene, SearchItem]:
+    data = json.loads(path.read_text())
     item = item_from_wire(data["item"])
     assert isinstance(item, SearchItem)
     return Scene.from_wire(data["scene"]), item
@@ -49,3 +52,19 @@ def test_a_fall_let_happen_that_goes_deeper_than_perceptions_error_is_not_imagin
     refused = judge_move(item.spec, cabinet, imagine, item.uncertainty, scene.robot_name)
     assert refused.reason == "person_12 walks into robot where person_12 just misses backpack_10"
     assert judge_move(item.spec, cabinet, imagine, sure, scene.robot_name).clear_where_found
+
+
+def test_a_move_to_someone_fallen_is_not_sent_into_the_way_of_a_walker_believed_to_touch_them() -> None:
+    """Ana (person_35) has fallen; Ben (person_36) walks on north to the cabinet, beside her. On the belief their
+    discs overlap by a centimetre, so his first step touches her, a fall that happens with the robot as it is
+    too; in the truth he passes her. The first pose beside her stands on his way: imagined just missing her, he
+    walks into the robot there (live, he did, 2 s later), so it is refused, and the pose behind him is taken."""
+    scene, item = recorded_search(GOING_TO)
+    assert not item.spec.dangers and [w.person for w in item.spec.bystanders] == ["person_36"]
+    found = serve_one(scene, item).search
+    assert found is not None and len(found.verdicts) == 2
+    in_his_way, behind_him = found.verdicts
+    assert in_his_way.reason == "person_36 walks into robot where person_36 just misses person_35"
+    assert (
+        found.chosen is behind_him and behind_him.move is not None and behind_him.move.y < scene.person("person_36").y
+    )

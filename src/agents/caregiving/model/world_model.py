@@ -286,11 +286,12 @@ class World:
 
     def passed_clearance(self, person: str) -> float | None:
         """How close ``person``, passing what they are believed to walk into, came to it (negative: how deep they
-        went through it); None when they pass nothing, or something that moves."""
+        went through it); None when they pass nothing, or something that moves (an object or a person standing,
+        fallen ones too, does not)."""
         passed = self._passing.get(person)
         if passed is None:
             return None
-        body = next((o for o in self._static if o.name == passed.obstacle), None)
+        body = next((o for o in (*self._static, *self._standing_bodies) if o.name == passed.obstacle), None)
         if body is None:
             return None
         w = self.walker(person)
