@@ -177,6 +177,8 @@ def test_a_bystanders_sampled_risk_refuses_a_move_the_endangered_persons_does_no
     # A bystander's risk below the endangered person's is brought all the same.
     below = judge(front, [with_risks(person=0.3, ada=0.05)], spec)
     assert not below.clear and below.reason == "ada, a bystander, may walk into footstool (sampled risk 0.05)"
+    # Read off the wire, an answer holds its worst risk alone, and that one is looked at.
+    assert not judge(front, [replace(with_risks(ada=0.14), risks=None)], spec).clear
 
 
 def ball_verdict(clear: bool, risk: float, fall_in: int | None = None, into: str | None = "ball") -> Verdict:

@@ -138,16 +138,15 @@ def _bystanders_risk(answer: Answer, spec: SearchSpec) -> Risk | None:
     is about), above their risk with the robot as it is; None if it brings none.
 
     Every walk's risk is looked at, not only the answer's worst: a bystander's risk below the endangered
-    person's is brought all the same.
+    person's is brought all the same. An answer read off the wire holds its worst alone (its ``risks`` are not
+    sent), and that one is looked at.
     """
     assert answer.joint is not None
     endangered = {d.person for d in spec.dangers}
     anyway = spec.anyway_in(w.walk for w in answer.joint.walks)
-    brought = [
-        r
-        for r in raised_risks(answer.risks or {}, anyway)
-        if r.probability > 0.0 and r.person not in (None, *endangered)
-    ]
+    worst = {answer.risk.person: answer.risk} if answer.risk is not None and answer.risk.person is not None else {}
+    risks = answer.risks if answer.risks is not None else worst
+    brought = [r for r in raised_risks(risks, anyway) if r.probability > 0.0 and r.person not in (None, *endangered)]
     return max(brought, key=lambda r: r.probability, default=None)
 
 
