@@ -7,7 +7,8 @@ it if they are seen standing again (:mod:`agents.caregiving.fall_response`). It 
 them: a ``go_to`` the nearest pose beside them that harms nobody still walking, judged by the simulator as
 Algorithm 2's moves are (:mod:`agents.caregiving.model.go_to`), everyone else imagined on the walks they may
 be on, or may set off on (:func:`~agents.caregiving.fall_response.going_spec`). With nobody else up, there
-is nobody to harm, and the nearest pose is taken.
+is nobody to harm, and the nearest pose is taken. As the action agent's, a move is held until the moment its
+search imagined it setting off (:mod:`agents.caregiving.set_off`).
 
 Preventing a fall comes first. While any move is under way, or Algorithm 1 holds a risky walk of someone
 not fallen, the robot is left where it is: the action agent judges a ``go_to`` under way as it judges its
@@ -105,6 +106,7 @@ class Assist(Agent):
         person = waiting[0].name
         moves = moves_beside(ctx.scene, person, GAP)
         spec = going_spec(self.g, ctx, walking(self.args))
+        sets_off = None
         if not moves:
             move, why = None, "no pose beside them where the robot fits"
         elif not spec.bystanders:
@@ -115,10 +117,13 @@ class Assist(Agent):
             move = chosen.move if chosen is not None else None
             refused = sorted({v.reason for v in found.verdicts})[:3] if found is not None else ["search refused"]
             why = chosen.reason if chosen is not None else "; ".join(refused)
+            sets_off = found.sets_off if found is not None else None
         self.tried[waiting[0].id] = ctx.scene.time  # a pose the world then refuses is not sent again at once
         if move is None:
             self.log.info("no harmless pose beside them yet", person=person, why=why[:300])
             return
+        # Judged setting off later than its search ended, the move could cut across someone walking if sent at once.
+        await self.set_off.hold(self.g, ctx.scene.time, sets_off, self.log)
         if self._busy() or not self._current(ctx):
             return  # a danger, or a move against it, came meanwhile; or the trial ended
         write_go_to(self.g, ctx, person, move, why, str(next(self.names)))
