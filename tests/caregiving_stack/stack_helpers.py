@@ -20,6 +20,13 @@ def stack(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Stack]:
         yield s
 
 
+def recording_stack(factory: pytest.TempPathFactory, scenario: str, rate: float) -> Iterator[Stack]:
+    """A stack of ``scenario`` at ``rate`` that records its searches under its logs, stopped by PID at the end."""
+    logs = factory.mktemp("recording-stack-logs")
+    with Stack(GRAPH, scenario, logs, rate=rate, record=logs / "searches") as s:
+        yield s
+
+
 def run_trial(stack: Stack, scenario: str, seed: int = 0, index: int | None = None) -> TrialRecord:
     """Run one trial of ``scenario`` on the stack and return what W showed and what happened."""
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import pytest
-from stack_helpers import GRAPH, run_trial
+from stack_helpers import recording_stack, run_trial
 
 from agents.caregiving.model.recorded_batch import RecordedBatch, read_batches
 from agents.caregiving.model.rollout import DT
@@ -21,9 +21,7 @@ SCENARIO, SEED, INDEX = "two_people_two_obstacles", 31337, 4
 
 @pytest.fixture(scope="module")
 def stack(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Stack]:
-    logs = tmp_path_factory.mktemp("assist-logs")
-    with Stack(GRAPH, SCENARIO, logs, rate=1.0, record=logs / "searches") as s:
-        yield s
+    yield from recording_stack(tmp_path_factory, SCENARIO, 1.0)
 
 
 def test_a_move_to_someone_fallen_sets_off_no_sooner_than_its_search_imagined(stack: Stack) -> None:

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from stack_helpers import GRAPH, run_trial
+from stack_helpers import GRAPH, recording_stack, run_trial
 
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.recorded_batch import read_batches
@@ -39,9 +39,7 @@ SEED, SAVEABLE, UNSAVEABLE = 7, 25, (5, 42)
 
 @pytest.fixture(scope="module")
 def stack(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Stack]:
-    logs = tmp_path_factory.mktemp("prevention-logs")
-    with Stack(GRAPH, SCENARIO, logs, rate=0.5, record=logs / "searches") as s:
-        yield s
+    yield from recording_stack(tmp_path_factory, SCENARIO, 0.5)
 
 
 def test_a_saveable_trial_is_saved(stack: Stack) -> None:
