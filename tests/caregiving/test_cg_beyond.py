@@ -10,6 +10,7 @@ from recorded_cases import DELAY, EXACT, HELD_OUT, JUDGING, THRESHOLD, recorded_
 
 from agents.caregiving.model.candidates import (
     BEYOND_ROWS,
+    COVER_SHIFT,
     LATERAL,
     SPACING,
     Danger,
@@ -18,6 +19,7 @@ from agents.caregiving.model.candidates import (
     covers_farther_back,
     crossing_time,
     crossings,
+    obstacle_side,
     ordered_moves,
     standoffs,
 )
@@ -45,11 +47,12 @@ def test_poses_past_the_obstacle_stand_on_and_beside_the_persons_way_beyond_the_
     assert beyond_poses(scene, Danger("person", "couch", path[:1], (1.5, 0.12), "ball", 2.0)) == []
 
 
-def test_a_drive_towards_the_persons_way_past_the_obstacle_saves_them() -> None:
-    """The ward at seed 11, trial 9: no stand-off, path pose or crossing to a stand-off saves the patient.
+def test_a_drive_that_crosses_the_persons_way_saves_them() -> None:
+    """The ward at seed 11, trial 9: no stand-off of the footstool, cover or path pose saves the patient.
 
-    The robot's drive towards a pose past the footstool on their way puts it in their way while they are
-    still far from the footstool; they plan their walk anew round it, and the new walk clears the footstool.
+    The robot's drive towards a pose across their way (a stand-off of the washroom door, or a pose past the
+    footstool on their way, as the candidates' timing has it) puts it in their way while they are still far
+    from the footstool; they plan their walk anew round it, and the new walk clears the footstool.
     """
     at = 0.6
     trial, planner, scene, spec = recorded_case(HELD_OUT / "ward_footstool.yaml", 11, 9, at)
@@ -62,7 +65,7 @@ def test_a_drive_towards_the_persons_way_past_the_obstacle_saves_them() -> None:
 
     assert result.chosen is not None and result.chosen.risk < THRESHOLD
     move = result.chosen.move
-    assert move in past and move not in standoffs(scene, danger, danger.obstacle)
+    assert move in crossings(scene, danger) and move not in standoffs(scene, danger, danger.obstacle)
     assert crossing_time(scene, danger, move, 0.0) is not None
     assert result.verdicts[-1] is result.chosen
     # Every candidate before it walks the patient into something at the gaze found risky.
@@ -90,8 +93,42 @@ def test_the_covers_farther_back_come_right_after_the_obstacles_stand_offs() -> 
 
     assert first_other > 0 and covers and moves[first_other : first_other + len(covers)] == covers
     assert not own & set(moves[first_other:])
-    assert set(covers) <= set(beyond_poses(scene, danger, (0.0,)))
+    straight = set(beyond_poses(scene, danger, (0.0,)))
+    shifted = set(beyond_poses(scene, danger, (COVER_SHIFT * obstacle_side(scene, danger),)))
+    first_shifted = next(k for k, m in enumerate(covers) if m not in straight)
+    assert 0 < first_shifted and set(covers[:first_shifted]) <= straight and set(covers[first_shifted:]) <= shifted
     assert all(crossing_time(scene, danger, m, 0.0) is not None for m in covers)
+
+
+def test_the_obstacle_side_is_the_side_of_the_way_its_centre_lies_on() -> None:
+    scene = load_scenario("paper_experiment1").scene()
+    ball = scene.obstacle("ball").shape
+    path = ((ball.x - 2.0, ball.y - 0.2), (ball.x + 2.0, ball.y - 0.2))
+    assert obstacle_side(scene, Danger("person", "couch", path, (ball.x, ball.y - 0.1), "ball", 2.0)) == 1.0
+    backwards = path[::-1]
+    assert obstacle_side(scene, Danger("person", "couch", backwards, (ball.x, ball.y - 0.1), "ball", 2.0)) == -1.0
+
+
+def test_a_cover_shifted_towards_the_obstacles_side_saves_where_one_straight_on_the_way_does_not() -> None:
+    """Series hall at seed 211, trial 9: a toy car on the resident's way.
+
+    A robot straight on their way past the toy car is passed on the toy car's side, and they still touch it;
+    so do they with every stand-off and path pose the search judges. A robot a little towards the toy car's
+    side of their way is passed on its other side, and the detour clears the toy car.
+    """
+    at = 0.65
+    trial, planner, scene, spec = recorded_case(HELD_OUT / "series_hall.yaml", 211, 9, at)
+    danger = spec.dangers[0]
+    shifted = beyond_poses(scene, danger, (COVER_SHIFT * obstacle_side(scene, danger),))
+
+    result = search(
+        scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 24, judging=JUDGING, head_start=lambda lead: None
+    )
+
+    assert result.chosen is not None and result.chosen.safe(THRESHOLD) and result.chosen.move in shifted
+    straight = [v for v in result.verdicts if v.move in beyond_poses(scene, danger, (0.0,))]
+    assert straight and not any(v.clear for v in straight)
+    assert saved_in_truth(trial, at, planner, DELAY, JUDGING, result)
 
 
 def test_a_cover_farther_back_saves_where_no_stand_off_or_path_pose_does() -> None:

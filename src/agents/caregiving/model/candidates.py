@@ -7,7 +7,9 @@ would hit, where and when. The robot's moves are ``move_to`` a pose:
   small gap from its boundary, facing it; around the obstacle itself they cover it;
 * **covers farther back**: free poses straight on the person's way past the obstacle
   (the middle of each row of :func:`beyond_poses`), a robot the person plans round
-  before they reach the obstacle, so that their detour clears it too;
+  before they reach the obstacle, so that their detour clears it too; then the same
+  a little towards the obstacle's side of the way, which the person passes on the
+  side away from the obstacle;
 * **path poses**: free poses on the person's predicted path, or beside it,
   between the person and the obstacle: in front of the obstacle on the person's
   side, and farther back along the path, where the person will see the robot sooner;
@@ -68,6 +70,9 @@ REACH = 1.0
 CROSSING_STEP = 0.1
 #: Rows of :func:`beyond_poses`, :data:`SPACING` apart along the person's way past the obstacle.
 BEYOND_ROWS = 3
+#: Sideways shift (m) of a cover farther back towards the obstacle's side of the way: a few cells of the people's
+#: planning grid, so that their plan goes round the robot on its far side.
+COVER_SHIFT = 0.1
 #: Sideways shifts (m) of a swerve, the smaller first.
 SWERVE_SHIFTS = (0.15, 0.3)
 #: A touch this close to straight ahead (rad) is head-on: the person passed the obstacle on neither side,
@@ -205,15 +210,28 @@ def crossings(scene: Scene, danger: Danger, start: Callable[[], float] = lambda:
 
 def covers_farther_back(scene: Scene, danger: Danger, start: Callable[[], float] = lambda: 0.0) -> Iterator[RobotMove]:
     """The poses straight on the person's way past the obstacle (:func:`beyond_poses` with no sideways offset),
-    nearest first, whose drive comes into the person's way before the collision (:func:`crossing_time`); the
-    robot must fit at the pose."""
+    nearest first, then the same poses :data:`COVER_SHIFT` towards the obstacle's side of the way, each whose
+    drive comes into the person's way before the collision (:func:`crossing_time`); the robot must fit at the
+    pose.
+
+    A person plans round a robot straight on their way on either side, and on the obstacle's side the detour
+    may still touch it; a robot a little towards that side is passed on its far side, away from the obstacle.
+    """
     route = route_ahead(scene, danger)
     if route is None:
         return
-    straight_past = beyond_poses(scene, danger, (0.0,))
-    yield from (
-        m for _, _, m in _crossing_in_time(scene, danger, straight_past, start(), route) if robot_fits(scene, m)
-    )
+    for lateral in (0.0, COVER_SHIFT * obstacle_side(scene, danger)):
+        covers = beyond_poses(scene, danger, (lateral,))
+        yield from (m for _, _, m in _crossing_in_time(scene, danger, covers, start(), route) if robot_fits(scene, m))
+
+
+def obstacle_side(scene: Scene, danger: Danger) -> float:
+    """1.0 when the obstacle's centre lies left of the person's way where they would touch it, else -1.0."""
+    dx, dy = travel_direction(danger.path, danger.point)
+    route = Polyline.of(danger.path)
+    x, y = route.point_at(route.arc_length_nearest(danger.point))
+    shape = scene.body(danger.obstacle).shape
+    return 1.0 if dx * (shape.y - y) - dy * (shape.x - x) >= 0.0 else -1.0
 
 
 def _crossing_in_time(
