@@ -30,14 +30,19 @@ def test_a_move_that_walks_someone_just_missing_a_fall_let_happen_into_the_robot
     him a moment before. On the belief, Ben touches the bag by less than perception's error, and in the truth
     he passes it. The cabinet stand-off the search chose live saves Ana, and Ben, walking on past the bag,
     walks into the robot there (live, he did, in two runs). Imagined just missing the bag, he does so too: the
-    move is refused, and the search chooses no move that walks him into the robot."""
+    move is refused, and the search chooses no move that walks him into the robot.
+
+    The stand-off is judged on its own, set off as the search's first candidate: in the whole search its verdict
+    turns on its slot (judged two candidates later, it comes too late for Ana)."""
     scene, item = recorded_search()
     assert item.spec.falling == {"person_12": "backpack_10"}
+    cabinet = RobotMove("cabinet_8", 1.1058033926029978, 2.0959732469531973, 2.356194490192345)
+    alone = serve_one(scene, replace(item, moves=(cabinet,))).search
+    assert alone is not None and alone.chosen is None
+    assert [v.reason for v in alone.verdicts] == ["person_12 walks into robot where person_12 just misses backpack_10"]
     found = serve_one(scene, item).search
     assert found is not None
-    cabinet = [v for v in found.verdicts if v.move is not None and v.move.target == "cabinet_8"]
-    assert cabinet and not any(v.clear_where_found for v in cabinet)
-    assert any(v.reason == "person_12 walks into robot where person_12 just misses backpack_10" for v in cabinet)
+    assert not any(v.clear_where_found for v in found.verdicts if v.move is not None and v.move.target == "cabinet_8")
     if found.chosen is not None:
         assert "person_12 walks into robot" not in found.chosen.reason
 

@@ -17,7 +17,7 @@ from agents.caregiving.model.imagine_reply import ImagineReply
 from agents.caregiving.model.joint import imagine_joint
 from agents.caregiving.model.move_search import SearchItem
 from agents.caregiving.model.planner import GridPlanner
-from agents.caregiving.model.recorded_batch import read_batches
+from agents.caregiving.model.recorded_batch import RecordedBatch, read_batches
 from agents.caregiving.model.robot_moves import standoff_moves
 from agents.caregiving.model.rollout import BulletRollout
 from agents.caregiving.model.scenario import load_scenario
@@ -26,7 +26,7 @@ from agents.caregiving.model.world_model import Walk
 from agents.messaging import Messaging, NoReply, RemoteError
 from bridges.experiment.perfect_belief import perfect_belief_spec
 from bridges.world.bridge import trial_for
-from procs import PYTHON, Proc, endpoint, free_port
+from procs import PYTHON, Proc, endpoint, free_port, wait_until
 from wm.net.connection import close_session, open_session
 
 GRAPH = "simtest"
@@ -195,7 +195,11 @@ def test_a_head_start_comes_back_before_the_search_ends(sim_endpoint, recorded: 
     # An asker that takes no progress gets the same final reply, and nothing else.
     assert ask(ep, request).results[0].search == searched
 
-    mine = [b for b in read_batches(recorded) if b.items == request["items"]]
-    assert len(mine) == 2 and all(b.reply.results == final.results for b in mine)
-    assert mine[0].scene == scene
-    assert mine[0].serve_again()[0].search == searched
+    def mine() -> list[RecordedBatch]:
+        return [b for b in read_batches(recorded) if b.items == request["items"]]
+
+    wait_until(lambda: len(mine()) == 2, 10.0, "both searches recorded")  # written just after each reply is sent
+    batches = mine()
+    assert all(b.reply.results == final.results for b in batches)
+    assert batches[0].scene == scene
+    assert batches[0].serve_again()[0].search == searched
