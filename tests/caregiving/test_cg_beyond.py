@@ -113,8 +113,8 @@ def test_a_cover_shifted_towards_the_obstacles_side_saves_where_one_straight_on_
     """Series hall at seed 211, trial 9: a toy car on the resident's way.
 
     No stand-off of the toy car saves the resident, and they walk into a robot standing straight on their way
-    past it. A robot a little towards the toy car's side of their way is passed on its
-    other side, and the detour clears the toy car. The code before found no move in its 24 candidates.
+    past it. A robot a little towards the toy car's side of their way is passed on its other side, and the
+    detour clears the toy car. The code before found no move in its 24 candidates.
     """
     at = 0.65
     trial, planner, scene, spec = recorded_case(HELD_OUT / "series_hall.yaml", 211, 9, at)
