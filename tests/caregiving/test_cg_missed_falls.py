@@ -16,6 +16,8 @@ DATA = Path(__file__).parent / "data"
 RECORDED = DATA / "crossing_hall_s8521_trial3_search.json"
 #: The search for a pose beside someone fallen, recorded live: crossing hall, seed 24007, trial 5, at 5.65 s.
 GOING_TO = DATA / "crossing_hall_s24007_trial5_going_to.json"
+#: The cabinet stand-off that search chose live.
+CABINET = RobotMove("cabinet_8", 1.1058033926029978, 2.0959732469531973, 2.356194490192345)
 
 
 def recorded_search(path: Path = RECORDED) -> tuple[Scene, SearchItem]:
@@ -36,8 +38,7 @@ def test_a_move_that_walks_someone_just_missing_a_fall_let_happen_into_the_robot
     turns on its slot (judged two candidates later, it comes too late for Ana)."""
     scene, item = recorded_search()
     assert item.spec.falling == {"person_12": "backpack_10"}
-    cabinet = RobotMove("cabinet_8", 1.1058033926029978, 2.0959732469531973, 2.356194490192345)
-    alone = serve_one(scene, replace(item, moves=(cabinet,))).search
+    alone = serve_one(scene, replace(item, moves=(CABINET,))).search
     assert alone is not None and alone.chosen is None
     assert [v.reason for v in alone.verdicts] == ["person_12 walks into robot where person_12 just misses backpack_10"]
     found = serve_one(scene, item).search
@@ -51,12 +52,11 @@ def test_a_fall_let_happen_that_goes_deeper_than_perceptions_error_is_not_imagin
     """The same move, judged with perception's error a hundredth as large: Ben's touch of the bag is then deeper
     than the error allows, his fall is sure, and the move is clear where Ana's danger was found."""
     scene, item = recorded_search()
-    cabinet = RobotMove("cabinet_8", 1.1058033926029978, 2.0959732469531973, 2.356194490192345)
     sure = replace(item.uncertainty, sigma={name: sigma / 100 for name, sigma in item.uncertainty.sigma.items()})
     imagine = partial(serve_one, scene)
-    refused = judge_move(item.spec, cabinet, imagine, item.uncertainty, scene.robot_name)
+    refused = judge_move(item.spec, CABINET, imagine, item.uncertainty, scene.robot_name)
     assert refused.reason == "person_12 walks into robot where person_12 just misses backpack_10"
-    assert judge_move(item.spec, cabinet, imagine, sure, scene.robot_name).clear_where_found
+    assert judge_move(item.spec, CABINET, imagine, sure, scene.robot_name).clear_where_found
 
 
 def test_a_move_to_someone_fallen_is_not_sent_into_the_way_of_a_walker_believed_to_touch_them() -> None:
