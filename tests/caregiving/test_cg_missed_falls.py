@@ -16,7 +16,7 @@ DATA = Path(__file__).parent / "data"
 RECORDED = DATA / "crossing_hall_s8521_trial3_search.json"
 #: The search for a pose beside someone fallen, recorded live: crossing hall, seed 24007, trial 5, at 5.65 s.
 GOING_TO = DATA / "crossing_hall_s24007_trial5_going_to.json"
-#: The cabinet stand-off that search chose live.
+#: The cabinet stand-off the crossing-hall search (RECORDED) chose live.
 CABINET = RobotMove("cabinet_8", 1.1058033926029978, 2.0959732469531973, 2.356194490192345)
 
 
