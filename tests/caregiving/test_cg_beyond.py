@@ -19,8 +19,10 @@ from agents.caregiving.model.candidates import (
     covers_farther_back,
     crossing_time,
     crossings,
+    guards,
     obstacle_side,
     ordered_moves,
+    path_poses,
     standoffs,
 )
 from agents.caregiving.model.move_search import search
@@ -150,3 +152,42 @@ def test_a_cover_farther_back_saves_where_no_stand_off_or_path_pose_does() -> No
     assert result.chosen.move in beyond_poses(scene, danger, (0.0,))
     assert not any(v.safe(THRESHOLD) for v in result.verdicts if v.move in standoffs(scene, danger, danger.obstacle))
     assert saved_in_truth(trial, at, planner, DELAY, JUDGING, result)
+
+
+def test_a_guard_at_the_edge_of_the_way_on_the_obstacles_side_saves_where_no_other_candidate_does() -> None:
+    """Face to face at seed 60013, trial 19 (lost live at that seed): a toy lies just off the resident's way.
+
+    Every stand-off of the toy, cover and path pose leaves the resident walking into the toy or into the robot.
+    A robot standing at the edge of their way past the toy, on the toy's side, is passed on its far side, and
+    the detour clears the toy.
+    """
+    at = 0.6
+    trial, planner, scene, spec = recorded_case(HELD_OUT / "face_to_face.yaml", 60013, 19, at)
+    danger = spec.dangers[0]
+    robot, person = scene.robot, scene.person(danger.person)
+    assert robot is not None
+    edge = person.radius + max(robot.length, robot.width) / 2
+    at_the_edge = beyond_poses(scene, danger, (edge * obstacle_side(scene, danger),))
+
+    result = search(
+        scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 32, judging=JUDGING, head_start=lambda lead: None
+    )
+
+    assert result.chosen is not None and result.chosen.safe(THRESHOLD) and result.chosen.move in at_the_edge
+    assert set(guards(scene, danger)) <= set(at_the_edge)
+    assert not any(v.clear for v in result.verdicts[:-1])
+    assert saved_in_truth(trial, at, planner, DELAY, JUDGING, result)
+
+
+def test_the_guards_come_after_the_path_poses_and_before_the_crossings() -> None:
+    _, _, scene, spec = recorded_case(HELD_OUT / "face_to_face.yaml", 60013, 19, 0.6)
+    danger = spec.dangers[0]
+    moves = list(ordered_moves(scene, danger))
+    watching = list(guards(scene, danger))
+    start = moves.index(watching[0])
+
+    path = {m for m, _ in path_poses(scene, danger)}
+    assert moves[start : start + len(watching)] == watching
+    assert moves[start - 1] in path and not path & set(moves[start:])
+    assert moves[start + len(watching)] in set(crossings(scene, danger))
+    assert all(crossing_time(scene, danger, m, 0.0) is not None for m in watching)

@@ -13,6 +13,9 @@ would hit, where and when. The robot's moves are ``move_to`` a pose:
 * **path poses**: free poses on the person's predicted path, or beside it,
   between the person and the obstacle: in front of the obstacle on the person's
   side, and farther back along the path, where the person will see the robot sooner;
+* **guards**: the rows of covers farther back moved to the edge of the person's way on
+  the obstacle's side, where the robot's near end meets the person's way: the person
+  passes it on its far side, and their detour swings away from the obstacle;
 * **swerves**: the first stand-off shifted sideways, when the search found that the
   person, walking round the robot there, still grazes the obstacle on one side;
 * **crossings**: stand-offs of any object, within reach in time or not, and then free poses on
@@ -29,13 +32,13 @@ farther back, nearest first (where a closed loop on exact beliefs lost trials to
 saving moves it never judged, these stood there most often, 0.5-0.9 m past the
 touch, where the stand-off straight behind stands too near the obstacle); then
 the path poses, those where the robot has the most seconds in hand first; then
-the crossings, soonest crossed first (the stand-offs, then the poses past the
+the guards, nearest first; then the crossings, soonest crossed first (the stand-offs, then the poses past the
 obstacle); then the stand-offs around the other objects by distance to the
 collision point. Two cheap tests prune before any imagination: the robot must
 fit at the pose, and a straight drive (the travel-time lower bound, from the
 robot's current speed), started when the robot would start on that candidate,
 must come within :data:`REACH` of it before the person passes it (path poses) or
-before the collision (stand-offs), or, for a crossing or a cover farther back,
+before the collision (stand-offs), or, for a crossing, a cover farther back or a guard,
 must come into the person's way before the collision (:func:`crossing_time`). :func:`candidates` interleaves the dangers'
 orders and puts the :func:`swerves` of the first candidate next once its verdict is in (after the second
 candidate if that was asked for first).
@@ -217,12 +220,35 @@ def covers_farther_back(scene: Scene, danger: Danger, start: Callable[[], float]
     A person plans round a robot straight on their way on either side, and on the obstacle's side the detour
     may still touch it; a robot a little towards that side is passed on its far side, away from the obstacle.
     """
+    return _rows_crossed_in_time(scene, danger, (0.0, COVER_SHIFT * obstacle_side(scene, danger)), start)
+
+
+def guards(scene: Scene, danger: Danger, start: Callable[[], float] = lambda: 0.0) -> Iterator[RobotMove]:
+    """The rows of :func:`beyond_poses` beside the person's way on the obstacle's side, the robot's near end on
+    the edge of the person's way, each whose drive comes into the person's way before the collision
+    (:func:`crossing_time`); the robot must fit at the pose.
+
+    A person who sees the robot standing at the edge of their way plans round it on its far side: their
+    detour swings away from the obstacle's side, by more than round a cover shifted a little, and clears an
+    obstacle they would have grazed on that side.
+    """
+    robot, person = scene.robot, scene.person(danger.person)
+    assert robot is not None
+    edge = person.radius + max(robot.length, robot.width) / 2
+    return _rows_crossed_in_time(scene, danger, (edge * obstacle_side(scene, danger),), start)
+
+
+def _rows_crossed_in_time(
+    scene: Scene, danger: Danger, laterals: Sequence[float], start: Callable[[], float]
+) -> Iterator[RobotMove]:
+    """The :func:`beyond_poses` at each of ``laterals`` in turn, nearest first, whose drive, started at
+    ``start()``, comes into the person's way before the collision; the robot must fit at the pose."""
     route = route_ahead(scene, danger)
     if route is None:
         return
-    for lateral in (0.0, COVER_SHIFT * obstacle_side(scene, danger)):
-        covers = beyond_poses(scene, danger, (lateral,))
-        yield from (m for _, _, m in _crossing_in_time(scene, danger, covers, start(), route) if robot_fits(scene, m))
+    for lateral in laterals:
+        poses = beyond_poses(scene, danger, (lateral,))
+        yield from (m for _, _, m in _crossing_in_time(scene, danger, poses, start(), route) if robot_fits(scene, m))
 
 
 def obstacle_side(scene: Scene, danger: Danger) -> float:
@@ -338,6 +364,7 @@ def _by_kind(scene: Scene, danger: Danger, start: Callable[[], float]) -> Iterat
         (until - drive_time(scene, m.x, m.y), k, m, until) for k, (m, until) in enumerate(path_poses(scene, danger))
     ]
     yield from (m for _, _, m, until in sorted(slack, key=lambda t: (-t[0], t[1])) if reachable(m, until))
+    yield from guards(scene, danger, start)
     point = danger.point
     others = sorted(
         other_objects(scene, danger),
