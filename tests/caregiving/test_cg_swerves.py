@@ -18,6 +18,7 @@ from agents.caregiving.model.candidates import (
     candidates,
     crossing_time,
     crossings,
+    guards,
     in_reach,
     path_poses,
     swerves,
@@ -198,20 +199,34 @@ def test_a_drive_across_the_persons_route_to_a_far_object_saves_them() -> None:
     """Seed 6's trial 11: every stand-off of the slipper fails, and the wardrobe is too far to reach in time.
 
     The robot's drive to a stand-off of the wardrobe crosses the person's route past the slipper; they see
-    it in their way, plan anew round it, and the new route misses the slipper.
+    it in their way, plan anew round it, and the new route misses the slipper. The crossings to the other
+    objects are judged here on their own: the whole search finds a guard first (the next test).
     """
+    trial, planner, scene, spec = recorded_case(HURRIED_WALKER, 6, 11, 0.6)
+    danger = spec.dangers[0]
+    far = tuple(m for m in crossings(scene, danger) if m.target != danger.obstacle)
+    result = search(scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 24, judging=JUDGING, moves=far)
+
+    assert result.chosen is not None and result.chosen.safe(THRESHOLD)
+    move = result.chosen.move
+    assert move is not None and move.target != danger.obstacle
+    assert not in_reach(scene, move, danger.time_to_collision)
+    sent_at = 0.6 + DELAY + JUDGING * len(result.verdicts)
+    assert saves(world_at(trial, sent_at, planner), move)
+
+
+def test_a_guard_saves_the_hurried_walker_before_any_crossing_is_judged() -> None:
+    """The same trial: past every stand-off of the slipper, cover and path pose, a robot at the edge of the
+    person's way on the slipper's side is safe, and they pass it on its far side, clear of the slipper."""
     trial, planner, scene, spec = recorded_case(HURRIED_WALKER, 6, 11, 0.6)
     danger = spec.dangers[0]
     result = search(scene, spec, partial(serve_one, scene), EXACT, THRESHOLD, 24, judging=JUDGING)
 
     assert result.chosen is not None and result.chosen.safe(THRESHOLD)
-    move = result.chosen.move
-    assert move is not None and move.target != danger.obstacle
-    assert move in list(crossings(scene, danger))
-    assert not in_reach(scene, move, danger.time_to_collision)
+    assert result.chosen.move in set(guards(scene, danger))
     assert not any(v.clear for v in result.verdicts[:-1])
     sent_at = 0.6 + DELAY + JUDGING * len(result.verdicts)
-    assert saves(world_at(trial, sent_at, planner), move)
+    assert saves(world_at(trial, sent_at, planner), result.chosen.move)
 
 
 def test_a_crossing_is_timed_where_the_drive_first_stands_in_the_persons_way() -> None:

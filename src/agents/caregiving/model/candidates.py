@@ -137,6 +137,13 @@ def travel_direction(path: tuple[tuple[float, float], ...], point: tuple[float, 
     return float(seg[k][0] / norm), float(seg[k][1] / norm)
 
 
+def touching_distance(scene: Scene, person: str) -> float:
+    """How far the robot's centre stands from ``person``'s when its farthest-reaching end just touches them."""
+    robot = scene.robot
+    assert robot is not None
+    return scene.person(person).radius + max(robot.length, robot.width) / 2
+
+
 def drive_time(scene: Scene, x: float, y: float, within: float = 0.0) -> float:
     """Lower bound on the robot's time to come ``within`` metres of (x, y): a straight drive there from its current
     speed, ending at rest at (x, y)."""
@@ -176,7 +183,7 @@ def crossing_time(
     there, it makes them plan anew, so a point of their route past the obstacle counts too, as long as the
     robot is there before the collision. ``route`` is :func:`route_ahead`'s, if already worked out.
     """
-    robot, person = scene.robot, scene.person(danger.person)
+    robot = scene.robot
     assert robot is not None
     ahead = route if route is not None else route_ahead(scene, danger)
     if ahead is None:
@@ -186,7 +193,7 @@ def crossing_time(
     ux, uy = ((move.x - robot.x) / trip, (move.y - robot.y) / trip) if trip > 0.0 else (0.0, 0.0)
     along = np.clip((points[:, 0] - robot.x) * ux + (points[:, 1] - robot.y) * uy, 0.0, trip)
     off = np.hypot(points[:, 0] - robot.x - along * ux, points[:, 1] - robot.y - along * uy)
-    blocking = person.radius + max(robot.length, robot.width) / 2 + REPLAN_SHIFT
+    blocking = touching_distance(scene, danger.person) + REPLAN_SHIFT
     best: float | None = None
     for k in np.flatnonzero(off < blocking).tolist():
         entry = max(float(along[k]) - math.sqrt(blocking**2 - float(off[k]) ** 2), 0.0)
@@ -232,9 +239,7 @@ def guards(scene: Scene, danger: Danger, start: Callable[[], float] = lambda: 0.
     detour swings away from the obstacle's side, by more than round a cover shifted a little, and clears an
     obstacle they would have grazed on that side.
     """
-    robot, person = scene.robot, scene.person(danger.person)
-    assert robot is not None
-    edge = person.radius + max(robot.length, robot.width) / 2
+    edge = touching_distance(scene, danger.person)
     return _rows_crossed_in_time(scene, danger, (edge * obstacle_side(scene, danger),), start)
 
 
@@ -282,7 +287,7 @@ def path_poses(scene: Scene, danger: Danger) -> Iterator[tuple[RobotMove, float]
     route = Polyline.of(danger.path)
     obstacle = scene.body(danger.obstacle)
     clearance = bounding_radius(obstacle.shape) + max(robot.length, robot.width) / 2 + 0.05
-    nearest = person.radius + max(robot.length, robot.width) / 2 + 0.2
+    nearest = touching_distance(scene, danger.person) + 0.2
     distance = min(danger.time_to_collision * person.speed, route.length) - clearance
     while distance > nearest:
         for move in _broadside(route, distance, danger.obstacle):
@@ -298,13 +303,11 @@ def beyond_poses(scene: Scene, danger: Danger, lateral: Sequence[float] = LATERA
     stands there before the person passes: these are crossings (:func:`crossings`), whose drive puts the
     robot in the person's way early enough for the detour they plan round it to clear the obstacle too.
     """
-    robot, person = scene.robot, scene.person(danger.person)
-    assert robot is not None
     if len(danger.path) < 2:
         return []
     route = Polyline.of(danger.path)
     touch = route.arc_length_nearest(danger.point)
-    first = person.radius + max(robot.length, robot.width) / 2
+    first = touching_distance(scene, danger.person)
     rows = (touch + first + k * SPACING for k in range(BEYOND_ROWS))
     return [
         move
