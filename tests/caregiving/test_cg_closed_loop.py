@@ -71,6 +71,8 @@ def test_the_same_seed_draws_the_same_loop(case) -> None:
 
 
 KNOWN_GAZE_SEED, KNOWN_GAZE_INDEX, KNOWN_GAZE_AT = 5, 3, 0.65  # the office series, a run of docs/results/heldout
+# Lost at the gaze classes and saved at the true gaze (seed 5's trial 3, whose spec a test below reads, a guard saves at both).
+GAZE_LOST_SEED, GAZE_LOST_INDEX, GAZE_LOST_AT = 31, 1, 0.5
 
 
 def exact_and_at_once(known_gaze: bool) -> Setup:
@@ -93,10 +95,11 @@ def office_case() -> tuple:
     return trial_for(scenario, KNOWN_GAZE_SEED, KNOWN_GAZE_INDEX), GridPlanner(scenario.scene().bounds)
 
 
-def test_a_move_judged_at_the_gaze_classes_can_fail_where_the_true_gaze_saves(office_case) -> None:
-    trial, planner = office_case
-    by_class = closed_loop(trial, KNOWN_GAZE_AT, planner, (KNOWN_GAZE_INDEX, 0), exact_and_at_once(False))
-    known = closed_loop(trial, KNOWN_GAZE_AT, planner, (KNOWN_GAZE_INDEX, 0), exact_and_at_once(True))
+def test_a_move_judged_at_the_gaze_classes_can_fail_where_the_true_gaze_saves() -> None:
+    scenario = load_scenario(HELD_OUT / "office_series.yaml")
+    trial, planner = trial_for(scenario, GAZE_LOST_SEED, GAZE_LOST_INDEX), GridPlanner(scenario.scene().bounds)
+    by_class = closed_loop(trial, GAZE_LOST_AT, planner, (GAZE_LOST_INDEX, 0), exact_and_at_once(False))
+    known = closed_loop(trial, GAZE_LOST_AT, planner, (GAZE_LOST_INDEX, 0), exact_and_at_once(True))
     assert by_class.commands >= 1 and by_class.truth.outcome().collisions
     assert known.commands >= 1 and known.truth.outcome().collisions == ()
 
