@@ -24,6 +24,7 @@ from agents.caregiving.model.candidates import (
     ordered_moves,
     path_poses,
     standoffs,
+    touching_distance,
 )
 from agents.caregiving.model.move_search import search
 from agents.caregiving.model.scenario import load_scenario
@@ -164,9 +165,7 @@ def test_a_guard_at_the_edge_of_the_way_on_the_obstacles_side_saves_where_no_oth
     at = 0.6
     trial, planner, scene, spec = recorded_case(HELD_OUT / "face_to_face.yaml", 60013, 19, at)
     danger = spec.dangers[0]
-    robot, person = scene.robot, scene.person(danger.person)
-    assert robot is not None
-    edge = person.radius + max(robot.length, robot.width) / 2
+    edge = touching_distance(scene, danger.person)
     at_the_edge = beyond_poses(scene, danger, (edge * obstacle_side(scene, danger),))
 
     result = search(
