@@ -19,13 +19,16 @@ alone, as no sensor could, which shows what the gaze classes cost. ``--false-ala
 everyone still walking, as live, so that a person believed to fall who passes in the truth is a danger too
 (by default only those who fall with the robot idle are). ``--assist`` sends the robot, once nobody is in
 danger, to someone lying where they fell, as the assist agent does: what answering a fall costs the others.
+``--safe-trials`` runs instead every trial of every room's runs that the run flagged and that is safe with the
+robot idle, with ``--false-alarms``: every fall there is one the robot caused (``tripped``), the live
+experiments' ``robot_caused_collisions`` on drawn beliefs.
 The draws are
 seeded per trial, so two versions are compared on the same beliefs. The runs are shared between two
 processes.
 
     python bench/bench_closed_loop.py [--draws N] [--look S] [--retry S] [--first-look-only]
         [--no-sampled-risk] [--known-gaze] [--false-alarms] [--assist] [--belief-noise KIND] [--json PATH]
-        [--every-room | --people PATH | RUN ...]
+        [--every-room | --people PATH | --safe-trials | RUN ...]
 """
 
 from __future__ import annotations
@@ -39,7 +42,7 @@ from pathlib import Path
 
 import benchlib
 from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES
-from bench_move_search import RUNS, THRESHOLD, cases, every_room
+from bench_move_search import RUNS, THRESHOLD, cases, every_room, false_alarm, has_false_alarm
 from bench_move_search_noisy import add_belief_arguments
 from bridges.experiment.beliefs import Noise
 from bridges.experiment.closed_loop import Setup, closed_loop
@@ -82,13 +85,14 @@ class Draw:
     lost: bool  # someone saveable fell (without ``people``: anyone fell)
 
 
-def run_draws(job: tuple[str, int, Setup, SaveablePeople | None]) -> list[Draw]:
-    """Every draw of every saveable case of one run (with ``people``: every case where some move saves someone)."""
-    run, draws, setup, people = job
+def run_draws(job: tuple[str, int, Setup, SaveablePeople | None, bool]) -> list[Draw]:
+    """Every draw of every saveable case of one run (with ``people``: every case where some move saves someone;
+    with ``safe``: every false alarm)."""
+    run, draws, setup, people, safe = job
     found = []
-    for case in cases([run]):
+    for case in cases([run], false_alarm) if safe else cases([run]):
         saveable = people.get((case.run, case.index), frozenset()) if people is not None else frozenset()
-        if not (saveable if people is not None else case.saveable):
+        if not (safe or (saveable if people is not None else case.saveable)):
             continue
         for draw in range(draws):
             loop = closed_loop(case.trial, case.at, case.planner, (case.index, draw), setup)
@@ -112,12 +116,15 @@ def run_draws(job: tuple[str, int, Setup, SaveablePeople | None]) -> list[Draw]:
     return found
 
 
-def closed_loops(runs: list[str], draws: int, setup: Setup, people: SaveablePeople | None = None) -> dict[str, object]:
+def closed_loops(
+    runs: list[str], draws: int, setup: Setup, people: SaveablePeople | None = None, safe: bool = False
+) -> dict[str, object]:
     """Every draw of every saveable case in a closed loop (with ``people``: of every case where some move saves
-    someone), the runs shared between two processes; what came of them."""
+    someone; with ``safe``: of every false alarm), the runs shared between two processes; what came of them."""
     started = time.perf_counter()
     with ProcessPoolExecutor(max_workers=2) as pool:
-        found = [d for ds in pool.map(run_draws, [(run, draws, setup, people) for run in runs]) for d in ds]
+        jobs = [(run, draws, setup, people, safe) for run in runs]
+        found = [d for ds in pool.map(run_draws, jobs) for d in ds]
     responses: Counter[str] = Counter()
     for d in found:
         responses.update(d.responses)
@@ -183,12 +190,19 @@ def main() -> None:
     rooms.add_argument(
         "--people", type=Path, help="a bench_people_saved.py JSON: its trials where some move saves someone (no RUN)"
     )
+    rooms.add_argument(
+        "--safe-trials",
+        action="store_true",
+        help="every room's flagged trials that are safe with the robot idle, with --false-alarms (no RUN)",
+    )
     args = p.parse_args()
     people = saveable_people(args.people) if args.people else None
     if args.every_room:
         args.runs = every_room()
     elif people is not None:
         args.runs = sorted({run for run, _ in people})
+    elif args.safe_trials:
+        args.runs = every_room(has_false_alarm)
     noise = Noise(*BELIEF_NOISE[args.belief_noise], sampled_risk=not args.no_sampled_risk)
     setup = Setup(
         delay=args.delay,
@@ -199,11 +213,11 @@ def main() -> None:
         noise=noise,
         threshold=THRESHOLD,
         known_gaze=args.known_gaze,
-        false_alarms=args.false_alarms,
+        false_alarms=args.false_alarms or args.safe_trials,
         max_moves=args.max_moves,
         assist=args.assist,
     )
-    found = closed_loops(args.runs, args.draws, setup, people)
+    found = closed_loops(args.runs, args.draws, setup, people, args.safe_trials)
     benchlib.report_draws(
         "Algorithm 2 in a closed loop",
         args.json,
@@ -217,7 +231,8 @@ def main() -> None:
             "sampled_risk": noise.sampled_risk,
             "belief_noise": args.belief_noise,
             "known_gaze": args.known_gaze,
-            "false_alarms": args.false_alarms,
+            "false_alarms": setup.false_alarms,
+            "safe_trials": args.safe_trials,
             "max_moves": args.max_moves,
             "assist": args.assist,
             "people": str(args.people) if args.people else None,

@@ -72,7 +72,7 @@ FIRST_STANDOFFS = 2
 
 @dataclass(frozen=True)
 class Case:
-    """One truly risky trial of a recorded run, at the moment the run saw its danger."""
+    """One trial of a recorded run that the run flagged, at the moment it saw its danger."""
 
     run: str
     index: int
@@ -110,13 +110,30 @@ def every_room(keep: Callable[[dict[str, Any]], bool] = has_saveable) -> list[st
     return [runs[k] for k in sorted(runs)]
 
 
-def cases(runs: list[str]) -> Iterator[Case]:
+def truly_risky(trial: dict[str, Any]) -> bool:
+    """Whether a recorded trial collides with the robot idle."""
+    return bool(trial["truly_risky"])
+
+
+def false_alarm(trial: dict[str, Any]) -> bool:
+    """Whether a recorded trial, safe with the robot idle, was flagged risky by the run."""
+    return not trial["truly_risky"] and trial.get("risk_at_time") is not None
+
+
+def has_false_alarm(recorded: dict[str, Any]) -> bool:
+    """Whether a recorded run holds a :func:`false_alarm`."""
+    return any(false_alarm(t) for t in recorded["per_trial"])
+
+
+def cases(runs: list[str], keep: Callable[[dict[str, Any]], bool] = truly_risky) -> Iterator[Case]:
+    """The trials of ``runs`` that ``keep`` keeps (by default the truly risky) and the run flagged, each at the
+    moment the run saw its danger."""
     for run in runs:
         recorded = json.loads((RECORDED / f"{run}.json").read_text())
         scenario = recorded_scenario(recorded)
         planner = GridPlanner(scenario.scene().bounds)
         for t in recorded["per_trial"]:
-            if t["truly_risky"] and t["risk_at_time"] is not None:
+            if keep(t) and t["risk_at_time"] is not None:
                 trial = trial_for(scenario, recorded["seed"], t["index"])
                 yield Case(run, t["index"], bool(t["saveable"]), t["collided"], trial, planner, t["risk_at_time"])
 
