@@ -10,6 +10,7 @@ robot goes to someone lying where they fell, clear of whoever walks on.
 """
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -149,6 +150,20 @@ def test_with_false_alarms_algorithm_1_looks_at_everyone_walking(false_alarms: b
     )
     loop = closed_loop(trial, 0.6, planner, (16, 0), setup)
     assert not loop.idle_fallers and (loop.looks > 0) == false_alarms
+    assert loop.truth.outcome().collisions == ()
+
+
+def test_braking_that_leaves_the_robot_in_the_way_of_a_false_alarm_is_not_sent() -> None:
+    """The bathroom at seed 307, trial 3: nobody falls with the robot idle, and the live run flagged a danger at 0.7 s.
+    On the beliefs drawn, the person walks into the basket: the robot sets off for the basket's stand-off as a head
+    start, and the search finds no move. Braking where the search ends was harmless with her fall into the basket
+    let happen, and the robot stood in her way once she passed the basket, as she does in the truth. Imagined just
+    missing the basket, she walks into the robot, with the head start as with braking, and neither is sent."""
+    scenario = load_scenario(HELD_OUT / "bathroom_basket.yaml")
+    trial, planner = trial_for(scenario, 307, 3), GridPlanner(scenario.scene().bounds)
+    noisy = replace(setup(first_look_only=False), false_alarms=True)
+    loop = closed_loop(trial, 0.7000000000000001, planner, (3, 0), noisy)  # the run's risk_at_time, as recorded
+    assert not loop.idle_fallers and loop.looks >= 1
     assert loop.truth.outcome().collisions == ()
 
 

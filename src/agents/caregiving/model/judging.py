@@ -271,8 +271,8 @@ def _harmless_if_missed(
         for w in first.joint.walks
         if w.collision_object is not None and excused.get(w.walk.person) == w.collision_object
     }
-    if not let_fall:
-        return verdict
+    if not let_fall or not any(margin.error(person, obstacle) for person, obstacle in let_fall.items()):
+        return verdict  # nobody it lets fall can be held off by enough to miss
     unimagined = replace(verdict, clear=False, risk=1.0, reason="not imagined missing the falls it lets happen")
     through = misses.robot_as_it_is({person: Passing(obstacle) for person, obstacle in let_fall.items()})
     if through is None:
@@ -318,17 +318,24 @@ def judge_lead(
     falls let happen. Returns the verdict and the answers, one per walk set.
 
     The falls the dangers foresee happen with the robot idle too; what matters of a head start is
-    whether anyone else falls, or anyone walks into the robot, before a better move replaces it.
+    whether anyone else falls, or anyone walks into the robot, before a better move replaces it. A clear
+    one is held to :func:`_harmless_if_missed`: someone whose fall was a false alarm walks on past it,
+    towards wherever the head start (or braking) has put the robot.
     No risk is sampled: a head start is driven only while the search looks for a safe move.
     ``before`` are answers of the same move judged with fewer falls excused: each one where no fall is
     excused now is the imagination it would be again (it stops at the same fall), and is kept.
     """
     excused = spec.letting_dangers_fall()
+    items = excused.items(move, None)
     answers = [
         before[k] if k < len(before) and not _excuses_more(before[k], item.falling) else imagine(item)
-        for k, item in enumerate(excused.items(move, None))
+        for k, item in enumerate(items)
     ]
-    return judge(move, answers, excused, RobotMargin.of(robot, uncertainty, spec)), answers
+    margin = RobotMargin.of(robot, uncertainty, spec)
+    verdict = judge(move, answers, excused, margin)
+    if verdict.clear and margin is not None:
+        verdict = _harmless_if_missed(verdict, answers[0], excused, Misses(items[0], imagine), margin)
+    return verdict, answers
 
 
 def _excuses_more(answer: Answer, falling: Mapping[str, str]) -> bool:
