@@ -5,7 +5,8 @@ acting on the first look alone, the robot's move fails in the truth; looking aga
 action agent does, the response replaces it and the person is saved. And on the exact scene with no delay, a
 robot that knew the person's gaze saves one the gaze classes lose. In a room of three, a head start left
 under way while each danger is searched alone trips nobody, and with false alarms on, the loop acts on a
-danger Algorithm 1 sees in someone who falls in no truth. With the assist agent's answer to a fall on, the
+danger Algorithm 1 sees in someone who falls in no truth; on such a false alarm, a head start and braking held
+to the fall just missed leave nobody walking into the robot. With the assist agent's answer to a fall on, the
 robot goes to someone lying where they fell, clear of whoever walks on.
 """
 
