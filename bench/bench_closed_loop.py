@@ -42,7 +42,7 @@ from pathlib import Path
 
 import benchlib
 from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES
-from bench_move_search import RUNS, THRESHOLD, cases, every_room, false_alarm, has_false_alarm
+from bench_move_search import RUNS, THRESHOLD, cases, every_room, false_alarm, has_false_alarm, truly_risky
 from bench_move_search_noisy import add_belief_arguments
 from bridges.experiment.beliefs import Noise
 from bridges.experiment.closed_loop import Setup, closed_loop
@@ -90,9 +90,9 @@ def run_draws(job: tuple[str, int, Setup, SaveablePeople | None, bool]) -> list[
     with ``safe``: every false alarm)."""
     run, draws, setup, people, safe = job
     found = []
-    for case in cases([run], false_alarm) if safe else cases([run]):
+    for case in cases([run], false_alarm if safe else truly_risky):
         saveable = people.get((case.run, case.index), frozenset()) if people is not None else frozenset()
-        if not (safe or (saveable if people is not None else case.saveable)):
+        if not safe and not (saveable if people is not None else case.saveable):
             continue
         for draw in range(draws):
             loop = closed_loop(case.trial, case.at, case.planner, (case.index, draw), setup)
