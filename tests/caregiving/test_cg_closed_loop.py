@@ -6,7 +6,8 @@ action agent does, the response replaces it and the person is saved. And on the 
 robot that knew the person's gaze saves one the gaze classes lose. In a room of three, a head start left
 under way while each danger is searched alone trips nobody, and with false alarms on, the loop acts on a
 danger Algorithm 1 sees in someone who falls in no truth; on such a false alarm, a head start and braking held
-to the fall just missed leave nobody walking into the robot. With the assist agent's answer to a fall on, the
+to the fall just missed leave nobody walking into the robot, or into what they pass, while one that is
+harmless only braked still sets the robot off in time. With the assist agent's answer to a fall on, the
 robot goes to someone lying where they fell, clear of whoever walks on.
 """
 
@@ -165,6 +166,33 @@ def test_braking_that_leaves_the_robot_in_the_way_of_a_false_alarm_is_not_sent()
     noisy = replace(setup(first_look_only=False), false_alarms=True)
     loop = closed_loop(trial, 0.7000000000000001, planner, (3, 0), noisy)  # the run's risk_at_time, as recorded
     assert not loop.idle_fallers and loop.looks >= 1
+    assert loop.truth.outcome().collisions == ()
+
+
+def test_a_head_start_that_walks_a_false_alarm_into_the_obstacle_they_pass_is_not_sent() -> None:
+    """The paper's room at seed 90313, trial 29: nobody falls with the robot idle, and the live run flagged a danger
+    at 0.55 s. On the beliefs of draw 1, the person grazes the ball 3.5 s later: the first candidate, the ball's
+    stand-off straight behind it, is harmless with that fall let happen. Imagined just missing the ball, the
+    person plans round the robot on its way there and walks into the ball: a fall the robot as it is does not
+    bring, which the code before excused because the person falls at the belief's centre too. It sent the head
+    start, braked, and the person, who passes the ball in the truth, walked into it."""
+    scenario = load_scenario("paper_experiment1")
+    trial, planner = trial_for(scenario, 90313, 29), GridPlanner(scenario.scene().bounds)
+    noisy = replace(setup(first_look_only=False), false_alarms=True)
+    loop = closed_loop(trial, 0.5499999999999999, planner, (29, 1), noisy)  # the run's risk_at_time, as recorded
+    assert not loop.idle_fallers and loop.looks >= 1
+    assert loop.truth.outcome().collisions == ()
+
+
+def test_a_head_start_harmless_only_braked_still_sets_the_robot_off_and_saves_the_person() -> None:
+    """The paper's room at seed 77031, trial 44, truly risky, on the beliefs of draw 0: the first candidate, the
+    ball's stand-off straight behind it, would walk the person into the ball had they just missed it. Braked once
+    the search has judged every candidate, it harms nobody, so it goes out as a head start, and the search
+    switches to a stand-off that saves the person. Judged from rest without it, no candidate saves her in time."""
+    scenario = load_scenario("paper_experiment1")
+    trial, planner = trial_for(scenario, 77031, 44), GridPlanner(scenario.scene().bounds)
+    loop = closed_loop(trial, 0.5499999999999999, planner, (44, 0), setup(first_look_only=False))
+    assert loop.idle_fallers == frozenset({"person"}) and loop.responses.get("send", 0) >= 1
     assert loop.truth.outcome().collisions == ()
 
 

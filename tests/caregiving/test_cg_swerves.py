@@ -146,7 +146,8 @@ def test_a_verdicts_falls_and_sampled_contact_survive_the_wire() -> None:
     v = Verdict(RobotMove("ball", 1.0, 2.0, 0.5), False, 0.1, 3.0, "why", (Fall(1, "ann", "ball", (0.5, 0.25)),))
     stuck = Verdict(None, False, 1.0, None, "stuck", (Fall(0, "ann", None, None),))
     near = Verdict(RobotMove("ball", 1.0, 2.0, 0.5), True, 0.3, 3.0, "close", near=Fall(1, "ann", "ball", (0.5, 0.2)))
-    for verdict in (v, stuck, near):
+    worse = Verdict(None, False, 1.0, None, "just misses", (Fall(0, "ann", "ball", (0.5, 0.25), made_worse=True),))
+    for verdict in (v, stuck, near, worse):
         assert Verdict.from_fields(Fields(verdict.to_wire(), "verdict", ReplyError)) == verdict
     with pytest.raises(ReplyError, match=r"verdict.falls\[0\].walk_set"):
         Verdict.from_fields(

@@ -159,8 +159,8 @@ def _look(
         delay = setup.delay + setup.judging * judged
         item = ask.item(delay, uncertainty, setup.threshold, setup.max_moves, setup.judging)
         found = item.run(scene, partial(serve_one, scene), None, (lambda _lead: None) if ask.head_start else None)
-        if found.lead is not None and found.lead.move is not None:
-            lead = (now + delay + setup.judging, found.lead.move)
+        if found.lead is not None and found.lead.move is not None and found.lead_sets_off is not None:
+            lead = (now + found.lead_sets_off, found.lead.move)
         judged += found.judged
         return Asked(found, led=found.lead is not None)
 

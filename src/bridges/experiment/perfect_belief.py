@@ -118,18 +118,18 @@ def outcome_in_truth(
     when it sends none, or the robot cannot reach the move.
 
     The search started at ``at`` with the robot starting ``delay`` later, and ``judging`` seconds more per
-    judgement. A head start is commanded once its own judgement (the search's first) is done, and the
+    judgement. A head start is commanded when the search says it set off (``lead_sets_off``), and the
     chosen move (if any) replaces it when the search ends; with no move chosen, the robot brakes when
     the search ends (when the search found braking harmless) or drives the head start on.
     """
     chosen = result.chosen.move if result.chosen is not None else None
     lead = result.lead.move if result.lead is not None else None
     ended = at + delay + judging * result.judged
-    if lead is None:
+    if lead is None or result.lead_sets_off is None:
         if chosen is None:
             return None
         return commanded(world_at(trial, ended, planner), chosen)
-    world = world_at(trial, at + delay + judging, planner)
+    world = world_at(trial, at + result.lead_sets_off, planner)
     if not world.command_robot(lead):
         return None
     if chosen is not None:

@@ -301,7 +301,7 @@ def _harmless_if_missed(
         clear=False,
         risk=1.0,
         reason=f"{hit.walk.person} walks into {hit.collision_object} where {missing}",
-        falls=(Fall(0, hit.walk.person, hit.collision_object, hit.collision_point),),
+        falls=(Fall(0, hit.walk.person, hit.collision_object, hit.collision_point, made_worse=True),),
         near=None,
     )
 

@@ -126,15 +126,21 @@ class NoWorse:
             return False
         return self.as_idle(verdict)
 
-    def as_idle(self, verdict: Verdict) -> bool:
-        """Whether everyone who falls with the move, in any walk set, falls there with the robot as it is too."""
-        return all(any(g.person == f.person for g in self._idle_in(f.walk_set).falls) for f in verdict.falls)
+    def as_idle(self, verdict: Verdict, made_worse_too: bool = False) -> bool:
+        """Whether everyone who falls with the move, in any walk set, falls there with the robot as it is too (a fall
+        :attr:`~agents.caregiving.model.verdict.Fall.made_worse` never does, unless ``made_worse_too``: then only
+        who falls at the belief's centre counts)."""
+        return all(
+            (made_worse_too or not f.made_worse) and any(g.person == f.person for g in self._idle_in(f.walk_set).falls)
+            for f in verdict.falls
+        )
 
-    def harmless(self, verdict: Verdict) -> bool:
+    def harmless(self, verdict: Verdict, made_worse_too: bool = False) -> bool:
         """Whether a move judged at every walk set can be driven without harm: the robot reaches it, it trips
-        nobody, and whoever falls with it falls with the robot as it is too (:meth:`as_idle`)."""
+        nobody, and whoever falls with it falls with the robot as it is too (:meth:`as_idle`; with
+        ``made_worse_too``, harmless where the falls it lets happen do happen)."""
         imagined = verdict.clear or bool(verdict.falls)
-        return imagined and not verdict.trips(self.robot) and self.as_idle(verdict)
+        return imagined and not verdict.trips(self.robot) and self.as_idle(verdict, made_worse_too)
 
     def worsened(self, verdict: Verdict) -> Verdict:
         """``verdict``, refused if its move brings someone a fall the robot as it is does not: in more than
@@ -167,7 +173,7 @@ class NoWorse:
                         risk=1.0 if k == 0 else verdict.risk,
                         reason=f"{person} may walk into {risk.obstacle} in {worse} of {self.uncertainty.samples} "
                         "sampled worlds where the robot as it is keeps them clear",
-                        falls=(Fall(k, person, risk.obstacle, risk.point),),
+                        falls=(Fall(k, person, risk.obstacle, risk.point, made_worse=True),),
                         near=None,
                     )
         return verdict

@@ -78,21 +78,23 @@ def search(
     With ``head_start``, a robot at rest need not stand idle while the search judges: before anything
     else, the first candidate is judged as a head start (:func:`judge_lead`), and when it is
     :meth:`NoWorse.harmless` and another candidate is left to judge, it is handed to ``head_start`` to be
-    sent at once. Every candidate is then judged as a switch from it, the robot driving it from its
-    command until the candidate's; the first one, the same move driven on, is read off the head start's
+    sent at once; so is one of a single danger that harms only someone who just misses their fall, if braking
+    it at the latest the search can end harms nobody (:meth:`_Judging.harmless_braked`: braking is then judged
+    first, and the head start waits for it). Every candidate is then judged as a switch from it, the robot
+    driving it from its command until the candidate's; the first one, the same move driven on, is read off the head start's
     own imagination (:func:`driven_on`) when it can be, and takes no judgement. The head start's
     judgement takes the first slot, sent or not. The result's ``lead`` is that verdict. A head start
     lasts as long as the search: when no candidate is chosen, braking at the search's end is judged the
-    same way, and the result's ``halt`` is that verdict if it is harmless too (the robot then brakes;
-    otherwise it drives the head start on, which harms nobody). The result's ``judged`` counts the
-    slots the search took.
+    same way, and the result's ``halt`` is that verdict if it is harmless too, or the head start was sent to be
+    braked (the robot then brakes; otherwise it drives the head start on, which harms nobody). The result's
+    ``judged`` counts the slots the search took, and ``lead_sets_off`` when the head start set off.
     """
     verdicts: list[Verdict] = []
     generated = candidates(scene, spec.dangers, verdicts, spec.delay, judging)
     pool: Iterator[RobotMove | None] = islice(generated if moves is None else iter(moves), max_moves)
     no_worse = NoWorse(spec, imagine, uncertainty, threshold, scene.robot_name)
     settles = Settles(no_worse, idle_risk, settle_after_clear)
-    judging_ = _Judging(scene, spec, imagine, uncertainty, judging, ahead, no_worse)
+    judging_ = _Judging(scene, spec, imagine, uncertainty, judging, ahead, no_worse, max_moves)
     no_worse.prepare = judging_.know_as_it_is
     if head_start is not None and moves is None and spec.current is None:
         judging_.send_lead = head_start
@@ -112,7 +114,7 @@ def search(
     if chosen is not None and spec.risks_anyway:
         risks = ", ".join(f"{w.person} {risk:.2f}" for w, risk in spec.risks_anyway)
         chosen = _noted(verdicts, chosen, f"sampled risk with the robot as it is too: {risks}")
-    slots = len(verdicts) + judging_.lead_judged - (judging_.read_off is not None)
+    slots = len(verdicts) + judging_.lead_judged + judging_.braking_judged - (judging_.read_off is not None)
     sets_off = None
     if chosen is not None:
         at = judging_.spec_at(next(k for k, v in enumerate(verdicts, start=1) if v is chosen))
@@ -122,9 +124,9 @@ def search(
     halt = None
     if chosen is None:
         braking, _ = judging_.judged_as_lead(lambda: judging_.spec_at(len(verdicts) + 1), None)
-        halt = braking if no_worse.harmless(braking) else None
+        halt = braking if judging_.must_brake or no_worse.harmless(braking) else None
         slots += 1
-    return SearchResult(chosen, tuple(verdicts), judging_.lead, halt, slots, sets_off)
+    return SearchResult(chosen, tuple(verdicts), judging_.lead, halt, slots, sets_off, judging_.lead_sent().delay)
 
 
 def _noted(verdicts: list[Verdict], chosen: Verdict, note: str) -> Verdict:
@@ -154,11 +156,14 @@ class _Judging:
     judging: float
     ahead: JudgeAhead | None
     no_worse: NoWorse  # tells a harmless head start, and shares the spec
+    max_moves: int  # candidates the search judges at most: with the head start's, its longest time in judgements
     send_lead: Callable[[Verdict], None] | None = None  # sends a head start, until one is decided on
     knows_as_it_is: bool = False
     lead: Verdict | None = None  # the head start sent
     lead_judged: bool = False  # whether a head start was judged (sent or not): it took the first slot
     read_off: Verdict | None = None  # the first candidate's verdict, read off the head start's (see driven_on)
+    must_brake: bool = False  # the head start is harmless only braked when the search ends without a move
+    braking_judged: bool = False  # whether braking was judged before a head start was sent (see harmless_braked)
 
     def spec_at(self, k: int) -> SearchSpec:
         """The spec the k-th candidate is judged with: the robot switching to it once the judgements before it,
@@ -172,8 +177,9 @@ class _Judging:
         return replace(self.lead_sent(), lead=self.lead.move, lead_for=self.judging * judgements)
 
     def lead_sent(self) -> SearchSpec:
-        """The spec with the robot starting when a head start is sent: after its own judgement."""
-        return replace(self.spec, delay=self.spec.delay + self.judging)
+        """The spec with the robot starting when a head start is sent: after its own judgement (and braking's, when
+        that was judged first)."""
+        return replace(self.spec, delay=self.spec.delay + self.judging * (1 + self.braking_judged))
 
     def know_as_it_is(self) -> bool:
         """Imagine the robot as it is into the spec (:func:`as_it_is`), once; whether a bystander falls or runs a
@@ -211,7 +217,8 @@ class _Judging:
         first = opening[1]
         self.lead_judged = True
         lead, answers = self.judged_as_lead(self.lead_sent, first)
-        if not self.no_worse.harmless(lead):
+        must_brake = not self.no_worse.harmless(lead)
+        if must_brake and not self.harmless_braked(lead, first):
             return chain([opening], positions)
         knew = self.knows_as_it_is
         read_off = driven_on(self.scene, self.lead_sent(), first, answers, self.imagine, self.uncertainty)
@@ -222,9 +229,26 @@ class _Judging:
         if second is None:  # a head start is for a search that judges on past its first candidate
             del verdicts[:]
             return iter([opening])
-        self.lead, self.read_off = lead, read_off
+        self.lead, self.read_off, self.must_brake = lead, read_off, must_brake
         send(lead)
         return chain([second] if read_off is not None else [opening, second], positions)
+
+    def harmless_braked(self, lead: Verdict, move: RobotMove | None) -> bool:
+        """Whether a head start refused only for falls it brings where someone just misses theirs
+        (:attr:`~agents.caregiving.model.verdict.Fall.made_worse`) harms nobody braked at the latest the search
+        can end.
+
+        Driven to its end, such a head start walks someone into what they would just miss; braked once the search
+        has judged every candidate, it may leave the robot short of their way, and it still sets the robot off
+        while the search looks for a move that saves them. It is sent only where one search decides (a single
+        danger: no searches alone follow, with it driven on), and braked whenever that search ends without a move.
+        """
+        if len(self.spec.dangers) != 1 or not self.no_worse.harmless(lead, made_worse_too=True):
+            return False
+        self.braking_judged = True
+        latest = replace(self.lead_sent(), lead=move, lead_for=self.judging * (self.max_moves + 1))
+        braking, _ = self.judged_as_lead(lambda: latest, None)
+        return self.no_worse.harmless(braking)
 
     def judged_as_lead(self, at: Callable[[], SearchSpec], move: RobotMove | None) -> tuple[Verdict, list[Answer]]:
         """:func:`judge_lead` of ``move`` (``None``: braking) with the spec ``at()`` gives; one refused before who

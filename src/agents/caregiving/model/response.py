@@ -18,10 +18,13 @@ The steps, in order:
   when every danger is at least even odds
   (:data:`~agents.caregiving.model.move_search.HEAD_START_RISK`), the first
   candidate is judged first and, if it harms nobody (it trips nobody, and whoever
-  falls with it falls with the robot idle too), sent at once as a head start; every
-  other candidate is then judged as a switch from it. A head start lasts as long
-  as its search: when none is chosen, the robot brakes, or, when braking there
-  would trip someone, drives on with it until a later search replaces it;
+  falls with it falls with the robot idle too, even had they just missed that fall),
+  sent at once as a head start; every other candidate is then judged as a switch
+  from it. A head start lasts as long as its search: when none is chosen, the robot
+  brakes, or, when braking there would trip someone, drives on with it until a later
+  search replaces it. For a single danger, a head start that harms only someone
+  who just misses their fall is sent if braking it at the search's latest end
+  harms nobody, and is braked whenever its search ends without a move;
 * when no single move keeps everyone safe, each danger is searched alone, most
   urgent first (:meth:`~agents.caregiving.model.search_spec.SearchSpec.alone`: the
   others walk on beside them, their own falls let happen), and the first move found

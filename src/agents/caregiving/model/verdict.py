@@ -22,12 +22,17 @@ from .uncertainty import Risk
 
 @dataclass(frozen=True)
 class Fall:
-    """The first fall imagined in one walk set: who, into what (``None``: stuck) and where they touched it."""
+    """The first fall imagined in one walk set: who, into what (``None``: stuck) and where they touched it.
+
+    ``made_worse`` marks a fall imagined in a world where, with the robot as it is, they walk clear: one the
+    robot as it is does not bring, whoever falls at the belief's centre.
+    """
 
     walk_set: int
     person: str
     obstacle: str | None
     point: tuple[float, float] | None
+    made_worse: bool = False
 
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict."""
@@ -36,6 +41,7 @@ class Fall:
             "person": self.person,
             "obstacle": self.obstacle,
             "point": list(self.point) if self.point else None,
+            "made_worse": self.made_worse,
         }
 
     @classmethod
@@ -46,7 +52,8 @@ class Fall:
             raise f.fail("walk_set", f"expected the index of a walk set, got {walk_set!r}")
         obstacle = f.string("obstacle") if f.has("obstacle") else None
         point = f.numbers("point", 2) if f.has("point") else None
-        return cls(int(walk_set), f.string("person"), obstacle, (point[0], point[1]) if point else None)
+        where = (point[0], point[1]) if point else None
+        return cls(int(walk_set), f.string("person"), obstacle, where, f.boolean("made_worse", False))
 
 
 @dataclass(frozen=True)
@@ -124,6 +131,8 @@ class SearchResult:
     many judgements the search took in turn, the head start's and braking's included: its time, in
     candidate slots. ``sets_off`` is when the chosen move was imagined to set off (switching from the head
     start, if one was sent), in simulated seconds after the scene: the robot must not set off on it sooner.
+    ``lead_sets_off`` is the same for the head start, once the judgements it waited for are done (``None``: when it
+    was sent, as the simulator does the moment it finds one).
     """
 
     chosen: Verdict | None
@@ -132,12 +141,15 @@ class SearchResult:
     halt: Verdict | None = None
     judged: int = 0
     sets_off: float | None = None
+    lead_sets_off: float | None = None
 
     def __post_init__(self) -> None:
         if self.judged < len(self.verdicts):
             raise ValueError(f"a search of {len(self.verdicts)} verdicts took at least as many judgements")
         if self.sets_off is not None and (self.chosen is None or self.sets_off < 0.0):
             raise ValueError(f"a set-off time ({self.sets_off}) is for a chosen move, and not before the scene")
+        if self.lead_sets_off is not None and (self.lead is None or self.lead_sets_off < 0.0):
+            raise ValueError(f"a set-off time ({self.lead_sets_off}) is for a head start, and not before the scene")
 
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict; the chosen move is an index into the verdicts."""
@@ -151,6 +163,7 @@ class SearchResult:
             "halt": self.halt.to_wire() if self.halt is not None else None,
             "judged": self.judged,
             "sets_off": self.sets_off,
+            "lead_sets_off": self.lead_sets_off,
         }
 
     @classmethod
@@ -169,8 +182,14 @@ class SearchResult:
             raise f.fail(
                 "sets_off", f"expected no set-off time before the scene, nor without a chosen move, got {sets_off!r}"
             )
+        lead_sets_off = f.optional_number("lead_sets_off")
+        if lead_sets_off is not None and (lead is None or lead_sets_off < 0.0):
+            raise f.fail(
+                "lead_sets_off",
+                f"expected no set-off time before the scene, nor without a head start, got {lead_sets_off!r}",
+            )
         if index is None:
-            return cls(None, verdicts, lead, halt, int(judged))
+            return cls(None, verdicts, lead, halt, int(judged), lead_sets_off=lead_sets_off)
         if not index.is_integer() or not 0 <= index < len(verdicts):
             raise f.fail("chosen", f"expected the index of one of {len(verdicts)} verdicts, got {index!r}")
-        return cls(verdicts[int(index)], verdicts, lead, halt, int(judged), sets_off)
+        return cls(verdicts[int(index)], verdicts, lead, halt, int(judged), sets_off, lead_sets_off)
