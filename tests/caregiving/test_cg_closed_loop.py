@@ -21,7 +21,7 @@ from recorded_cases import HELD_OUT, JUDGING, THRESHOLD
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import load_scenario
 from bridges.experiment.beliefs import Noise
-from bridges.experiment.closed_loop import Setup, closed_loop
+from bridges.experiment.closed_loop import Loop, Setup, closed_loop
 from bridges.experiment.oracle import idle_run, world_at
 from bridges.experiment.perfect_belief import Gazes, spec_on
 from bridges.world.bridge import trial_for
@@ -155,31 +155,37 @@ def test_with_false_alarms_algorithm_1_looks_at_everyone_walking(false_alarms: b
     assert loop.truth.outcome().collisions == ()
 
 
-def test_braking_that_leaves_the_robot_in_the_way_of_a_false_alarm_is_not_sent() -> None:
-    """The bathroom at seed 307, trial 3: nobody falls with the robot idle, and the live run flagged a danger at 0.7 s.
-    On the beliefs drawn, the person walks into the basket: the robot sets off for the basket's stand-off as a head
-    start, and the search finds no move. Braking where the search ends was harmless with her fall into the basket
-    let happen, and the robot stood in her way once she passed the basket, as she does in the truth. Imagined just
-    missing the basket, she walks into the robot, with the head start as with braking, and neither is sent."""
-    scenario = load_scenario(HELD_OUT / "bathroom_basket.yaml")
-    trial, planner = trial_for(scenario, 307, 3), GridPlanner(scenario.scene().bounds)
-    noisy = replace(setup(first_look_only=False), false_alarms=True)
-    loop = closed_loop(trial, 0.7000000000000001, planner, (3, 0), noisy)  # the run's risk_at_time, as recorded
-    assert not loop.idle_fallers and loop.looks >= 1
-    assert loop.truth.outcome().collisions == ()
+def recorded_loop(scenario: str | Path, seed: int, index: int, at: float, draw: int, false_alarms: bool) -> Loop:
+    """The closed loop of a recorded run's trial from ``at``, the run's ``risk_at_time`` as recorded, on the beliefs
+    of ``draw``, every error drawn."""
+    room = load_scenario(scenario)
+    trial, planner = trial_for(room, seed, index), GridPlanner(room.scene().bounds)
+    return closed_loop(trial, at, planner, (index, draw), replace(setup(False), false_alarms=false_alarms))
 
 
-def test_a_head_start_that_walks_a_false_alarm_into_the_obstacle_they_pass_is_not_sent() -> None:
-    """The paper's room at seed 90313, trial 29: nobody falls with the robot idle, and the live run flagged a danger
-    at 0.55 s. On the beliefs of draw 1, the person grazes the ball 3.5 s later: the first candidate, the ball's
-    stand-off straight behind it, is harmless with that fall let happen. Imagined just missing the ball, the
-    person plans round the robot on its way there and walks into the ball: a fall the robot as it is does not
-    bring, which the code before excused because the person falls at the belief's centre too. It sent the head
-    start, braked, and the person, who passes the ball in the truth, walked into it."""
-    scenario = load_scenario("paper_experiment1")
-    trial, planner = trial_for(scenario, 90313, 29), GridPlanner(scenario.scene().bounds)
-    noisy = replace(setup(first_look_only=False), false_alarms=True)
-    loop = closed_loop(trial, 0.5499999999999999, planner, (29, 1), noisy)  # the run's risk_at_time, as recorded
+@pytest.mark.parametrize(
+    ("scenario", "seed", "index", "at", "draw"),
+    [
+        (HELD_OUT / "bathroom_basket.yaml", 307, 3, 0.7000000000000001, 0),
+        ("paper_experiment1", 90313, 29, 0.5499999999999999, 1),
+    ],
+    ids=["braking in her way", "a head start into the ball"],
+)
+def test_a_head_start_or_braking_that_harms_a_false_alarm_just_missed_is_not_sent(
+    scenario: str | Path, seed: int, index: int, at: float, draw: int
+) -> None:
+    """Nobody falls with the robot idle, and the live run flagged a danger; on the beliefs drawn, the person walks
+    into what they pass in the truth, and the first candidate, that obstacle's stand-off, is harmless with that
+    fall let happen.
+
+    In the bathroom at seed 307, trial 3, the search finds no move, and braking where it ends left the robot in
+    her way once she passed the basket: imagined just missing it, she walks into the robot, with the head start
+    as with braking, and neither is sent. In the paper's room at seed 90313, trial 29, imagined just missing the
+    ball, the person plans round the robot on its way there and walks into the ball: a fall the robot as it is
+    does not bring, which the code before excused because the person falls at the belief's centre too; it sent
+    the head start, braked, and the person walked into the ball.
+    """
+    loop = recorded_loop(scenario, seed, index, at, draw, false_alarms=True)
     assert not loop.idle_fallers and loop.looks >= 1
     assert loop.truth.outcome().collisions == ()
 
@@ -189,9 +195,7 @@ def test_a_head_start_harmless_only_braked_still_sets_the_robot_off_and_saves_th
     ball's stand-off straight behind it, would walk the person into the ball had they just missed it. Braked once
     the search has judged every candidate, it harms nobody, so it goes out as a head start, and the search
     switches to a stand-off that saves the person. Judged from rest without it, no candidate saves her in time."""
-    scenario = load_scenario("paper_experiment1")
-    trial, planner = trial_for(scenario, 77031, 44), GridPlanner(scenario.scene().bounds)
-    loop = closed_loop(trial, 0.5499999999999999, planner, (44, 0), setup(first_look_only=False))
+    loop = recorded_loop("paper_experiment1", 77031, 44, 0.5499999999999999, 0, false_alarms=False)
     assert loop.idle_fallers == frozenset({"person"}) and loop.responses.get("send", 0) >= 1
     assert loop.truth.outcome().collisions == ()
 
