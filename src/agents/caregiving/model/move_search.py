@@ -81,9 +81,9 @@ def search(
     sent at once; so is one of a single danger that harms only someone who just misses their fall, if braking
     it at the latest the search can end harms nobody (:meth:`_Judging.harmless_braked`: braking is then judged
     first, and the head start waits for it). Every candidate is then judged as a switch from it, the robot
-    driving it from its command until the candidate's; the first one, the same move driven on, is read off the head start's
-    own imagination (:func:`driven_on`) when it can be, and takes no judgement. The head start's
-    judgement takes the first slot, sent or not. The result's ``lead`` is that verdict. A head start
+    driving it from its command until the candidate's; the first one, the same move driven on, is read off
+    the head start's own imagination (:func:`driven_on`) when it can be, and takes no judgement. The head
+    start's judgement takes the first slot, sent or not (and braking's the second, when judged). The result's ``lead`` is that verdict. A head start
     lasts as long as the search: when no candidate is chosen, braking at the search's end is judged the
     same way, and the result's ``halt`` is that verdict if it is harmless too, or the head start was sent to be
     braked (the robot then brakes; otherwise it drives the head start on, which harms nobody). The result's
@@ -163,7 +163,7 @@ class _Judging:
     lead_judged: bool = False  # whether a head start was judged (sent or not): it took the first slot
     read_off: Verdict | None = None  # the first candidate's verdict, read off the head start's (see driven_on)
     must_brake: bool = False  # the head start is harmless only braked when the search ends without a move
-    braking_judged: bool = False  # whether braking was judged before a head start was sent (see harmless_braked)
+    braking_judged: bool = False  # whether braking was judged for a head start (see harmless_braked): a slot more
 
     def spec_at(self, k: int) -> SearchSpec:
         """The spec the k-th candidate is judged with: the robot switching to it once the judgements before it,
@@ -172,7 +172,8 @@ class _Judging:
         After a head start is sent, the robot drives it from its command until the switch.
         """
         if self.lead is None:
-            return replace(self.spec, delay=self.spec.delay + self.judging * (k + self.lead_judged))
+            opening = self.lead_judged + self.braking_judged  # a head start judged and not sent took its slots
+            return replace(self.spec, delay=self.spec.delay + self.judging * (k + opening))
         judgements = k - (self.read_off is not None)  # the k-th's and those before it; one read off takes none
         return replace(self.lead_sent(), lead=self.lead.move, lead_for=self.judging * judgements)
 
