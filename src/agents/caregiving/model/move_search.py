@@ -83,9 +83,9 @@ def search(
     first, and the head start waits for it). Every candidate is then judged as a switch from it, the robot
     driving it from its command until the candidate's; the first one, the same move driven on, is read off
     the head start's own imagination (:func:`driven_on`) when it can be, and takes no judgement. The head
-    start's judgement takes the first slot, sent or not (and braking's the second, when judged). The result's ``lead`` is that verdict. A head start
-    lasts as long as the search: when no candidate is chosen, braking at the search's end is judged the
-    same way, and the result's ``halt`` is that verdict if it is harmless too, or the head start was sent to be
+    start's judgement takes the first slot, sent or not (and braking's the second, when judged). The
+    result's ``lead`` is that verdict. A head start lasts as long as the search: when no candidate is
+    chosen, braking at the search's end is judged the same way, and the result's ``halt`` is that verdict if it is harmless too, or the head start was sent to be
     braked (the robot then brakes; otherwise it drives the head start on, which harms nobody). The result's
     ``judged`` counts the slots the search took, and ``lead_sets_off`` when the head start set off.
     """
@@ -162,7 +162,6 @@ class _Judging:
     lead: Verdict | None = None  # the head start sent
     lead_judged: bool = False  # whether a head start was judged (sent or not): it took the first slot
     read_off: Verdict | None = None  # the first candidate's verdict, read off the head start's (see driven_on)
-    must_brake: bool = False  # the head start is harmless only braked when the search ends without a move
     braking_judged: bool = False  # whether braking was judged for a head start (see harmless_braked): a slot more
 
     def spec_at(self, k: int) -> SearchSpec:
@@ -218,8 +217,7 @@ class _Judging:
         first = opening[1]
         self.lead_judged = True
         lead, answers = self.judged_as_lead(self.lead_sent, first)
-        must_brake = not self.no_worse.harmless(lead)
-        if must_brake and not self.harmless_braked(lead, first):
+        if not self.no_worse.harmless(lead) and not self.harmless_braked(lead, first):
             return chain([opening], positions)
         knew = self.knows_as_it_is
         read_off = driven_on(self.scene, self.lead_sent(), first, answers, self.imagine, self.uncertainty)
@@ -230,9 +228,15 @@ class _Judging:
         if second is None:  # a head start is for a search that judges on past its first candidate
             del verdicts[:]
             return iter([opening])
-        self.lead, self.read_off, self.must_brake = lead, read_off, must_brake
+        self.lead, self.read_off = lead, read_off
         send(lead)
         return chain([second] if read_off is not None else [opening, second], positions)
+
+    @property
+    def must_brake(self) -> bool:
+        """Whether the head start sent is harmless only braked when the search ends without a move: braking was
+        judged for it (:meth:`harmless_braked`), and found harmless."""
+        return self.lead is not None and self.braking_judged
 
     def harmless_braked(self, lead: Verdict, move: RobotMove | None) -> bool:
         """Whether a head start refused only for falls it brings where someone just misses theirs
