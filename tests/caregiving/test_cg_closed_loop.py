@@ -168,8 +168,9 @@ def recorded_loop(scenario: str | Path, seed: int, index: int, at: float, draw: 
     [
         (HELD_OUT / "bathroom_basket.yaml", 307, 3, 0.7000000000000001, 0),
         ("paper_experiment1", 90313, 29, 0.5499999999999999, 1),
+        (HELD_OUT / "bathroom_basket.yaml", 11, 7, 0.6, 1),
     ],
-    ids=["braking in her way", "a head start into the ball"],
+    ids=["braking in her way", "a head start into the ball", "a graze the basket's size bias explains"],
 )
 def test_a_head_start_or_braking_that_harms_a_false_alarm_just_missed_is_not_sent(
     scenario: str | Path, seed: int, index: int, at: float, draw: int
@@ -183,7 +184,10 @@ def test_a_head_start_or_braking_that_harms_a_false_alarm_just_missed_is_not_sen
     as with braking, and neither is sent. In the paper's room at seed 90313, trial 29, imagined just missing the
     ball, the person plans round the robot on its way there and walks into the ball: a fall the robot as it is
     does not bring, which the code before excused because the person falls at the belief's centre too; it sent
-    the head start, braked, and the person walked into the ball.
+    the head start, braked, and the person walked into the ball. In the bathroom at seed 11, trial 7, the
+    belief has the person 5.9 cm into the basket, deeper than perception's position error alone explains
+    (4.5 cm); the basket held up to a fifth too large explains the rest. The code before imagined no fall just
+    missed so deep, sent the head start to the basket's stand-off and braked it in her way.
     """
     loop = recorded_loop(scenario, seed, index, at, draw, false_alarms=True)
     assert not loop.idle_fallers and loop.looks >= 1

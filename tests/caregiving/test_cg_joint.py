@@ -12,7 +12,7 @@ from agents.caregiving.model.geometry import Polyline
 from agents.caregiving.model.joint import JointImagination, imagine_joint
 from agents.caregiving.model.robot_moves import RobotMove, standoff_moves
 from agents.caregiving.model.scenario import Scenario, load_scenario
-from agents.caregiving.model.world_model import Outcome, Walk, World
+from agents.caregiving.model.world_model import Outcome, Passing, Walk, World
 
 GAZE = math.radians(8)
 
@@ -95,6 +95,9 @@ def test_wire_round_trip_and_errors(paper: Scenario) -> None:
     braking = imagine_joint(scene, [Walk("person", "couch", GAZE)], None)
     assert braking.move is None and braking.walks[0].collided
     assert JointImagination.from_wire(braking.to_wire()) == braking
+    passing = imagine_joint(scene, [Walk("person", "couch", GAZE)], None, passing={"person": Passing("ball")})
+    assert passing.walks[0].passed_size is not None
+    assert JointImagination.from_wire(msgpack.unpackb(msgpack.packb(passing.to_wire()))) == passing
     with pytest.raises(RequestError, match="no robot"):
         imagine_joint(scene.with_robot(None), [Walk("person", "couch", GAZE)], None)
     with pytest.raises(RequestError, match="unknown object 'fridge'"):

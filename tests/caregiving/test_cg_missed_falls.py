@@ -1,11 +1,14 @@
-"""A fall let happen may be a false alarm: a move must not harm the person who only just misses it."""
+"""A fall let happen may be a false alarm: a move must not harm the person who only just misses it, by as much as
+perception's errors in positions and sizes allow."""
 
 import json
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
 
-from agents.caregiving.model.judging import judge_move
+import pytest
+
+from agents.caregiving.model.judging import RobotMargin, judge_move
 from agents.caregiving.model.move_search import SearchItem
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.scene import Scene
@@ -49,10 +52,11 @@ def test_a_move_that_walks_someone_just_missing_a_fall_let_happen_into_the_robot
 
 
 def test_a_fall_let_happen_that_goes_deeper_than_perceptions_error_is_not_imagined_missed() -> None:
-    """The same move, judged with perception's error a hundredth as large: Ben's touch of the bag is then deeper
+    """The same move, judged with perception's errors (positions and sizes) a hundredth as large: Ben's touch of the bag is then deeper
     than the error allows, his fall is sure, and the move is clear where Ana's danger was found."""
     scene, item = recorded_search()
-    sure = replace(item.uncertainty, sigma={name: sigma / 100 for name, sigma in item.uncertainty.sigma.items()})
+    u = item.uncertainty
+    sure = replace(u, sigma={name: sigma / 100 for name, sigma in u.sigma.items()}, size_error=u.size_error / 100)
     imagine = partial(serve_one, scene)
     refused = judge_move(item.spec, CABINET, imagine, item.uncertainty, scene.robot_name)
     assert refused.reason == "person_12 walks into robot where person_12 just misses backpack_10"
@@ -73,3 +77,13 @@ def test_a_move_to_someone_fallen_is_not_sent_into_the_way_of_a_walker_believed_
     assert (
         found.chosen is behind_him and behind_him.move is not None and behind_him.move.y < scene.person("person_36").y
     )
+
+
+def test_a_fall_just_missed_may_be_as_deep_as_the_object_held_too_large_explains() -> None:
+    """Perception may hold a person two sigmas of both positions off from an object, and the object up to its size
+    error too large: its true outline may lie that share of its bounding radius inside the believed one."""
+    margin = RobotMargin("robot", {"person": 0.03, "basket": 0.04}, size_error=0.2)
+    assert margin.error("person", "basket") == pytest.approx(2 * 0.05)
+    assert margin.error("person", "basket", 0.24) == pytest.approx(2 * 0.05 + 0.24 * 0.2 / 1.2)
+    exact_sizes = replace(margin, size_error=0.0)
+    assert exact_sizes.error("person", "basket", 0.24) == pytest.approx(2 * 0.05)

@@ -34,7 +34,7 @@ def test_paper_default_person_does_not_see_the_ball_and_collides() -> None:
 
 def test_a_person_imagined_passing_walks_through_or_touches_only_deeper_than_the_allowance() -> None:
     """The paper's person, imagined passing the ball: not there for them, they walk through it to the couch and
-    say how deep they went; allowed deeper than that, they pass it; allowed half as deep, they touch it later."""
+    say how deep they went and how large it is; allowed deeper than that, they pass it; allowed half as deep, they touch it later."""
     s = load_scenario("paper_experiment1")
     walks = [Walk("person", s.people[0].target, math.radians(s.people[0].gaze_deg))]
     idle = World(s.scene(), walks).run()
@@ -42,7 +42,9 @@ def test_a_person_imagined_passing_walks_through_or_touches_only_deeper_than_the
     assert not through.run().collided and through.walker("person").status == "arrived"
     depth = through.passed_clearance("person")
     assert depth is not None and depth < 0.0
+    assert through.passed_size("person") == pytest.approx(s.scene().obstacle("ball").shape.bound)
     assert World(s.scene(), walks).passed_clearance("person") is None
+    assert World(s.scene(), walks).passed_size("person") is None
     missed = World(s.scene(), walks, passing={"person": Passing("ball", -depth + 0.01)}).run()
     assert not missed.collided
     grazed = World(s.scene(), walks, passing={"person": Passing("ball", -depth / 2)}).run()

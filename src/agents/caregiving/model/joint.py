@@ -53,8 +53,10 @@ class WalkOutcome:
     saw_robot_at: float | None
     # Closest approach to the robot while it drives, or stands where the person does not know it to be.
     robot_clearance: float = math.inf
-    # Imagined passing what they were believed to walk into: how close they came to it (negative: through it).
+    # Imagined passing what they were believed to walk into: how close they came to it (negative: through it),
+    # and its bounding radius.
     passed_clearance: float | None = None
+    passed_size: float | None = None
 
     @property
     def collided(self) -> bool:
@@ -100,6 +102,7 @@ class WalkOutcome:
             "saw_robot_at": self.saw_robot_at,
             "robot_clearance": self.robot_clearance if math.isfinite(self.robot_clearance) else None,
             "passed_clearance": self.passed_clearance,
+            "passed_size": self.passed_size,
         }
 
     @classmethod
@@ -122,6 +125,7 @@ class WalkOutcome:
             f.optional_number("saw_robot_at"),
             math.inf if robot_clearance is None else robot_clearance,
             f.optional_number("passed_clearance"),
+            f.optional_number("passed_size"),
         )
 
 
@@ -292,4 +296,5 @@ def _outcome(world: World, walk: Walk, start: float) -> WalkOutcome:
         saw - start if saw is not None else None,
         w.robot_clearance,
         world.passed_clearance(walk.person),
+        world.passed_size(walk.person),
     )

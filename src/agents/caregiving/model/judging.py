@@ -48,17 +48,21 @@ class RobotMargin:
     robot: str
     sigma: Mapping[str, float]
     floor: float = 0.0
+    size_error: float = 0.0
 
     @classmethod
     def of(cls, robot: str | None, uncertainty: Uncertainty, spec: SearchSpec | None = None) -> RobotMargin | None:
         """The margin of ``robot`` under perception's ``uncertainty`` (and ``spec``'s floor); None for a scene
         without a robot."""
         floor = spec.keep_clear if spec is not None else 0.0
-        return cls(robot, uncertainty.sigma, floor) if robot is not None else None
+        return cls(robot, uncertainty.sigma, floor, uncertainty.size_error) if robot is not None else None
 
-    def error(self, person: str, obstacle: str) -> float:
-        """How far off perception may hold ``person`` from ``obstacle``: the margin's sigmas of both errors."""
-        return MARGIN_SIGMAS * math.hypot(self.sigma.get(person, 0.0), self.sigma.get(obstacle, 0.0))
+    def error(self, person: str, obstacle: str, size: float = 0.0) -> float:
+        """How far off perception may hold ``person`` from ``obstacle``: the margin's sigmas of both positions'
+        errors, and, for an obstacle of bounding radius ``size``, how far inside the outline believed its true
+        one may lie (held up to ``size_error`` too large)."""
+        shrink = size * self.size_error / (1.0 + self.size_error)
+        return MARGIN_SIGMAS * math.hypot(self.sigma.get(person, 0.0), self.sigma.get(obstacle, 0.0)) + shrink
 
     def too_close(self, walk: WalkOutcome) -> bool:
         """Whether the walk passes the robot closer than the margin for that person."""
@@ -271,7 +275,8 @@ def _harmless_if_missed(
         for w in first.joint.walks
         if w.collision_object is not None and excused.get(w.walk.person) == w.collision_object
     }
-    if not let_fall or not any(margin.error(person, obstacle) for person, obstacle in let_fall.items()):
+    could_miss = margin.size_error > 0.0 or any(margin.error(person, obstacle) for person, obstacle in let_fall.items())
+    if not let_fall or not could_miss:
         return verdict  # nobody it lets fall can be held off by enough to miss
     unimagined = replace(verdict, clear=False, risk=1.0, reason="not imagined missing the falls it lets happen")
     through = misses.robot_as_it_is({person: Passing(obstacle) for person, obstacle in let_fall.items()})
@@ -282,7 +287,7 @@ def _harmless_if_missed(
         for w in through.walks
         if w.walk.person in let_fall
         and (depth := w.passed_clearance) is not None
-        and -depth <= margin.error(w.walk.person, let_fall[w.walk.person])
+        and -depth <= margin.error(w.walk.person, let_fall[w.walk.person], w.passed_size or 0.0)
     }
     if not grazing:
         return verdict

@@ -288,14 +288,22 @@ class World:
         """How close ``person``, passing what they are believed to walk into, came to it (negative: how deep they
         went through it); None when they pass nothing, or something that moves (an object or a person standing,
         fallen ones too, does not)."""
-        passed = self._passing.get(person)
-        if passed is None:
-            return None
-        body = next((o for o in (*self._static, *self._standing_bodies) if o.name == passed.obstacle), None)
+        body = self._passed_body(person)
         if body is None:
             return None
         w = self.walker(person)
         return float(signed_distance(body.shape, np.array(w.track)).min()) - w.state.radius
+
+    def passed_size(self, person: str) -> float | None:
+        """The bounding radius of what ``person`` is imagined passing, as :meth:`passed_clearance` finds it."""
+        body = self._passed_body(person)
+        return bounding_radius(body.shape) if body is not None else None
+
+    def _passed_body(self, person: str) -> Obstacle | None:
+        passed = self._passing.get(person)
+        if passed is None:
+            return None
+        return next((o for o in (*self._static, *self._standing_bodies) if o.name == passed.obstacle), None)
 
     def walker(self, person: str) -> _Walker:
         """The state of one walking person (their track, plan, status and what they know)."""
