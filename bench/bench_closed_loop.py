@@ -7,7 +7,9 @@ lasts, and keeps, doubts or replaces the move under way. This bench runs
 on ``--draws`` draws of every saveable trial, from the moment the run first saw
 its danger, and counts the draws where nobody touches anything (``saved``), those
 where someone walks into the robot (``into_robot``), the looks, the commands sent
-to the robot, the candidates judged and the responses by kind. ``--belief-noise`` draws the beliefs with one
+to the robot, the candidates judged and the responses by kind, and, by the sampled risk of the first move a
+search chose and sent, those draws and how many of them were lost (``first_sent_by_risk``: how well the
+imagination's risk foretells the truth). ``--belief-noise`` draws the beliefs with one
 of the sensor model's errors alone (or none), which shows what each costs. ``--first-look-only``
 acts on the first look alone and drives its move on, which shows what looking
 again buys. ``--people PATH`` (a ``bench_people_saved.py`` JSON) runs instead every trial of its runs where
@@ -83,6 +85,24 @@ class Draw:
     judged: int
     responses: dict[str, int]
     lost: bool  # someone saveable fell (without ``people``: anyone fell)
+    first_risk: float | None  # the sampled risk of the first move chosen and sent, if one was
+
+
+#: Upper bounds of the sampled risks the first moves sent are counted by (:func:`by_risk`).
+RISK_BINS = (0.05, 0.1, 0.15, 0.2, 1.0)
+
+
+def by_risk(found: list[Draw]) -> dict[str, dict[str, int]]:
+    """The draws where a move was chosen and sent, by the sampled risk of the first one, each with how many of
+    them were lost: how well the imagination's risk foretells the truth."""
+    labels = [f"{low:.2f}-{high:.2f}" for low, high in zip((0.0, *RISK_BINS[:-1]), RISK_BINS, strict=True)]
+    counts = {label: {"sent": 0, "lost": 0} for label in labels}
+    for d in found:
+        if d.first_risk is not None:
+            label = labels[next((k for k, high in enumerate(RISK_BINS) if d.first_risk < high), len(labels) - 1)]
+            counts[label]["sent"] += 1
+            counts[label]["lost"] += d.lost
+    return counts
 
 
 def run_draws(job: tuple[str, int, Setup, SaveablePeople | None, bool]) -> list[Draw]:
@@ -111,6 +131,7 @@ def run_draws(job: tuple[str, int, Setup, SaveablePeople | None, bool]) -> list[
                     loop.judged,
                     loop.responses,
                     bool(fell & saveable if people is not None else fell),
+                    loop.first_risk,
                 )
             )
     return found
@@ -145,6 +166,7 @@ def closed_loops(
         "commands": sum(d.commands for d in found),
         "judged": sum(d.judged for d in found),
         "responses": dict(sorted(responses.items())),
+        "first_sent_by_risk": by_risk(found),
         "seconds": round(time.perf_counter() - started, 1),
         "lost_draws": dict(Counter(d.case for d in found if d.lost)),
         "tripped_draws": dict(Counter(d.case for d in found if d.tripped)),

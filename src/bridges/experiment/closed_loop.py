@@ -96,6 +96,7 @@ class Loop:
     judged: int = 0
     responses: dict[str, int] = field(default_factory=dict)
     gone_to: str | None = None  # whom the robot was sent to, lying where they fell
+    first_risk: float | None = None  # the sampled risk of the first move a search chose and sent (not braking)
 
 
 @dataclass(frozen=True)
@@ -176,6 +177,8 @@ def _look(
         case Keep(doubted=doubted, best_new=None) if loop.under_way is not None:
             loop.under_way = replace(loop.under_way, second_look=doubted)
         case Send(chosen, braking=braking):
+            if not braking and loop.first_risk is None:
+                loop.first_risk = chosen.risk
             _command(loop, ended, chosen.move)
             loop.under_way = UnderWay(chosen.move, second_look=False)
             if braking:
