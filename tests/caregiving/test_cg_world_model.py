@@ -45,6 +45,7 @@ def test_a_person_imagined_passing_walks_through_or_touches_only_deeper_than_the
     assert through.passed_size("person") == pytest.approx(s.scene().obstacle("ball").shape.bound)
     assert World(s.scene(), walks).passed_clearance("person") is None
     assert World(s.scene(), walks).passed_size("person") is None
+    assert World(s.scene(), walks, passing={"person": Passing("wall0")}).passed_size("person") is None  # known exactly
     missed = World(s.scene(), walks, passing={"person": Passing("ball", -depth + 0.01)}).run()
     assert not missed.collided
     grazed = World(s.scene(), walks, passing={"person": Passing("ball", -depth / 2)}).run()

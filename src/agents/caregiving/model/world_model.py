@@ -295,9 +295,12 @@ class World:
         return float(signed_distance(body.shape, np.array(w.track)).min()) - w.state.radius
 
     def passed_size(self, person: str) -> float | None:
-        """The bounding radius of what ``person`` is imagined passing, as :meth:`passed_clearance` finds it."""
+        """The bounding radius of the object ``person`` is imagined passing, whose size perception may hold off;
+        None when they pass nothing, a wall or a person (whose sizes it knows)."""
         body = self._passed_body(person)
-        return bounding_radius(body.shape) if body is not None else None
+        if body is None or body.kind == WALL_KIND or body in self._standing_bodies:
+            return None
+        return bounding_radius(body.shape)
 
     def _passed_body(self, person: str) -> Obstacle | None:
         passed = self._passing.get(person)
