@@ -15,7 +15,7 @@ import time
 from typing import Any
 
 from agents.caregiving.model.guesses import Guess
-from agents.caregiving.model.visibility import GazeClass
+from agents.caregiving.model.visibility import GazeClass, surely_seen
 from wm import Graph
 
 from .context import Context
@@ -29,7 +29,7 @@ def remember(g: Graph, ctx: Context, person: str, classes: tuple[GazeClass, ...]
     been seen is remembered where it stands, so that a walk imagined later does not re-plan on first sight.
     """
     pid = ctx.ids[person]
-    sure = frozenset.intersection(*(c.visible for c in classes)) if classes else frozenset()
+    sure = surely_seen(classes)
     known = {g.get_node(e.dst).name for e in g.edges(type=KNOWS, src=pid)}
     fresh = [
         n

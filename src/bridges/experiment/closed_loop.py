@@ -12,7 +12,10 @@ danger showed:
   averages away, and an average that only tightens), the people's errors drawn
   anew at each look;
 * Algorithm 1's danger is imagined on that belief
-  (:func:`~bridges.experiment.perfect_belief.spec_on`); a person whose danger no
+  (:func:`~bridges.experiment.perfect_belief.spec_on`) as it finds it live, knowing
+  nothing of the true gaze: at the gaze class whose walk collides soonest, each
+  person knowing the objects they have surely seen (in every gaze class) at the
+  looks so far and along their walk before the first; a person whose danger no
   move removed is looked at again only after :attr:`Setup.retry` seconds, as live;
 * :func:`~agents.caregiving.model.response.respond` is driven with the real search
   on the belief, the robot starting :attr:`Setup.delay` seconds after the look and
@@ -49,6 +52,7 @@ from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
+from agents.caregiving.model.visibility import gaze_classes, surely_seen
 from agents.caregiving.model.world_model import World
 
 from .beliefs import SAMPLES, Noise, belief, search_uncertainty
@@ -96,6 +100,7 @@ class Loop:
     judged: int = 0
     responses: dict[str, int] = field(default_factory=dict)
     gone_to: str | None = None  # whom the robot was sent to, lying where they fell
+    seen: dict[str, set[str]] = field(default_factory=dict)  # what each person has surely seen, as Algorithm 1 holds
     first_risk: float | None = None  # the sampled risk of the first move a search chose and sent (not braking)
 
 
@@ -129,9 +134,11 @@ def closed_loop(trial: Scenario, at: float, planner: GridPlanner, seed: tuple[in
     perception = Perception(trial.sensors, setup.noise, seed)
     policy = Policy(setup.threshold, SAMPLES, trial.scene().robot_name)
     now = at
+    _saw_before(loop, perception.belief(loop.truth.scene(), now, 0))
     while not loop.truth.done and now < at + HORIZON:
         if now >= loop.retry_after and (loop.looks == 0 or not setup.first_look_only):
             scene = perception.belief(loop.truth.scene(), now, loop.looks)
+            _saw(loop, scene)
             _look(loop, scene, perception.uncertainty(scene, now, loop.looks), idle, now, policy, setup)
         now = max(now + setup.look, loop.truth.time)
         loop.truth.advance(now)
@@ -139,13 +146,37 @@ def closed_loop(trial: Scenario, at: float, planner: GridPlanner, seed: tuple[in
     return loop
 
 
+#: Steps of a person's walk before the first look between the poses Algorithm 1 is taken to have seen them at.
+TRACKED_EVERY = 5
+
+
+def _saw(loop: Loop, scene: Scene) -> None:
+    """Add what each person in ``scene`` sees at every gaze class of theirs to what they have surely seen."""
+    for p in scene.people:
+        loop.seen.setdefault(p.name, set()).update(surely_seen(gaze_classes(p, scene.bodies_around(p.name))))
+
+
+def _saw_before(loop: Loop, scene: Scene) -> None:
+    """What each person surely saw along their walk before the first look (``scene``, a belief then): Algorithm 1
+    marks it from the moment it tracks them, every frame."""
+    for p in scene.people:
+        track = loop.truth.walker(p.name).track
+        for k in range(0, len(track) - 1, TRACKED_EVERY):
+            (x, y), (nx, ny) = track[k], track[k + 1]
+            was = p.moved(x, y, math.atan2(ny - y, nx - x) if (nx, ny) != (x, y) else p.heading)
+            at = replace(scene, people=tuple(was if q.name == p.name else q for q in scene.people))
+            _saw(loop, at)
+
+
 def _look(
     loop: Loop, scene: Scene, uncertainty: Uncertainty, idle: World, now: float, policy: Policy, setup: Setup
 ) -> None:
     """One look: Algorithm 1's danger on ``scene``, Algorithm 2's response to it, carried out in the truth."""
-    gazes = Gazes.TRUE_GAZE if setup.known_gaze else Gazes.ANY_CLASS
     people = loop.truth.walking() if setup.false_alarms else None
-    spec = spec_on(scene, idle, loop.truth, setup.delay, gazes, people)
+    if setup.known_gaze:
+        spec = spec_on(scene, idle, loop.truth, setup.delay, Gazes.TRUE_GAZE, people)
+    else:
+        spec = spec_on(scene, idle, loop.truth, setup.delay, Gazes.SOONEST, people, loop.seen)
     if spec is None:
         if setup.assist:
             _go_to_someone_fallen(loop, scene, uncertainty, now, setup)

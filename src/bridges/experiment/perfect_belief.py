@@ -10,7 +10,7 @@ them. This separates what the move search can do from what perception's noise co
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from enum import Enum
 
 from agents.caregiving.model.candidates import Danger
@@ -37,6 +37,10 @@ class Gazes(Enum):
     #: Found and judged at the true gaze alone: a robot that knew how far ahead each person looks, which shows
     #: what not knowing it costs.
     TRUE_GAZE = "true-gaze"
+    #: Found as Algorithm 1 finds it on a belief, knowing nothing of the true gaze: at the gaze class whose walk
+    #: collides soonest (:func:`agents.caregiving.model.guesses.summarise`); judged at every class, that one
+    #: first, in the order :func:`agents.caregiving.robot_intentions.risky_first` gives.
+    SOONEST = "soonest"
 
 
 def perfect_belief_spec(
@@ -61,16 +65,18 @@ def spec_on(
     delay: float,
     gazes: Gazes = Gazes.CLASSES,
     people: Sequence[str] | None = None,
+    surely_seen: Mapping[str, Iterable[str]] | None = None,
 ) -> SearchSpec | None:
     """The spec of the dangers Algorithm 1 finds on ``scene`` (exact or believed) for the people who fall in ``idle``
     (or for ``people``: on a belief, someone who falls in no truth may seem to, a false alarm), but those who
     have already fallen by ``now``: they lie where they fell, as perception sees them, and walk nowhere.
 
     ``idle`` is the trial run to its end with the robot idle, ``now`` the truth at the scene's moment (what each
-    person has seen so far). ``gazes`` says at which gaze each person's walk is imagined, and at which their
-    moves are judged (:class:`Gazes`).
+    person has seen so far, unless ``surely_seen`` says what each has surely seen, as Algorithm 1 holds it).
+    ``gazes`` says at which gaze each person's walk is imagined, and at which their moves are judged
+    (:class:`Gazes`).
     """
-    any_class = gazes is Gazes.ANY_CLASS
+    any_class = gazes in (Gazes.ANY_CLASS, Gazes.SOONEST)
     # What the intention agent's ``knows`` edges can hold: the objects and the robot.
     objects = {o.name for o in scene.obstacles if o.kind != WALL_KIND} | {scene.robot_name}
     dangers: list[Danger] = []
@@ -81,15 +87,24 @@ def spec_on(
         if name in judged_at or name in lying:
             continue
         walker = idle.walker(name)
-        seen = tuple(sorted(objects & now.walker(name).known.keys()))
+        sure = surely_seen.get(name, ()) if surely_seen is not None else now.walker(name).known
+        seen = tuple(sorted(objects & set(sure)))
         classes = gaze_classes(scene.person(name), scene.bodies_around(name))
-        order = tuple(sorted((g.gaze for g in classes), key=lambda g: abs(g - walker.gaze)))
-        for gaze in order if any_class else (walker.gaze,):
-            danger = Danger.of(imagine_person(scene, name, walker.target, gaze, known=seen))
-            if danger is not None:
-                break
+        if gazes is Gazes.SOONEST:
+            order = tuple(g.gaze for g in classes)
+            imagined = ((Danger.of(imagine_person(scene, name, walker.target, g, known=seen)), g) for g in order)
+            met = [(d, g) for d, g in imagined if d is not None]
+            if not met:
+                continue
+            danger, gaze = min(met, key=lambda m: m[0].time_to_collision)
         else:
-            continue
+            order = tuple(sorted((g.gaze for g in classes), key=lambda g: abs(g - walker.gaze)))
+            for gaze in order if any_class else (walker.gaze,):
+                danger = Danger.of(imagine_person(scene, name, walker.target, gaze, known=seen))
+                if danger is not None:
+                    break
+            else:
+                continue
         dangers.append(danger)
         if gazes is Gazes.TRUE_GAZE:
             judged_at[name] = (walker.gaze,)

@@ -12,13 +12,15 @@ clear one that lowers the risk, the least risky clear one. A
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from itertools import chain, islice
 from typing import TYPE_CHECKING, Any
 
-from .candidates import candidates
+from .candidates import Danger, candidates
 from .fields import Fields
+from .imagine import imagine_person
 from .imagine_reply import Answer
 from .imagine_request import MAX_DELAY, uncertainty_from_fields, uncertainty_to_wire
 from .judging import Imagine, as_it_is, driven_on, judge_lead, judge_move
@@ -64,6 +66,9 @@ def search(
     It stops also at a move that saves everyone at the gaze found risky and makes nothing worse at the others
     (:class:`NoWorse`), and ``settle_after_clear`` candidates past the first clear move that halves
     ``idle_risk`` (:class:`Settles`): judging on for a move safe at every gaze would send any move later.
+    When its candidates hold none of these, a single danger is searched once more as its person meets it at
+    another gaze class (:func:`at_another_gaze`), that class first: at most half as many candidates again,
+    judged on after the others.
 
     Each candidate is imagined with the robot starting ``judging`` seconds later than the one before, since
     the move is sent only once the search has judged it: the k-th candidate (from 1) after
@@ -79,7 +84,7 @@ def search(
     else, the first candidate is judged as a head start (:func:`judge_lead`), and when it is
     :meth:`NoWorse.harmless` and another candidate is left to judge, it is handed to ``head_start`` to be
     sent at once; so is one of a single danger that harms only someone who just misses their fall, if braking
-    it at the latest the search can end harms nobody (:meth:`_Judging.harmless_braked`: braking is then judged
+    it at the latest the search can end (its second pass included) harms nobody (:meth:`_Judging.harmless_braked`: braking is then judged
     first, and the head start waits for it). Every candidate is then judged as a switch from it, the robot
     driving it from its command until the candidate's; the first one, the same move driven on, is read off
     the head start's own imagination (:func:`driven_on`) when it can be, and takes no judgement. The head
@@ -99,6 +104,12 @@ def search(
     if head_start is not None and moves is None and spec.current is None:
         judging_.send_lead = head_start
     judging_.in_order(pool, threshold, verdicts, settles)
+    elsewhere: SearchSpec | None = None
+    settled = settles.by_no_worse or settles.by_count
+    if moves is None and not settled and choose(verdicts, threshold, idle_risk) is None:
+        elsewhere = at_another_gaze(scene, judging_.spec)
+        if elsewhere is not None:
+            settles = judging_.in_another_pass(elsewhere, verdicts, threshold, idle_risk, settle_after_clear)
     spec = judging_.spec
     chosen = choose(verdicts, threshold, idle_risk)
     if chosen is not None and settles.by_count and not chosen.safe(threshold):
@@ -108,6 +119,11 @@ def search(
         chosen = verdicts[-1] = replace(
             last, reason=f"clear at the gaze found risky; at another, {last.reason}, as with the robot as it is"
         )
+    if chosen is not None and elsewhere is not None:
+        (danger,) = elsewhere.dangers
+        gaze = math.degrees(elsewhere.gazes[danger.person][0])
+        met = f"{danger.person} walks into {danger.obstacle}"
+        chosen = _noted(verdicts, chosen, f"none at the gaze found first; searched at {gaze:.0f} deg, where {met}")
     if chosen is not None and spec.falls_anyway:
         anyway = ", ".join(f"{w.person} into {hit}" for w, hit in spec.falls_anyway)
         chosen = _noted(verdicts, chosen, f"falls with the robot as it is too: {anyway}")
@@ -124,9 +140,31 @@ def search(
     halt = None
     if chosen is None:
         braking, _ = judging_.judged_as_lead(lambda: judging_.spec_at(len(verdicts) + 1), None)
-        halt = braking if judging_.must_brake or no_worse.harmless(braking) else None
+        halt = braking if judging_.must_brake or judging_.no_worse.harmless(braking) else None
         slots += 1
     return SearchResult(chosen, tuple(verdicts), judging_.lead, halt, slots, sets_off, judging_.lead_sent().delay)
+
+
+def at_another_gaze(scene: Scene, spec: SearchSpec) -> SearchSpec | None:
+    """A single danger's spec as its person meets it at another of their gaze classes (the first, in the spec's
+    order, where their walk collides), that class first; ``None`` when they collide at no other class.
+
+    Which way someone walks can hang on how far ahead they look: at one gaze they never see a low table and
+    walk into it, at another they see it, go round, and trip on a tray beyond. When no move saves them from
+    the danger found first, one that saves them at another gaze, and leaves them no worse off at the first
+    (:class:`NoWorse`), is better than none.
+    """
+    if len(spec.dangers) != 1:
+        return None
+    (danger,) = spec.dangers
+    gazes = spec.gazes[danger.person]
+    known = spec.known.get(danger.person, ())
+    for k in range(1, len(gazes)):
+        met = Danger.of(imagine_person(scene, danger.person, danger.target, gazes[k], known=known))
+        if met is not None:
+            order = (gazes[k], *gazes[:k], *gazes[k + 1 :])
+            return replace(spec, dangers=(met,), gazes={**spec.gazes, danger.person: order})
+    return None
 
 
 def _noted(verdicts: list[Verdict], chosen: Verdict, note: str) -> Verdict:
@@ -163,13 +201,15 @@ class _Judging:
     lead_judged: bool = False  # whether a head start was judged (sent or not): it took the first slot
     read_off: Verdict | None = None  # the first candidate's verdict, read off the head start's (see driven_on)
     braking_judged: bool = False  # whether braking was judged for a head start (see harmless_braked): a slot more
+    passed: int = 0  # the verdicts of an earlier pass, before this pass's first candidate
 
     def spec_at(self, k: int) -> SearchSpec:
-        """The spec the k-th candidate is judged with: the robot switching to it once the judgements before it,
-        and its own, are done.
+        """The spec the k-th candidate (of this pass) is judged with: the robot switching to it once the
+        judgements before it, and its own, are done.
 
         After a head start is sent, the robot drives it from its command until the switch.
         """
+        k += self.passed
         if self.lead is None:
             opening = self.lead_judged + self.braking_judged  # a head start judged and not sent took its slots
             return replace(self.spec, delay=self.spec.delay + self.judging * (k + opening))
@@ -251,7 +291,7 @@ class _Judging:
         if len(self.spec.dangers) != 1 or not self.no_worse.harmless(lead, made_worse_too=True):
             return False
         self.braking_judged = True
-        latest = replace(self.lead_sent(), lead=move, lead_for=self.judging * (self.max_moves + 1))
+        latest = replace(self.lead_sent(), lead=move, lead_for=self.judging * (self.max_moves + self.another + 1))
         braking, _ = self.judged_as_lead(lambda: latest, None)
         return self.no_worse.harmless(braking)
 
@@ -355,6 +395,32 @@ class _Judging:
             if gather():
                 return
         gather()
+
+    @property
+    def another(self) -> int:
+        """The candidates a pass at another gaze class judges at most (:func:`at_another_gaze`): half the search's,
+        for a single danger with more than one class."""
+        single = len(self.spec.dangers) == 1 and len(self.spec.gazes[self.spec.dangers[0].person]) > 1
+        return self.max_moves // 2 if single else 0
+
+    def in_another_pass(
+        self, spec: SearchSpec, verdicts: list[Verdict], threshold: float, idle_risk: float, after_clear: int
+    ) -> Settles:
+        """Judge on with ``spec`` (:func:`at_another_gaze`): its own candidates, at most half the search's, after
+        the ``verdicts`` so far (which this pass's are added to); what settles this pass."""
+        known = self.knows_as_it_is
+        self.spec = replace(spec, falls_anyway=self.spec.falls_anyway, risks_anyway=self.spec.risks_anyway)
+        self.no_worse = replace(self.no_worse, spec=self.spec, prepare=self.know_as_it_is, _idle={})
+        self.knows_as_it_is = known
+        self.passed = len(verdicts)
+        mine: list[Verdict] = []
+        start = self.spec.delay + self.judging * (self.passed + self.lead_judged + self.braking_judged)
+        pool = islice(candidates(self.scene, self.spec.dangers, mine, start, self.judging), self.another)
+        settles = Settles(self.no_worse, idle_risk, after_clear)
+        self.in_order(pool, threshold, mine, settles)
+        verdicts += mine
+        self.passed = 0
+        return settles
 
     def judge(self, k: int, move: RobotMove | None) -> Verdict:
         knew = self.knows_as_it_is

@@ -204,6 +204,11 @@ class GazeClass:
         return (self.low + self.high) / 2
 
 
+def surely_seen(classes: Sequence[GazeClass]) -> frozenset[str]:
+    """What is seen in every one of a person's gaze classes: seen whatever their gaze."""
+    return frozenset.intersection(*(c.visible for c in classes)) if classes else frozenset()
+
+
 def gaze_classes(person: PersonState, obstacles: Sequence[Obstacle]) -> tuple[GazeClass, ...]:
     """Split ``[gaze_min, gaze_max]`` into the classes with distinct visible sets, in order."""
     intervals = {o.name: gaze_interval(person, o) for o in obstacles}
