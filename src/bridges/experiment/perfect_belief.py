@@ -4,7 +4,9 @@ The ground truth of a trial at a moment is the context: no sensor noise. Each pe
 sees fall is a danger, imagined as the intention agent imagines it (their planned walk at their true
 gaze, around the objects they have truly seen so far), with every gaze class of theirs to judge moves
 at, the class of their true gaze first; everyone else still walking walks to their true target beside
-them. This separates what the move search can do from what perception's noise costs.
+them. This separates what the move search can do from what perception's noise costs. :func:`spec_on`
+also finds the dangers on a belief as Algorithm 1 does, knowing nothing of the true gaze nor of what each
+person truly saw (:attr:`Gazes.SOONEST`), as the closed loop does (:mod:`bridges.experiment.closed_loop`).
 :func:`outcome_in_truth` then commands the search's moves in the ground truth when the search sends them.
 """
 
