@@ -84,8 +84,8 @@ def search(
     else, the first candidate is judged as a head start (:func:`judge_lead`), and when it is
     :meth:`NoWorse.harmless` and another candidate is left to judge, it is handed to ``head_start`` to be
     sent at once; so is one of a single danger that harms only someone who just misses their fall, if braking
-    it at the latest the search can end (its second pass included) harms nobody (:meth:`_Judging.harmless_braked`: braking is then judged
-    first, and the head start waits for it). Every candidate is then judged as a switch from it, the robot
+    it at the latest the search can end (its second pass included) harms nobody
+    (:meth:`_Judging.harmless_braked`: braking is then judged first, and the head start waits for it). Every candidate is then judged as a switch from it, the robot
     driving it from its command until the candidate's; the first one, the same move driven on, is read off
     the head start's own imagination (:func:`driven_on`) when it can be, and takes no judgement. The head
     start's judgement takes the first slot, sent or not (and braking's the second, when judged). The
@@ -408,10 +408,8 @@ class _Judging:
     ) -> Settles:
         """Judge on with ``spec`` (:func:`at_another_gaze`): its own candidates, at most half the search's, after
         the ``verdicts`` so far (which this pass's are added to); what settles this pass."""
-        known = self.knows_as_it_is
         self.spec = replace(spec, falls_anyway=self.spec.falls_anyway, risks_anyway=self.spec.risks_anyway)
-        self.no_worse = replace(self.no_worse, spec=self.spec, prepare=self.know_as_it_is, _idle={})
-        self.knows_as_it_is = known
+        self.no_worse = replace(self.no_worse, spec=self.spec, _idle={})
         self.passed = len(verdicts)
         mine: list[Verdict] = []
         start = self.spec.delay + self.judging * (self.passed + self.lead_judged + self.braking_judged)
