@@ -9,6 +9,7 @@ every gaze as known. No move saves her from the table; one by the tray saves her
 leaves her no worse off at the first, and the search sends it.
 """
 
+from dataclasses import replace
 from functools import partial
 
 from recorded_cases import HELD_OUT, JUDGING, THRESHOLD
@@ -66,3 +67,12 @@ def test_a_single_danger_met_at_no_other_gaze_class_is_not_searched_again() -> N
     assert spec is not None
     only_first = dict(spec.gazes, guest=spec.gazes["guest"][:1])
     assert at_another_gaze(scene, type(spec)(spec.dangers, only_first, spec.known)) is None
+
+
+def test_another_gaze_class_where_the_person_meets_the_same_obstacle_is_not_searched_again() -> None:
+    """The first search's candidates were made for that obstacle: only a class where the walk meets another counts."""
+    _, _, idle, now, scene, seen = cafe()
+    spec = spec_on(scene, idle, now, DELAY, Gazes.SOONEST, surely_seen=seen)
+    assert spec is not None
+    (danger,) = spec.dangers
+    assert at_another_gaze(scene, replace(spec, dangers=(replace(danger, obstacle="tray"),))) is None

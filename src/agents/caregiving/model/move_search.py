@@ -147,12 +147,12 @@ def search(
 
 def at_another_gaze(scene: Scene, spec: SearchSpec) -> SearchSpec | None:
     """A single danger's spec as its person meets it at another of their gaze classes (the first, in the spec's
-    order, where their walk collides), that class first; ``None`` when they collide at no other class.
+    order, where their walk collides with something else), that class first; ``None`` when there is none.
 
     Which way someone walks can hang on how far ahead they look: at one gaze they never see a low table and
     walk into it, at another they see it, go round, and trip on a tray beyond. When no move saves them from
     the danger found first, one that saves them at another gaze, and leaves them no worse off at the first
-    (:class:`NoWorse`), is better than none.
+    (:class:`NoWorse`), is better than none; the first search's candidates were made for the other obstacle.
     """
     if len(spec.dangers) != 1:
         return None
@@ -161,7 +161,7 @@ def at_another_gaze(scene: Scene, spec: SearchSpec) -> SearchSpec | None:
     known = spec.known.get(danger.person, ())
     for k in range(1, len(gazes)):
         met = Danger.of(imagine_person(scene, danger.person, danger.target, gazes[k], known=known))
-        if met is not None:
+        if met is not None and met.obstacle != danger.obstacle:
             order = (gazes[k], *gazes[:k], *gazes[k + 1 :])
             return replace(spec, dangers=(met,), gazes={**spec.gazes, danger.person: order})
     return None
