@@ -21,7 +21,7 @@ from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.scene import PersonState
 from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.verdict import Verdict
-from agents.caregiving.model.visibility import GazeClass, gaze_classes
+from agents.caregiving.model.visibility import GazeClass, first_of, gaze_classes
 from agents.caregiving.model.world_model import Walk
 from wm import Edge, Graph, Node
 
@@ -42,7 +42,7 @@ def risky_first(classes: tuple[GazeClass, ...], risky: float) -> tuple[float, ..
         range(len(classes)),
         key=lambda k: 0.0 if classes[k].low <= risky <= classes[k].high else abs(classes[k].gaze - risky),
     )
-    return (gazes[first], *gazes[:first], *gazes[first + 1 :])
+    return first_of(gazes, first)
 
 
 def dangers_in(ctx: Context, risky: list[Edge], failed: Mapping[int, float], retry: float) -> Dangers:

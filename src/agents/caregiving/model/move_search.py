@@ -30,6 +30,7 @@ from .scene import Scene
 from .search_spec import SearchSpec
 from .uncertainty import Uncertainty
 from .verdict import SearchResult, Verdict
+from .visibility import first_of
 
 if TYPE_CHECKING:
     from .judge_ahead import JudgeAhead
@@ -80,19 +81,19 @@ def search(
     among them judges braking to a stop from the robot's current state). With
     ``ahead``, a helper process judges candidates meanwhile (same verdicts, less wall time).
 
-    With ``head_start``, a robot at rest need not stand idle while the search judges: before anything
-    else, the first candidate is judged as a head start (:func:`judge_lead`), and when it is
-    :meth:`NoWorse.harmless` and another candidate is left to judge, it is handed to ``head_start`` to be
-    sent at once; so is one of a single danger that harms only someone who just misses their fall, if braking
-    it at the latest the search can end (its second pass included) harms nobody
-    (:meth:`_Judging.harmless_braked`: braking is then judged first, and the head start waits for it). Every candidate is then judged as a switch from it, the robot
-    driving it from its command until the candidate's; the first one, the same move driven on, is read off
-    the head start's own imagination (:func:`driven_on`) when it can be, and takes no judgement. The head
-    start's judgement takes the first slot, sent or not (and braking's the second, when judged). The
-    result's ``lead`` is that verdict. A head start lasts as long as the search: when no candidate is
-    chosen, braking at the search's end is judged the same way, and the result's ``halt`` is that verdict if it is harmless too, or the head start was sent to be
-    braked (the robot then brakes; otherwise it drives the head start on, which harms nobody). The result's
-    ``judged`` counts the slots the search took, and ``lead_sets_off`` when the head start set off.
+    With ``head_start``, a robot at rest need not stand idle while the search judges: before anything else, the
+    first candidate is judged as a head start (:func:`judge_lead`), and when it is :meth:`NoWorse.harmless` and
+    another candidate is left to judge, it is handed to ``head_start`` to be sent at once; so is one of a single
+    danger that harms only someone who just misses their fall, if braking it at the latest the search can end (its
+    second pass included) harms nobody (:meth:`_Judging.harmless_braked`: braking is then judged first, and the head
+    start waits for it). Every candidate is then judged as a switch from it, the robot driving it from its command
+    until the candidate's; the first one, the same move driven on, is read off the head start's own imagination
+    (:func:`driven_on`) when it can be, and takes no judgement. The head start's judgement takes the first slot,
+    sent or not (and braking's the second, when judged). The result's ``lead`` is that verdict. A head start lasts
+    as long as the search: when no candidate is chosen, braking at the search's end is judged the same way, and the
+    result's ``halt`` is that verdict if it is harmless too, or the head start was sent to be braked (the robot then
+    brakes; otherwise it drives the head start on, which harms nobody). The result's ``judged`` counts the slots the
+    search took, and ``lead_sets_off`` when the head start set off.
     """
     verdicts: list[Verdict] = []
     generated = candidates(scene, spec.dangers, verdicts, spec.delay, judging)
@@ -104,14 +105,14 @@ def search(
     if head_start is not None and moves is None and spec.current is None:
         judging_.send_lead = head_start
     judging_.in_order(pool, threshold, verdicts, settles)
+    chosen = choose(verdicts, threshold, idle_risk)
     elsewhere: SearchSpec | None = None
-    settled = settles.by_no_worse or settles.by_count
-    if moves is None and not settled and choose(verdicts, threshold, idle_risk) is None:
+    if chosen is None and moves is None and not (settles.by_no_worse or settles.by_count):
         elsewhere = at_another_gaze(scene, judging_.spec)
         if elsewhere is not None:
             settles = judging_.in_another_pass(elsewhere, verdicts, threshold, idle_risk, settle_after_clear)
+            chosen = choose(verdicts, threshold, idle_risk)
     spec = judging_.spec
-    chosen = choose(verdicts, threshold, idle_risk)
     if chosen is not None and settles.by_count and not chosen.safe(threshold):
         chosen = _noted(verdicts, chosen, f"no safe move within {settle_after_clear} candidates past a clear one")
     if chosen is None and settles.by_no_worse:
@@ -162,8 +163,7 @@ def at_another_gaze(scene: Scene, spec: SearchSpec) -> SearchSpec | None:
     for k in range(1, len(gazes)):
         met = Danger.of(imagine_person(scene, danger.person, danger.target, gazes[k], known=known))
         if met is not None and met.obstacle != danger.obstacle:
-            order = (gazes[k], *gazes[:k], *gazes[k + 1 :])
-            return replace(spec, dangers=(met,), gazes={**spec.gazes, danger.person: order})
+            return replace(spec, dangers=(met,), gazes={**spec.gazes, danger.person: first_of(gazes, k)})
     return None
 
 

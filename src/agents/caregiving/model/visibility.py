@@ -204,6 +204,12 @@ class GazeClass:
         return (self.low + self.high) / 2
 
 
+def first_of(gazes: Sequence[float], k: int) -> tuple[float, ...]:
+    """The gazes with the ``k``-th first and the others in their order: a walk set's gaze classes, the one a
+    danger is searched at first."""
+    return (gazes[k], *gazes[:k], *gazes[k + 1 :])
+
+
 def surely_seen(classes: Sequence[GazeClass]) -> frozenset[str]:
     """What is seen in every one of a person's gaze classes: seen whatever their gaze."""
     return frozenset.intersection(*(c.visible for c in classes)) if classes else frozenset()
