@@ -16,8 +16,9 @@ again buys. ``--people PATH`` (a ``bench_people_saved.py`` JSON) runs instead ev
 some move saves someone, alone or with the others (rooms where two people fall in different places hold
 many that no one move saves whole), and counts people: those some move saves and those of them saved.
 Every mode counts those who fell only with the robot acting (``tripped``), and lists the draws that lost
-someone and those that tripped someone. ``--known-gaze`` judges moves at each endangered person's true gaze
-alone, as no sensor could, which shows what the gaze classes cost. ``--false-alarms`` has Algorithm 1 look at
+someone, those that tripped someone and those where someone walked into the robot. ``--known-gaze`` judges
+moves at each endangered person's true gaze alone, as no sensor could, which shows what the gaze classes
+cost. ``--false-alarms`` has Algorithm 1 look at
 everyone still walking, as live, so that a person believed to fall who passes in the truth is a danger too
 (by default only those who fall with the robot idle are). ``--assist`` sends the robot, once nobody is in
 danger, to someone lying where they fell, as the assist agent does: what answering a fall costs the others.
@@ -170,6 +171,7 @@ def closed_loops(
         "seconds": round(time.perf_counter() - started, 1),
         "lost_draws": dict(Counter(d.case for d in found if d.lost)),
         "tripped_draws": dict(Counter(d.case for d in found if d.tripped)),
+        "into_robot_draws": dict(Counter(d.case for d in found if d.into_robot)),
     }
 
 

@@ -58,7 +58,7 @@ def print_table(title: str, rows: Sequence[tuple[str, Any]]) -> None:
 
 def report_draws(title: str, path: Path, settings: dict[str, Any], found: dict[str, Any]) -> None:
     """Print a bench on drawn beliefs (its figures, then its lists of draws by trial: those lost, those that tripped
-    someone) and write them with its settings."""
+    someone, those where someone walked into the robot) and write them with its settings."""
     print_table(title, [(k, v) for k, v in found.items() if not k.endswith("_draws")])
     for k, v in found.items():
         if k.endswith("_draws"):
