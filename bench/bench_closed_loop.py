@@ -18,9 +18,8 @@ many that no one move saves whole), and counts people: those some move saves and
 Every mode counts those who fell only with the robot acting (``tripped``), and lists the draws that lost
 someone, those that tripped someone and those where someone walked into the robot. ``--known-gaze`` judges
 moves at each endangered person's true gaze alone, as no sensor could, which shows what the gaze classes
-cost. ``--false-alarms`` has Algorithm 1 look at
-everyone still walking, as live, so that a person believed to fall who passes in the truth is a danger too
-(by default only those who fall with the robot idle are). ``--assist`` sends the robot, once nobody is in
+cost. ``--false-alarms`` has Algorithm 1 look at everyone still walking, as live, so that a person believed
+to fall who passes in the truth is a danger too (by default only those who fall with the robot idle are). ``--assist`` sends the robot, once nobody is in
 danger, to someone lying where they fell, as the assist agent does: what answering a fall costs the others.
 ``--safe-trials`` runs instead every trial of every room's runs that the run flagged and that is safe with the
 robot idle, with ``--false-alarms``: every fall there is one the robot caused (``tripped``), the live
