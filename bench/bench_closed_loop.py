@@ -9,7 +9,9 @@ its danger, and counts the draws where nobody touches anything (``saved``), thos
 where someone walks into the robot (``into_robot``), the looks, the commands sent
 to the robot, the candidates judged and the responses by kind, and, by the sampled risk of the first move a
 search chose and sent, those draws and how many of them were lost (``first_sent_by_risk``: how well the
-imagination's risk foretells the truth). ``--belief-noise`` draws the beliefs with one
+imagination's risk foretells the truth), and the lost draws by what the robot did in them
+(``lost_by_what_the_robot_did``: never moved, only head starts, a move sent, someone into the robot).
+``--belief-noise`` draws the beliefs with one
 of the sensor model's errors alone (or none), which shows what each costs. ``--first-look-only``
 acts on the first look alone and drives its move on, which shows what looking
 again buys. ``--people PATH`` (a ``bench_people_saved.py`` JSON) runs instead every trial of its runs where
@@ -105,6 +107,16 @@ def by_risk(found: list[Draw]) -> dict[str, dict[str, int]]:
     return counts
 
 
+def what_the_robot_did(draw: Draw) -> str:
+    """What the robot did in a lost draw: someone walked into it, it never moved, only head starts went out (no
+    search found a move to send), or a move was sent and someone fell anyway."""
+    if draw.into_robot:
+        return "into the robot"
+    if not draw.commands:
+        return "never moved"
+    return "a move sent" if draw.responses.get("send") else "head starts only"
+
+
 def run_draws(job: tuple[str, int, Setup, SaveablePeople | None, bool]) -> list[Draw]:
     """Every draw of every saveable case of one run (with ``people``: every case where some move saves someone;
     with ``safe``: every false alarm)."""
@@ -167,6 +179,7 @@ def closed_loops(
         "judged": sum(d.judged for d in found),
         "responses": dict(sorted(responses.items())),
         "first_sent_by_risk": by_risk(found),
+        "lost_by_what_the_robot_did": dict(Counter(what_the_robot_did(d) for d in found if d.lost).most_common()),
         "seconds": round(time.perf_counter() - started, 1),
         "lost_draws": dict(Counter(d.case for d in found if d.lost)),
         "tripped_draws": dict(Counter(d.case for d in found if d.tripped)),
