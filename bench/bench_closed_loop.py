@@ -1,34 +1,29 @@
 """Algorithm 2 in a closed loop on noisy beliefs, on every oracle-saveable trial of recorded runs.
 
-``bench_move_search_noisy.py`` runs the first search of each danger. Live, the
-action agent looks again each time Algorithm 1 rewrites the danger while it
-lasts, and keeps, doubts or replaces the move under way. This bench runs
-:func:`bridges.experiment.closed_loop.closed_loop` (where the loop is described)
-on ``--draws`` draws of every saveable trial, from the moment the run first saw
-its danger, and counts the draws where nobody touches anything (``saved``), those
-where someone walks into the robot (``into_robot``), the looks, the commands sent
-to the robot, the candidates judged and the responses by kind, and, by the sampled risk of the first move a
-search chose and sent, those draws and how many of them were lost (``first_sent_by_risk``: how well the
-imagination's risk foretells the truth), and the lost draws by what the robot did in them
+``bench_move_search_noisy.py`` runs the first search of each danger. Live, the action agent looks again each
+time Algorithm 1 rewrites the danger while it lasts, and keeps, doubts or replaces the move under way. This
+bench runs :func:`bridges.experiment.closed_loop.closed_loop` (where the loop is described) on ``--draws``
+draws of every saveable trial, from the moment the run first saw its danger, and counts the draws where nobody
+touches anything (``saved``), those where someone walks into the robot (``into_robot``), the looks, the
+commands sent to the robot, the candidates judged and the responses by kind, and, by the sampled risk of the
+first move a search chose and sent, those draws and how many of them were lost (``first_sent_by_risk``: how
+well the imagination's risk foretells the truth), and the lost draws by what the robot did in them
 (``lost_by_what_the_robot_did``: never moved, only head starts, a move sent, someone into the robot).
-``--belief-noise`` draws the beliefs with one
-of the sensor model's errors alone (or none), which shows what each costs. ``--first-look-only``
-acts on the first look alone and drives its move on, which shows what looking
-again buys. ``--people PATH`` (a ``bench_people_saved.py`` JSON) runs instead every trial of its runs where
-some move saves someone, alone or with the others (rooms where two people fall in different places hold
-many that no one move saves whole), and counts people: those some move saves and those of them saved.
-Every mode counts those who fell only with the robot acting (``tripped``), and lists the draws that lost
-someone, those that tripped someone and those where someone walked into the robot. ``--known-gaze`` judges
-moves at each endangered person's true gaze alone, as no sensor could, which shows what the gaze classes
-cost. ``--false-alarms`` has Algorithm 1 look at everyone still walking, as live, so that a person believed
-to fall who passes in the truth is a danger too (by default only those who fall with the robot idle are). ``--assist`` sends the robot, once nobody is in
-danger, to someone lying where they fell, as the assist agent does: what answering a fall costs the others.
-``--safe-trials`` runs instead every trial of every room's runs that the run flagged and that is safe with the
-robot idle, with ``--false-alarms``: every fall there is one the robot caused (``tripped``), the live
-experiments' ``robot_caused_collisions`` on drawn beliefs.
-The draws are
-seeded per trial, so two versions are compared on the same beliefs. The runs are shared between two
-processes.
+``--belief-noise`` draws the beliefs with one of the sensor model's errors alone (or none), which shows what
+each costs. ``--first-look-only`` acts on the first look alone and drives its move on, which shows what
+looking again buys. ``--people PATH`` (a ``bench_people_saved.py`` JSON) runs instead every trial of its runs
+where some move saves someone, alone or with the others (rooms where two people fall in different places hold
+many that no one move saves whole), and counts people: those some move saves and those of them saved. Every
+mode counts those who fell only with the robot acting (``tripped``), and lists the draws that lost someone,
+those that tripped someone and those where someone walked into the robot. ``--known-gaze`` judges moves at
+each endangered person's true gaze alone, as no sensor could, which shows what the gaze classes cost.
+``--false-alarms`` has Algorithm 1 look at everyone still walking, as live, so that a person believed to fall
+who passes in the truth is a danger too (by default only those who fall with the robot idle are). ``--assist``
+sends the robot, once nobody is in danger, to someone lying where they fell, as the assist agent does: what
+answering a fall costs the others. ``--safe-trials`` runs instead every trial of every room's runs that the
+run flagged and that is safe with the robot idle, with ``--false-alarms``: every fall there is one the robot
+caused (``tripped``), the live experiments' ``robot_caused_collisions`` on drawn beliefs. The draws are seeded
+per trial, so two versions are compared on the same beliefs. The runs are shared between two processes.
 
     python bench/bench_closed_loop.py [--draws N] [--look S] [--retry S] [--first-look-only]
         [--no-sampled-risk] [--known-gaze] [--false-alarms] [--assist] [--belief-noise KIND] [--json PATH]
