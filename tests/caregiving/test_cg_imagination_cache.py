@@ -17,7 +17,7 @@ COUCH = Obstacle("couch", "couch", Circle(3.0, 0.0, 0.5), 0.8, target=True)
 BALL = Obstacle("ball", "ball", Circle(0.0, 0.05, 0.11), 0.22)
 FAR = Obstacle("plant", "plant", Circle(0.0, 2.5, 0.2), 1.0)
 SCENE = Scene((-4.0, -3.0, 4.0, 3.0), (COUCH, BALL, FAR), (PERSON,), None, time=1.0)
-KEY = ("p", "couch", frozenset({"couch"}))
+KEY = ("p", "couch", frozenset({"couch"}), None)
 WALK = Imagination(
     "p", "couch", 0.1, ("couch",), True, ((-2.0, 0.0), (2.25, 0.0)), False, None, None, None, math.inf, 8.5
 )

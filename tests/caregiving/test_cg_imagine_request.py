@@ -1,6 +1,7 @@
 """Typed imagine items: what an agent builds is what the simulator parses back, and bad fields are named."""
 
 import math
+import re
 
 import pytest
 
@@ -24,6 +25,7 @@ MOVE = RobotMove("ball", -0.5, 0.1, math.pi)
     [
         PersonItem(WALK),
         PersonItem(WALK, U),
+        PersonItem(Walk("person", "couch", 0.1, ("robot",), (0.5, -1.0, math.pi / 2))),
         JointItem((WALK, Walk("bob", "door", 0.1)), MOVE, RobotMove("couch", 1.0, 2.0, 0.0), 0.3, U),
         JointItem((WALK,), None),
         JointItem((WALK, Walk("bob", "door", 0.1)), MOVE, uncertainty=U, anyway={"bob": 0.25}),
@@ -39,10 +41,28 @@ MOVE = RobotMove("ball", -0.5, 0.1, math.pi)
             0.03,
             (MOVE,),
         ),
+        SearchItem(
+            SearchSpec(
+                (Danger("person", "couch", ((0, 0), (1, 0)), (0.5, 0.0), "ball", 2.0),),
+                {"person": (0.1,)},
+                {"person": ("robot",)},
+                robot_at={"person": (0.5, -1.0, 0.3)},
+            ),
+            U,
+            0.2,
+            24,
+        ),
     ],
 )
 def test_an_item_survives_the_wire(item: PersonItem | JointItem | SearchItem) -> None:
     assert item_from_wire(item.to_wire()) == item
+
+
+def _search_wire(**spec: object) -> dict[str, object]:
+    """A search item's wire form with some of its spec's fields replaced."""
+    danger = Danger("person", "couch", ((0, 0), (1, 0)), (0.5, 0.0), "ball", 2.0)
+    wire = SearchItem(SearchSpec((danger,), {"person": (0.1,)}, {}), U, 0.2, 24).to_wire()
+    return {**wire, "spec": {**wire["spec"], **spec}}
 
 
 @pytest.mark.parametrize(
@@ -53,6 +73,10 @@ def test_an_item_survives_the_wire(item: PersonItem | JointItem | SearchItem) ->
         ({**JointItem((WALK,), MOVE).to_wire(), "delay": 60.0}, "request.delay"),
         ({**PersonItem(WALK, U).to_wire(), "uncertainty": {"samples": -1}}, "request.uncertainty.samples"),
         ({**PersonItem(WALK).to_wire(), "gaze": 3.0}, "request.gaze: expected a pitch"),
+        ({**PersonItem(WALK).to_wire(), "robot_at": [0.5, -1.0]}, "request.robot_at: expected a list of 3 numbers"),
+        ({**PersonItem(WALK).to_wire(), "robot_at": [0.5, "x", 0.0]}, "request.robot_at[1]: expected a number"),
+        (_search_wire(robot_at={"bob": [0.0, 0.0, 0.0]}), "request.spec.robot_at.bob: expected one of the endangered"),
+        (_search_wire(robot_at={"person": [0.0, math.inf, 0.0]}), "request.spec.robot_at.person[1]: expected a number"),
         ({**JointItem((WALK,), MOVE).to_wire(), "anyway": {"bob": 0.2}}, "request.anyway.bob: expected one of"),
         ({**JointItem((WALK,), MOVE).to_wire(), "anyway": {"person": 1.5}}, "request.anyway.person"),
         (
@@ -70,5 +94,5 @@ def test_an_item_survives_the_wire(item: PersonItem | JointItem | SearchItem) ->
     ],
 )
 def test_a_malformed_item_names_its_bad_field(wire: dict[str, object], message: str) -> None:
-    with pytest.raises(RequestError, match=message.replace(".", r"\.")):
+    with pytest.raises(RequestError, match=re.escape(message)):
         item_from_wire(wire)

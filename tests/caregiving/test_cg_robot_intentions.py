@@ -14,8 +14,9 @@ from agents.caregiving.model.guesses import DEFAULT_WALKING, Walking, unguessed_
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.verdict import Verdict
-from agents.caregiving.names import HAS, HAS_INTENTION, OBJECT, PERSON, ROBOT
+from agents.caregiving.names import HAS, HAS_INTENTION, KNOWS, OBJECT, PERSON, ROBOT
 from agents.caregiving.odometry import OdometryClock
+from agents.caregiving.person_intentions import remember_robot
 from agents.caregiving.risk_options import walking
 from agents.caregiving.robot_intentions import (
     bystander_walks,
@@ -135,6 +136,31 @@ def test_a_move_then_a_stop_are_written_each_superseding_the_one_before(w: tuple
     assert "not saved: bob" in stop.get("reason")
     assert g.get_node(first.id).get("status") == "superseded"
     assert search_spec(g, ctx, dangers, stop).current is None  # braking is the move None
+
+
+def test_the_robot_is_remembered_where_the_person_last_surely_saw_it_and_searched_from_there(
+    w: tuple[wm.Graph, Context],
+) -> None:
+    g, ctx = w
+    robot = ctx.scene.robot
+    assert robot is not None
+
+    def with_robot(x: float, y: float, heading: float) -> Context:
+        return replace(ctx, scene=replace(ctx.scene, robot=robot.moved(x, y, heading)))
+
+    assert remember_robot(g, ctx, "person") == robot.pose  # it stands in their view, at every gaze
+    edge = g.find_edge(ctx.ids["person"], ctx.ids[robot.name], KNOWS)
+    assert edge is not None and tuple(edge.get("seen_at")) == pytest.approx(robot.pose)
+    assert remember_robot(g, with_robot(robot.x, robot.y + 0.05, robot.heading), "person") == robot.pose  # 5 cm on
+    behind = with_robot(-3.3, 0.0, 0.0)  # driven behind them: they did not see it go
+    assert remember_robot(g, behind, "person") == robot.pose
+    dangers = dangers_in(behind, [risky(g, behind, "couch", 2.0, 0.5)], {}, 0.5)
+    spec = search_spec(g, behind, dangers, None)
+    assert "robot" in spec.known["person"] and spec.robot_at == {"person": pytest.approx(robot.pose)}
+    (walk, *_) = spec.walk_sets()[0]
+    assert walk.robot_at == pytest.approx(robot.pose)
+    ahead = with_robot(robot.x + 0.5, robot.y, robot.heading)  # seen again, half a metre on
+    assert ahead.scene.robot is not None and remember_robot(g, ahead, "person") == ahead.scene.robot.pose
 
 
 def test_nothing_is_written_for_a_person_gone_from_w(w: tuple[wm.Graph, Context]) -> None:

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from agents.caregiving.model.joint import imagine_joint
 from agents.caregiving.model.robot_moves import RobotMove, standoff_moves, travel_time
 from agents.caregiving.model.scenario import load_scenario, sample_trial
 from agents.caregiving.model.scene import Obstacle
@@ -159,10 +160,43 @@ def test_a_person_sees_the_robot_turn_and_walks_around_its_new_footprint() -> No
     assert not world.run(30.0).collided
 
 
-def test_a_walk_that_knows_the_robot_plans_around_it_from_the_start() -> None:
+def test_a_walk_that_knows_the_robot_plans_around_it_from_the_start_where_they_remember_it() -> None:
     scene = load_scenario("paper_experiment1").scene()
+    assert scene.robot is not None
     world = World(scene, [Walk("person", "couch", 0.1, known=("robot",))])
-    assert scene.robot is not None and world.walker("person").known["robot"] == scene.robot.body()
+    assert world.walker("person").known["robot"] == scene.robot.body()
+    assert world.robot_memory("person") == scene.robot.pose
+    elsewhere = (scene.robot.x + 0.3, scene.robot.y - 0.2, 1.0)
+    world = World(scene, [Walk("person", "couch", 0.1, known=("robot",), robot_at=elsewhere)])
+    assert world.walker("person").known["robot"] == scene.robot.moved(*elsewhere).body()
+    assert world.robot_memory("person") == elsewhere
+    assert World(scene, [Walk("person", "couch", 0.1, robot_at=elsewhere)]).robot_memory("person") is None
+
+
+def test_a_walk_imagined_midway_ends_as_the_truth_only_with_where_the_person_remembers_the_robot() -> None:
+    """Face to face, seed 331, trial 2: the robot drives to the toy; 0.33 s later the resident last looked at it
+    3 cm back along its way. Imagined from that moment with that memory, she walks the truth's track to the end;
+    imagined knowing the robot where it stands, she replans at another step and walks into it."""
+    trial = trial_for(load_scenario(str(HELD_OUT / "face_to_face.yaml")), 331, 2)
+    truth = World.from_scenario(trial)
+    move = RobotMove("toy", 1.1913, 0.0778, 1.5656)
+    truth.advance(0.72)
+    assert truth.command_robot(move)
+    truth.advance(1.05)
+    scene, walker = truth.scene(), truth.walker("resident")
+    memory = truth.robot_memory("resident")
+    assert memory is not None and scene.robot is not None and memory != scene.robot.pose
+    known = tuple(n for n in walker.known if not n.startswith("wall"))
+    steps = len(walker.track)
+    truth.run(60.0)
+    assert truth.walker("resident").status == "arrived"
+    expected = np.array(truth.walker("resident").track[steps - 1 :])
+    remembered = imagine_joint(scene, [Walk("resident", walker.target, walker.gaze, known, memory)], move, current=move)
+    (walk,) = remembered.walks
+    assert walk.status == "arrived" and np.array(walk.track).shape == expected.shape
+    assert np.abs(np.array(walk.track) - expected).max() < 1e-9
+    as_it_stands = imagine_joint(scene, [Walk("resident", walker.target, walker.gaze, known)], move, current=move)
+    assert as_it_stands.walks[0].collision_object == "robot"
 
 
 @pytest.mark.parametrize("scenario", ["paper_experiment1", "box_obstacle", "cluttered_room", "two_people"])

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import pytest
 from stack_helpers import run_trial, stack  # noqa: F401 - the fixture
 
 from agents.caregiving.model.scenario import load_scenario
@@ -27,6 +28,8 @@ def test_risky_walk_gets_flagged_the_robot_acts_and_nobody_collides(stack) -> No
     assert r.snapshot is not None
     (person,) = r.snapshot.scene["people"]
     assert "robot" in r.snapshot.knows[person["name"]]
+    robot = r.snapshot.scene["robot"]  # at rest until it decided: remembered where it stands
+    assert r.snapshot.robot_at[person["name"]] == pytest.approx([robot["x"], robot["y"], robot["heading"]])
     start = trial_for(load_scenario(scenario), seed, index).people[0]
     assert math.dist(person["origin"], (start.x, start.y)) < 0.1
 

@@ -3,7 +3,7 @@
 An imagined walk of a person to a target under one gaze class depends on the
 person's position, speed and tracked sigma, on what they see (the class's
 visible set and the objects they remember, which is the cache key together
-with person and target), and on the bodies near the walk. A cached answer is
+with person, target and where they remember the robot), and on the bodies near the walk. A cached answer is
 reused while
 
 * the person is still on the imagined walk: within ``move_tol`` of its path,
@@ -50,10 +50,10 @@ from agents.caregiving.model.geometry import (
     resample_by_distance,
 )
 from agents.caregiving.model.imagine_reply import Answer
-from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.scene import Pose, Scene
 from agents.caregiving.model.visibility import WALL_KIND, wrap_angle
 
-Key = tuple[str, str, frozenset[str]]
+Key = tuple[str, str, frozenset[str], Pose | None]
 STEP = 0.05  # metres between the path points bodies and the person are measured against
 
 

@@ -17,6 +17,8 @@ written as soon as their reply lands.
 Objects a person sees in every gaze class are surely seen, and so is the robot:
 they are marked ``knows`` person -> object (or robot) in W and the person is
 imagined to remember them (plan around them) even once they are out of view.
+The robot is remembered where it was last surely seen, kept at every frame
+(:func:`~agents.caregiving.person_intentions.remember_robot`).
 
 A walking person's heading tells where they are going: a target whose imagined
 path starts more than ``--heading-gate-deg`` away from it is not their intention.
@@ -42,6 +44,7 @@ from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.guesses import Guess, guesses, heading_error
 from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.imagine_request import PersonItem
+from agents.caregiving.model.scene import Pose
 from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.visibility import candidate_targets, gaze_classes
 from agents.caregiving.model.world_model import Walk
@@ -51,7 +54,7 @@ from ..runtime import Agent, main, on
 from .context import Context, read_context
 from .imagination_cache import ImaginationCache, Key, footing
 from .names import PERSON
-from .person_intentions import GuessWriter, remember
+from .person_intentions import GuessWriter, remember, remember_robot
 from .risk_options import add_risk_arguments, add_walking_arguments, size_error, walking
 
 
@@ -90,6 +93,7 @@ class Intention(Agent):
         self.evaluations = 0
         self.last_time = -1.0
         self.episode: int | None = None
+        self.robot_at: dict[str, Pose | None] = {}  # where each person remembers the robot, as of the last frame
         self.cache = ImaginationCache(move_tol=a.move_tol, max_age=a.max_age)
         self.log.info("guessing", size_error=self.size_error, samples=a.samples, threshold=a.risk_threshold)
 
@@ -97,7 +101,11 @@ class Intention(Agent):
     async def evaluate(self, _events: list[Event]) -> None:
         """One pass of Algorithm 1: every person tracked long enough, each in its own request, written as it lands."""
         ctx = read_context(self.g)
-        if ctx is None or 0.0 <= ctx.scene.time - self.last_time < self.args.period:
+        if ctx is None:
+            return
+        with self.g.batch():
+            self.robot_at = {p.name: remember_robot(self.g, ctx, p.name) for p in ctx.scene.people}
+        if 0.0 <= ctx.scene.time - self.last_time < self.args.period:
             return
         self.last_time = ctx.scene.time
         if ctx.episode != self.episode:
@@ -124,17 +132,18 @@ class Intention(Agent):
         p = ctx.scene.person(person)
         classes = gaze_classes(p, ctx.scene.bodies_around(person))
         known = remember(self.g, ctx, person, classes)
+        robot_at = self.robot_at.get(person)
         now = footing(ctx.scene, person, ctx.sigma)
         items: list[PersonItem] = []
         answers: list[tuple[Answer, float] | None] = []
         pending: list[tuple[int, Key]] = []  # (index in items, cache key) of what must be imagined
         for t in candidate_targets(p, ctx.scene.obstacles):
             for c in classes:
-                key = (person, t.name, c.visible | frozenset(known))
+                key = (person, t.name, c.visible | frozenset(known), robot_at)
                 cached = self.cache.lookup(key, now)
                 if cached is None:
                     pending.append((len(items), key))
-                items.append(PersonItem(Walk(person, t.name, c.gaze, tuple(known)), uncertainty))
+                items.append(PersonItem(Walk(person, t.name, c.gaze, tuple(known), robot_at), uncertainty))
                 answers.append(cached)
 
         async def finish() -> None:

@@ -1,7 +1,8 @@
 """The people's side of W for Algorithm 1: what each person surely knows, and the guesses written of them.
 
-What a person sees at every gaze class is marked ``knows`` person -> object (or
-robot). Each guess is a ``has_intention`` edge person -> target (risky ones with
+What a person sees at every gaze class is marked ``knows`` person -> object, and
+``knows`` person -> robot carries the pose where they last saw it so (``seen_at``,
+:mod:`agents.caregiving.model.robot_memory`). Each guess is a ``has_intention`` edge person -> target (risky ones with
 their path, collision point and object, time to collision), and each risky one
 is marked with a ``collision`` edge person -> object. An edge is rewritten only
 when its meaning changes, or every ``refresh`` simulated seconds, and deleted
@@ -15,18 +16,19 @@ import time
 from typing import Any
 
 from agents.caregiving.model.guesses import Guess
+from agents.caregiving.model.robot_memory import remembered_robot
+from agents.caregiving.model.scene import Pose
 from agents.caregiving.model.visibility import GazeClass, surely_seen
 from wm import Graph
 
 from .context import Context
-from .names import COLLISION, HAS_INTENTION, KNOWS, OBJECT, ROBOT
+from .names import COLLISION, HAS_INTENTION, KNOWS, OBJECT
 
 
 def remember(g: Graph, ctx: Context, person: str, classes: tuple[GazeClass, ...]) -> list[str]:
-    """Mark ``knows`` the objects (and the robot) ``person`` sees in every gaze class; all they know, sorted.
+    """Mark ``knows`` the objects ``person`` sees in every gaze class; all they know, the robot too, sorted.
 
-    The person plans around them later too, even once they are out of view (as people do); a robot that has
-    been seen is remembered where it stands, so that a walk imagined later does not re-plan on first sight.
+    The person plans around them later too, even once they are out of view (as people do).
     """
     pid = ctx.ids[person]
     sure = surely_seen(classes)
@@ -38,13 +40,32 @@ def remember(g: Graph, ctx: Context, person: str, classes: tuple[GazeClass, ...]
         and n not in known
         and ctx.ids[n] != pid
         and g.find_node(ctx.ids[n]) is not None
-        and g.get_node(ctx.ids[n]).type in (OBJECT, ROBOT)
+        and g.get_node(ctx.ids[n]).type == OBJECT
     ]
     if fresh:
         with g.batch():
             for name in fresh:
                 g.insert_or_assign_edge(pid, ctx.ids[name], KNOWS, {"updated_at": time.time()})
     return sorted(known | set(fresh))
+
+
+def remember_robot(g: Graph, ctx: Context, person: str) -> Pose | None:
+    """Mark ``knows`` person -> robot, at the pose where ``person`` last surely saw the robot; that pose, if any.
+
+    Called at every frame: the person looks at the robot again once it has moved a re-plan shift, and a
+    robot driving out of their view meanwhile is remembered where it stood.
+    """
+    robot = ctx.scene.robot
+    if robot is None or robot.name not in ctx.ids or g.find_node(ctx.ids[robot.name]) is None:
+        return None
+    pid, rid = ctx.ids[person], ctx.ids[robot.name]
+    edge = g.find_edge(pid, rid, KNOWS)
+    seen_at = edge.get("seen_at") if edge is not None else None
+    previous = (seen_at[0], seen_at[1], seen_at[2]) if seen_at is not None else None
+    now = remembered_robot(previous, ctx.scene.person(person), robot)
+    if now is not None and now != previous:
+        g.insert_or_assign_edge(pid, rid, KNOWS, {"seen_at": list(now), "updated_at": time.time()})
+    return now
 
 
 class GuessWriter:

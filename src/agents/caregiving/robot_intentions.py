@@ -102,11 +102,16 @@ def search_spec(
     g: Graph, ctx: Context, dangers: Dangers, under_way: Node | None, walking: Walking = DEFAULT_WALKING
 ) -> SearchSpec:
     """What the search needs beside the scene: the dangers, each endangered person's gaze classes (the one
-    found risky first) and known objects, the walks the others may be on (:func:`bystander_walks`), and
+    found risky first), known objects and where they remember the robot, the walks the others may be on (:func:`bystander_walks`), and
     the move under way."""
     scene, names = ctx.scene, ctx.names
-    known = {
-        p: tuple(sorted(names[e.dst] for e in g.edges(type=KNOWS, src=ctx.ids[p]) if e.dst in names)) for p in dangers
+    knows = {p: [e for e in g.edges(type=KNOWS, src=ctx.ids[p]) if e.dst in names] for p in dangers}
+    known = {p: tuple(sorted(names[e.dst] for e in edges)) for p, edges in knows.items()}
+    robot_at = {
+        p: (seen[0], seen[1], seen[2])
+        for p, edges in knows.items()
+        for e in edges
+        if names[e.dst] == scene.robot_name and (seen := e.get("seen_at")) is not None
     }
     gazes = {
         p: risky_first(gaze_classes(scene.person(p), scene.bodies_around(p)), edge.get("gaze", 0.0))
@@ -128,6 +133,7 @@ def search_spec(
         tuple(bystanders),
         move_of(under_way, ctx) if under_way is not None else None,
         falling=falling,
+        robot_at=robot_at,
     )
 
 

@@ -15,7 +15,9 @@ danger showed:
   (:func:`~bridges.experiment.perfect_belief.spec_on`) as it finds it live, knowing
   nothing of the true gaze: at the gaze class whose walk collides soonest, each
   person knowing the objects they have surely seen (in every gaze class) at the
-  looks so far and along their walk before the first; a person whose danger no
+  looks so far and along their walk before the first, and the robot where they
+  last surely saw it, kept at every sensor frame as the intention agent keeps it
+  (between looks on the truth's positions, no belief being drawn there); a person whose danger no
   move removed is looked at again only after :attr:`Setup.retry` seconds, as live;
 * :func:`~agents.caregiving.model.response.respond` is driven with the real search
   on the belief, the robot starting :attr:`Setup.delay` seconds after the look and
@@ -46,9 +48,10 @@ from agents.caregiving.model.go_to import GAP, going_to
 from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.response import Ask, Asked, Keep, NoMove, Policy, Send, UnderWay, drive, respond
+from agents.caregiving.model.robot_memory import remembered_robot
 from agents.caregiving.model.robot_moves import RobotMove, moves_beside
 from agents.caregiving.model.scenario import Scenario, SensorSpec
-from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.scene import Pose, Scene
 from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.service import serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
@@ -101,6 +104,7 @@ class Loop:
     responses: dict[str, int] = field(default_factory=dict)
     gone_to: str | None = None  # whom the robot was sent to, lying where they fell
     seen: dict[str, set[str]] = field(default_factory=dict)  # what each person has surely seen, as Algorithm 1 holds
+    robot_at: dict[str, Pose] = field(default_factory=dict)  # where each remembers the robot, as Algorithm 1 keeps it
     first_risk: float | None = None  # the sampled risk of the first move a search chose and sent (not braking)
 
 
@@ -135,12 +139,16 @@ def closed_loop(trial: Scenario, at: float, planner: GridPlanner, seed: tuple[in
     policy = Policy(setup.threshold, SAMPLES, trial.scene().robot_name)
     now = at
     _saw_before(loop, perception.belief(loop.truth.scene(), now, 0))
+    frame = 1.0 / trial.sensors.rate_hz
     while not loop.truth.done and now < at + HORIZON:
         if now >= loop.retry_after and (loop.looks == 0 or not setup.first_look_only):
             scene = perception.belief(loop.truth.scene(), now, loop.looks)
             _saw(loop, scene)
             _look(loop, scene, perception.uncertainty(scene, now, loop.looks), idle, now, policy, setup)
-        now = max(now + setup.look, loop.truth.time)
+        then, now = now, max(now + setup.look, loop.truth.time)
+        for k in range(1, math.ceil((now - then) / frame - 1e-9)):
+            loop.truth.advance(then + k * frame)
+            _saw_robot(loop, loop.truth.scene())
         loop.truth.advance(now)
     loop.truth.run(60.0)
     return loop
@@ -151,9 +159,22 @@ TRACKED_EVERY = 5
 
 
 def _saw(loop: Loop, scene: Scene) -> None:
-    """Add what each person in ``scene`` sees at every gaze class of theirs to what they have surely seen."""
+    """Add what each person in ``scene`` sees at every gaze class of theirs to what they have surely seen, and
+    where they have seen the robot so."""
     for p in scene.people:
         loop.seen.setdefault(p.name, set()).update(surely_seen(gaze_classes(p, scene.bodies_around(p.name))))
+    _saw_robot(loop, scene)
+
+
+def _saw_robot(loop: Loop, scene: Scene) -> None:
+    """Where each person in ``scene`` remembers the robot after this frame, as Algorithm 1 keeps it at every frame
+    (:func:`~agents.caregiving.model.robot_memory.remembered_robot`)."""
+    if scene.robot is None:
+        return
+    for p in scene.people:
+        pose = remembered_robot(loop.robot_at.get(p.name), p, scene.robot)
+        if pose is not None:
+            loop.robot_at[p.name] = pose
 
 
 def _saw_before(loop: Loop, scene: Scene) -> None:
@@ -176,7 +197,7 @@ def _look(
     if setup.known_gaze:
         spec = spec_on(scene, idle, loop.truth, setup.delay, Gazes.TRUE_GAZE, people)
     else:
-        spec = spec_on(scene, idle, loop.truth, setup.delay, Gazes.SOONEST, people, loop.seen)
+        spec = spec_on(scene, idle, loop.truth, setup.delay, Gazes.SOONEST, people, loop.seen, loop.robot_at)
     if spec is None:
         if setup.assist:
             _go_to_someone_fallen(loop, scene, uncertainty, now, setup)

@@ -19,7 +19,7 @@ from agents.caregiving.model.candidates import Danger
 from agents.caregiving.model.imagine import imagine_person
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import Scenario
-from agents.caregiving.model.scene import Scene
+from agents.caregiving.model.scene import Pose, Scene
 from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.verdict import SearchResult
 from agents.caregiving.model.visibility import WALL_KIND, gaze_classes
@@ -68,13 +68,15 @@ def spec_on(
     gazes: Gazes = Gazes.CLASSES,
     people: Sequence[str] | None = None,
     surely_seen: Mapping[str, Iterable[str]] | None = None,
+    robot_at: Mapping[str, Pose] | None = None,
 ) -> SearchSpec | None:
     """The spec of the dangers Algorithm 1 finds on ``scene`` (exact or believed) for the people who fall in ``idle``
     (or for ``people``: on a belief, someone who falls in no truth may seem to, a false alarm), but those who
     have already fallen by ``now``: they lie where they fell, as perception sees them, and walk nowhere.
 
     ``idle`` is the trial run to its end with the robot idle, ``now`` the truth at the scene's moment (what each
-    person has seen so far, unless ``surely_seen`` says what each has surely seen, as Algorithm 1 holds it).
+    person has seen so far, and where they remember the robot, unless ``surely_seen`` and ``robot_at`` say what
+    each has surely seen and where, as Algorithm 1 holds them).
     ``gazes`` says at which gaze each person's walk is imagined, and at which their moves are judged
     (:class:`Gazes`).
     """
@@ -84,6 +86,7 @@ def spec_on(
     dangers: list[Danger] = []
     judged_at: dict[str, tuple[float, ...]] = {}
     known: dict[str, tuple[str, ...]] = {}
+    remembered: dict[str, Pose] = {}
     lying = now.fallen()
     for name in [c.person for c in idle.outcome().collisions] if people is None else people:
         if name in judged_at or name in lying:
@@ -113,19 +116,25 @@ def spec_on(
         else:
             judged_at[name] = (gaze, *(g for g in order if g != gaze)) if any_class else order
         known[name] = seen
+        pose = robot_at.get(name) if surely_seen is not None and robot_at is not None else now.robot_memory(name)
+        if pose is not None and scene.robot_name in seen:
+            remembered[name] = pose
     if not dangers:
         return None
     # The others walk to their true targets beside them, as the action agent imagines them on their likeliest walk.
     bystanders = walks_on(scene, now, [name for name in now.walking() if name not in judged_at])
-    return SearchSpec(tuple(dangers), judged_at, known, bystanders, None, delay)
+    return SearchSpec(tuple(dangers), judged_at, known, bystanders, None, delay, robot_at=remembered)
 
 
 def walks_on(scene: Scene, now: World, people: Iterable[str]) -> tuple[Walk, ...]:
     """Each of ``people``'s walk in the truth ``now`` (their target and gaze), knowing the objects and the robot
-    of ``scene`` they have seen so far."""
+    of ``scene`` they have seen so far, the robot where they remember it."""
     objects = {o.name for o in scene.obstacles if o.kind != WALL_KIND} | {scene.robot_name}
     walkers = (now.walker(name) for name in people)
-    return tuple(Walk(w.state.name, w.target, w.gaze, tuple(sorted(objects & w.known.keys()))) for w in walkers)
+    return tuple(
+        Walk(w.state.name, w.target, w.gaze, tuple(sorted(objects & w.known.keys())), now.robot_memory(w.state.name))
+        for w in walkers
+    )
 
 
 def outcome_in_truth(

@@ -42,13 +42,15 @@ class TrialError(RuntimeError):
 
 @dataclass
 class Snapshot:
-    """What W held when the robot decided: the scene, the person's intentions and the chosen move, and what
-    each person is known to have seen (``knows``: person -> names)."""
+    """What W held when the robot decided: the scene, the person's intentions and the chosen move, what each
+    person is known to have seen (``knows``: person -> names) and where they remember the robot (``robot_at``:
+    person -> x, y, heading)."""
 
     scene: dict[str, Any]
     intentions: list[dict[str, Any]]
     action: dict[str, Any] | None
     knows: dict[str, list[str]] = field(default_factory=dict)
+    robot_at: dict[str, list[float]] = field(default_factory=dict)
 
 
 @dataclass
@@ -130,10 +132,13 @@ def snapshot(g: Graph, action: dict[str, Any] | None) -> Snapshot | None:
         {"person": names.get(e.src), "target": names.get(e.dst), **dict(e.attrs)} for e in g.edges(type=HAS_INTENTION)
     ]
     knows: dict[str, list[str]] = {}
+    robot_at: dict[str, list[float]] = {}
     for e in g.edges(type=KNOWS):
         if e.src in names and e.dst in names:
             knows.setdefault(names[e.src], []).append(names[e.dst])
-    return Snapshot(ctx.scene.to_wire(), intentions, action, {p: sorted(n) for p, n in knows.items()})
+            if (seen_at := e.get("seen_at")) is not None:
+                robot_at[names[e.src]] = list(seen_at)
+    return Snapshot(ctx.scene.to_wire(), intentions, action, {p: sorted(n) for p, n in knows.items()}, robot_at)
 
 
 class Harness:

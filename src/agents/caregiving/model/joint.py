@@ -30,7 +30,7 @@ from .imagine import Imagination, planner_for
 from .planner import GridPlanner
 from .robot_moves import RobotMove
 from .rollout import DT
-from .scene import Scene
+from .scene import Pose, Scene
 from .uncertainty import NO_RISK, Risk, Uncertainty, collision_risk
 from .world_model import Passing, Walk, World, fell
 
@@ -88,10 +88,7 @@ class WalkOutcome:
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict."""
         return {
-            "person": self.walk.person,
-            "target": self.walk.target,
-            "gaze": self.walk.gaze,
-            "known": list(self.walk.known),
+            **walk_to_wire(self.walk),
             "status": self.status,
             "track": [list(p) for p in self.track],
             "seen": list(self.seen),
@@ -226,16 +223,27 @@ def worst_risk(risks: Mapping[str, Risk], anyway: Mapping[str, float] | None = N
 
 
 def walk_from_fields(f: Fields) -> Walk:
-    """A guessed intent from a wire dict ``{person, target, gaze, known?}``."""
+    """A guessed intent from a wire dict ``{person, target, gaze, known?, robot_at?: [x, y, heading]}``."""
     gaze = f.number("gaze")
     if not -math.pi / 2 <= gaze <= math.pi / 2:
         raise f.fail("gaze", f"expected a pitch in [-pi/2, pi/2] rad, got {gaze!r}")
-    return Walk(f.string("person"), f.string("target"), gaze, f.strings("known", ()))
+    return Walk(f.string("person"), f.string("target"), gaze, f.strings("known", ()), optional_pose(f, "robot_at"))
+
+
+def optional_pose(f: Fields, key: str) -> Pose | None:
+    """An ``[x, y, heading]``, or ``None`` when absent or null."""
+    if not f.has(key):
+        return None
+    x, y, heading = f.numbers(key, 3)
+    return (x, y, heading)
 
 
 def walk_to_wire(w: Walk) -> dict[str, Any]:
     """The wire form :func:`walk_from_fields` reads."""
-    return {"person": w.person, "target": w.target, "gaze": w.gaze, "known": list(w.known)}
+    out: dict[str, Any] = {"person": w.person, "target": w.target, "gaze": w.gaze, "known": list(w.known)}
+    if w.robot_at is not None:
+        out["robot_at"] = list(w.robot_at)
+    return out
 
 
 def imagine_joint(

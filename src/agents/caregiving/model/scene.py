@@ -72,6 +72,10 @@ class PersonState:
         return Obstacle(self.name, PERSON_KIND, Circle(self.x, self.y, self.radius), self.eye_height + 0.1)
 
 
+#: A planar pose: x, y (m) and heading (rad).
+Pose = tuple[float, float, float]
+
+
 @dataclass(frozen=True)
 class RobotState:
     """The robot's pose, box footprint and motion limits."""
@@ -103,6 +107,11 @@ class RobotState:
             self.speed,
             self.route,
         )
+
+    @property
+    def pose(self) -> Pose:
+        """Where it stands: x, y and heading."""
+        return (self.x, self.y, self.heading)
 
     def body(self) -> Obstacle:
         """The robot's footprint as an obstacle."""

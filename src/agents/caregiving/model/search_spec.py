@@ -17,8 +17,9 @@ from typing import Any, TypeVar
 from .candidates import Danger
 from .fields import Fields
 from .imagine_request import MAX_DELAY, JointItem, falling_from_fields
-from .joint import walk_from_fields, walk_to_wire
+from .joint import optional_pose, walk_from_fields, walk_to_wire
 from .robot_moves import RobotMove
+from .scene import Pose
 from .uncertainty import Uncertainty
 from .world_model import Walk
 
@@ -53,6 +54,7 @@ class SearchSpec:
     ``lead`` is a head start the search sent (see :func:`~agents.caregiving.model.move_search.search`), driven for ``lead_for`` seconds after that.
     ``keep_clear`` is the least the robot keeps from anyone while it drives (see
     :class:`~agents.caregiving.model.judging.RobotMargin`): a move made for no danger gives way widely.
+    ``robot_at`` is where each endangered person who knows the robot remembers it (see :class:`Walk`).
     """
 
     dangers: tuple[Danger, ...]
@@ -67,6 +69,7 @@ class SearchSpec:
     falls_anyway: tuple[tuple[Walk, str], ...] = ()
     risks_anyway: tuple[tuple[Walk, float], ...] = ()
     keep_clear: float = 0.0
+    robot_at: dict[str, Pose] = field(default_factory=dict)
 
     def falling_in(self, walks: Iterable[Walk]) -> dict[str, str]:
         """The falls that do not refuse a move in a walk set of ``walks``: ``falling``'s, and ``falls_anyway``'s
@@ -100,7 +103,8 @@ class SearchSpec:
     def _walk(self, danger: Danger, gaze: float | None = None) -> Walk:
         """``danger``'s person on their walk at ``gaze`` (by default the gaze class found risky)."""
         pitch = self.gazes[danger.person][0] if gaze is None else gaze
-        return Walk(danger.person, danger.target, pitch, self.known.get(danger.person, ()))
+        known = self.known.get(danger.person, ())
+        return Walk(danger.person, danger.target, pitch, known, self.robot_at.get(danger.person))
 
     def walk_sets(self) -> list[tuple[Walk, ...]]:
         """The sets of walks to imagine each move with: every gaze class of each endangered person in turn, with
@@ -160,6 +164,7 @@ class SearchSpec:
             "falls_anyway": [{"walk": walk_to_wire(w), "object": hit} for w, hit in self.falls_anyway],
             "risks_anyway": [{"walk": walk_to_wire(w), "risk": risk} for w, risk in self.risks_anyway],
             "keep_clear": self.keep_clear,
+            "robot_at": {p: list(pose) for p, pose in self.robot_at.items()},
         }
 
     @classmethod
@@ -200,7 +205,21 @@ class SearchSpec:
             falls,
             risks,
             f.number("keep_clear", 0.0, non_negative=True, at_most=MAX_KEEP_CLEAR),
+            _poses_from_fields(f.child("robot_at", {}), dangers),
         )
+
+
+def _poses_from_fields(f: Fields, dangers: tuple[Danger, ...]) -> dict[str, Pose]:
+    """``robot_at``: an ``[x, y, heading]`` for some of the endangered people."""
+    endangered = {d.person for d in dangers}
+    poses: dict[str, Pose] = {}
+    for person in f.keys():
+        if person not in endangered:
+            raise f.fail(person, "expected one of the endangered people")
+        pose = optional_pose(f, person)
+        if pose is not None:
+            poses[person] = pose
+    return poses
 
 
 def _falling_from_fields(f: Fields, dangers: tuple[Danger, ...], bystanders: tuple[Walk, ...]) -> dict[str, str]:

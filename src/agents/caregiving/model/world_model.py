@@ -34,6 +34,7 @@ import numpy as np
 
 from .errors import CaregivingError
 from .geometry import (
+    Box,
     Circle,
     Polyline,
     bounding_radius,
@@ -47,7 +48,7 @@ from .planner import GridPlanner
 from .robot_moves import RobotMove, robot_fits
 from .rollout import DT
 from .scenario import Scenario
-from .scene import PERSON_KIND, ROBOT_KIND, Obstacle, PersonState, RobotState, Scene
+from .scene import PERSON_KIND, ROBOT_KIND, Obstacle, PersonState, Pose, RobotState, Scene
 from .visibility import WALL_KIND, Hidden, can_see, seen_along, sight, wrap_angle
 
 #: A seen robot or person that moved more than this triggers a re-plan.
@@ -84,12 +85,22 @@ class Outcome:
 
 @dataclass(frozen=True)
 class Walk:
-    """A person's intent: the object they head for, their gaze pitch (rad) and what they already know of."""
+    """A person's intent: the object they head for, their gaze pitch (rad) and what they already know of.
+
+    ``robot_at`` is the pose ``(x, y, heading)`` where they remember the robot, if they know it: a robot that has
+    moved since they last saw it is planned around where it stood then. ``None``: where it stands now.
+    """
 
     person: str
     target: str
     gaze: float
     known: tuple[str, ...] = ()
+    robot_at: Pose | None = None
+
+
+def _remembered(body: Obstacle, robot: RobotState, robot_at: Pose | None) -> Obstacle:
+    """``body`` as a walker knows it: the robot where they remember it (``robot_at``), anything else as it is."""
+    return robot.moved(*robot_at).body() if robot_at is not None and body.name == robot.name else body
 
 
 def fell(status: str, person: str, hit: str | None, excused: Mapping[str, str]) -> bool:
@@ -171,8 +182,8 @@ class World:
         intents = {w.person: w for w in walks}
         self._standing = tuple(p for p in scene.people if p.name not in intents)
         self._standing_bodies = tuple(p.body() for p in self._standing)
-        # What a walker knows of: the walls, and whatever their intent names, the robot and other people
-        # where they are now.
+        # What a walker knows of: the walls, and whatever their intent names, the robot where they remember it and
+        # other people where they are now.
         bodies = [*scene.obstacles, scene.robot.body(), *(p.body() for p in scene.people)]
         self._walkers = [
             _Walker(
@@ -180,7 +191,7 @@ class World:
                 intents[p.name].target,
                 intents[p.name].gaze,
                 {
-                    o.name: o
+                    o.name: _remembered(o, scene.robot, intents[p.name].robot_at)
                     for o in bodies
                     if o.kind == WALL_KIND or o.name in intents[p.name].known and o.name != p.name
                 },
@@ -311,6 +322,13 @@ class World:
     def walker(self, person: str) -> _Walker:
         """The state of one walking person (their track, plan, status and what they know)."""
         return next(w for w in self._walkers if w.state.name == person)
+
+    def robot_memory(self, person: str) -> Pose | None:
+        """Where ``person`` remembers the robot, as :attr:`Walk.robot_at` says it (``None``: not seen yet)."""
+        seen = self.walker(person).known.get(self.robot.name)
+        if seen is None or not isinstance(seen.shape, Box):
+            return None
+        return (seen.shape.x, seen.shape.y, seen.shape.theta)
 
     def outcome(self) -> Outcome:
         """The record so far."""
