@@ -163,6 +163,24 @@ def test_the_robot_is_remembered_where_the_person_last_surely_saw_it_and_searche
     assert ahead.scene.robot is not None and remember_robot(g, ahead, "person") == ahead.scene.robot.pose
 
 
+def test_a_bystander_is_imagined_knowing_what_their_knows_edges_say() -> None:
+    scene = replace(load_scenario("two_people").scene(), time=1.0)
+    g = wm.Graph()
+    ids = {p.name: g.insert_node(PERSON, p.name) for p in scene.people}
+    ids |= {o.name: g.insert_node(OBJECT, o.name) for o in scene.obstacles if o.kind != "wall"}
+    assert scene.robot is not None
+    ids[scene.robot.name] = g.insert_node(ROBOT, scene.robot.name)
+    ctx = Context(scene, 3, ids, {}, {}, 0.0)
+    g.insert_or_assign_edge(ids["visitor"], ids["door"], KNOWS, {})
+    g.insert_or_assign_edge(ids["visitor"], ids["robot"], KNOWS, {"seen_at": [0.5, -1.5, 0.0]})
+    g.insert_or_assign_edge(ids["visitor"], ids["couch"], HAS_INTENTION, {"risky": False, "gaze": 0.1})
+    dangers = dangers_in(ctx, [risky(g, ctx, "couch", 2.0, 0.5)], {}, 0.5)
+    spec = search_spec(g, ctx, dangers, None)
+    assert spec.bystanders and all(w.person == "visitor" for w in spec.bystanders)
+    assert all(w.known == ("door", "robot") and w.robot_at == (0.5, -1.5, 0.0) for w in spec.bystanders)
+    assert spec.robot_at == {} and set(spec.known) == {"person"}
+
+
 def test_nothing_is_written_for_a_person_gone_from_w(w: tuple[wm.Graph, Context]) -> None:
     g, ctx = w
     dangers = dangers_in(ctx, [risky(g, ctx, "couch", 2.0, 1.0)], {}, 0.5)

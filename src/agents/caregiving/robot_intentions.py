@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any
 
 from agents.caregiving.model.candidates import Danger
@@ -102,10 +103,10 @@ def search_spec(
     g: Graph, ctx: Context, dangers: Dangers, under_way: Node | None, walking: Walking = DEFAULT_WALKING
 ) -> SearchSpec:
     """What the search needs beside the scene: the dangers, each endangered person's gaze classes (the one
-    found risky first), known objects and where they remember the robot, the walks the others may be on (:func:`bystander_walks`), and
-    the move under way."""
+    found risky first), the walks the others may be on (:func:`bystander_walks`), and the move under way.
+    Everyone is imagined knowing what their ``knows`` edges say, the robot where they remember it."""
     scene, names = ctx.scene, ctx.names
-    knows = {p: [e for e in g.edges(type=KNOWS, src=ctx.ids[p]) if e.dst in names] for p in dangers}
+    knows = {p.name: [e for e in g.edges(type=KNOWS, src=ctx.ids[p.name]) if e.dst in names] for p in scene.people}
     known = {p: tuple(sorted(names[e.dst] for e in edges)) for p, edges in knows.items()}
     robot_at = {
         p: (seen[0], seen[1], seen[2])
@@ -123,17 +124,17 @@ def search_spec(
         if p.name in dangers:
             continue
         walks, likeliest = bystander_walks(g, ctx, p, walking)
-        bystanders += walks
+        bystanders += [replace(w, known=known[p.name], robot_at=robot_at.get(p.name)) for w in walks]
         if likeliest is not None and likeliest.get("risky") and likeliest.get("collision_object") in names:
             falling[p.name] = names[likeliest.get("collision_object")]  # a danger not searched now
     return SearchSpec(
         tuple(d for _, d in dangers.values()),
         gazes,
-        known,
+        {p: known[p] for p in dangers},
         tuple(bystanders),
         move_of(under_way, ctx) if under_way is not None else None,
         falling=falling,
-        robot_at=robot_at,
+        robot_at={p: pose for p, pose in robot_at.items() if p in dangers},
     )
 
 
