@@ -3,8 +3,8 @@
 An imagined walk of a person to a target under one gaze class depends on the
 person's position, speed and tracked sigma, on what they see (the class's
 visible set and the objects they remember, which is the cache key together
-with person, target and where they remember the robot), and on the bodies near the walk. A cached answer is
-reused while
+with person, target and where they remember the robot), and on the bodies
+near the walk. A cached answer is reused while
 
 * the person is still on the imagined walk: within ``move_tol`` of its path,
   with the same speed, radius and sigma (to ``size_tol``). The answer then

@@ -2,12 +2,12 @@
 
 What a person sees at every gaze class is marked ``knows`` person -> object, and
 ``knows`` person -> robot carries the pose where they last saw it so (``seen_at``,
-:mod:`agents.caregiving.model.robot_memory`). Each guess is a ``has_intention`` edge person -> target (risky ones with
-their path, collision point and object, time to collision), and each risky one
-is marked with a ``collision`` edge person -> object. An edge is rewritten only
-when its meaning changes, or every ``refresh`` simulated seconds, and deleted
-once it stops holding. These are the intention agent's writes, so that the agent
-is only the flow of Algorithm 1.
+:mod:`agents.caregiving.model.robot_memory`). Each guess is a ``has_intention``
+edge person -> target (risky ones with their path, collision point and object,
+time to collision), and each risky one is marked with a ``collision`` edge
+person -> object. An edge is rewritten only when its meaning changes, or every
+``refresh`` simulated seconds, and deleted once it stops holding. These are the
+intention agent's writes, so that the agent is only the flow of Algorithm 1.
 """
 
 from __future__ import annotations

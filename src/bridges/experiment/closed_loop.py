@@ -17,8 +17,9 @@ danger showed:
   person knowing the objects they have surely seen (in every gaze class) at the
   looks so far and along their walk before the first, and the robot where they
   last surely saw it, kept at every sensor frame as the intention agent keeps it
-  (between looks on the truth's positions, no belief being drawn there); a person whose danger no
-  move removed is looked at again only after :attr:`Setup.retry` seconds, as live;
+  (between looks on the truth's positions, no belief being drawn there); a person
+  whose danger no move removed is looked at again only after :attr:`Setup.retry`
+  seconds, as live;
 * :func:`~agents.caregiving.model.response.respond` is driven with the real search
   on the belief, the robot starting :attr:`Setup.delay` seconds after the look and
   :attr:`Setup.judging` seconds later per judgement, and its moves are commanded in
