@@ -19,7 +19,7 @@ from agents.caregiving.model.guesses import Guess
 from agents.caregiving.model.robot_memory import remembered_robot
 from agents.caregiving.model.scene import Pose
 from agents.caregiving.model.visibility import GazeClass, surely_seen
-from wm import Graph
+from wm import Edge, Graph
 
 from .context import Context
 from .names import COLLISION, HAS_INTENTION, KNOWS, OBJECT
@@ -59,13 +59,17 @@ def remember_robot(g: Graph, ctx: Context, person: str) -> Pose | None:
     if robot is None or robot.name not in ctx.ids or g.find_node(ctx.ids[robot.name]) is None:
         return None
     pid, rid = ctx.ids[person], ctx.ids[robot.name]
-    edge = g.find_edge(pid, rid, KNOWS)
-    seen_at = edge.get("seen_at") if edge is not None else None
-    previous = (seen_at[0], seen_at[1], seen_at[2]) if seen_at is not None else None
+    previous = seen_at(g.find_edge(pid, rid, KNOWS))
     now = remembered_robot(previous, ctx.scene.person(person), robot)
     if now is not None and now != previous:
         g.insert_or_assign_edge(pid, rid, KNOWS, {"seen_at": list(now), "updated_at": time.time()})
     return now
+
+
+def seen_at(knows: Edge | None) -> Pose | None:
+    """Where the person of a ``knows`` edge person -> robot remembers the robot (``None``: no pose on it)."""
+    pose = knows.get("seen_at") if knows is not None else None
+    return (pose[0], pose[1], pose[2]) if pose is not None else None
 
 
 class GuessWriter:

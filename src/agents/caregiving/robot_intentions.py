@@ -28,6 +28,7 @@ from wm import Edge, Graph, Node
 
 from .context import Context
 from .names import HAS, HAS_INTENTION, INTENTION, KNOWS, MOVE_TO, STOP
+from .person_intentions import seen_at
 
 #: The statuses of a move under way (or about to be).
 LIVE = ("proposed", "active")
@@ -109,10 +110,10 @@ def search_spec(
     knows = {p.name: [e for e in g.edges(type=KNOWS, src=ctx.ids[p.name]) if e.dst in names] for p in scene.people}
     known = {p: tuple(sorted(names[e.dst] for e in edges)) for p, edges in knows.items()}
     robot_at = {
-        p: (seen[0], seen[1], seen[2])
+        p: pose
         for p, edges in knows.items()
         for e in edges
-        if names[e.dst] == scene.robot_name and (seen := e.get("seen_at")) is not None
+        if names[e.dst] == scene.robot_name and (pose := seen_at(e)) is not None
     }
     gazes = {
         p: risky_first(gaze_classes(scene.person(p), scene.bodies_around(p)), edge.get("gaze", 0.0))

@@ -74,9 +74,9 @@ def spec_on(
     (or for ``people``: on a belief, someone who falls in no truth may seem to, a false alarm), but those who
     have already fallen by ``now``: they lie where they fell, as perception sees them, and walk nowhere.
 
-    ``idle`` is the trial run to its end with the robot idle, ``now`` the truth at the scene's moment (what each
-    person has seen so far, and where they remember the robot, unless ``surely_seen`` and ``robot_at`` say what
-    each has surely seen and where, as Algorithm 1 holds them).
+    ``idle`` is the trial run to its end with the robot idle, ``now`` the truth at the scene's moment: what each
+    person has seen so far, unless ``surely_seen`` says what each has surely seen, and where they remember the
+    robot, unless ``robot_at`` says it, as Algorithm 1 holds them.
     ``gazes`` says at which gaze each person's walk is imagined, and at which their moves are judged
     (:class:`Gazes`).
     """
@@ -116,7 +116,7 @@ def spec_on(
         else:
             judged_at[name] = (gaze, *(g for g in order if g != gaze)) if any_class else order
         known[name] = seen
-        pose = robot_at.get(name) if surely_seen is not None and robot_at is not None else now.robot_memory(name)
+        pose = robot_at.get(name) if robot_at is not None else now.robot_memory(name)
         if pose is not None and scene.robot_name in seen:
             remembered[name] = pose
     if not dangers:

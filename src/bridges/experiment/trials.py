@@ -27,6 +27,7 @@ import wm
 from agents.caregiving import keys
 from agents.caregiving.context import read_context
 from agents.caregiving.names import HAS_INTENTION, INTENTION, KNOWS, OBJECT, PERSON, PREVENTING, WORLD
+from agents.caregiving.person_intentions import seen_at
 from agents.messaging import Messaging, TaskSet, logging_guard
 from wm import Event, Graph
 from wm.net.connection import close_session, open_session
@@ -136,8 +137,8 @@ def snapshot(g: Graph, action: dict[str, Any] | None) -> Snapshot | None:
     for e in g.edges(type=KNOWS):
         if e.src in names and e.dst in names:
             knows.setdefault(names[e.src], []).append(names[e.dst])
-            if (seen_at := e.get("seen_at")) is not None:
-                robot_at[names[e.src]] = list(seen_at)
+            if (pose := seen_at(e)) is not None:
+                robot_at[names[e.src]] = list(pose)
     return Snapshot(ctx.scene.to_wire(), intentions, action, {p: sorted(n) for p, n in knows.items()}, robot_at)
 
 

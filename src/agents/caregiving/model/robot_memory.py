@@ -1,9 +1,10 @@
 """Where a person remembers the robot: the pose at which they last surely saw it.
 
 The world's people remember a moving body where they last saw it, and look at it
-again only once it stands more than :data:`~agents.caregiving.model.world_model.REPLAN_SHIFT`
-from there (:class:`~agents.caregiving.model.world_model.World`). A robot driving
-past someone who does not look at it again is still planned around where it stood.
+again only once it has moved more than
+:data:`~agents.caregiving.model.world_model.REPLAN_SHIFT` away from that pose
+(:class:`~agents.caregiving.model.world_model.World`). A robot driving past
+someone who does not look at it again is still planned around where it stood.
 Algorithm 1 does not know a person's gaze, so it keeps the pose at which the robot
 was last seen at every gaze of theirs, as it marks the objects they surely know
 (:func:`~agents.caregiving.model.visibility.surely_seen`). The joint imagination then
