@@ -93,7 +93,6 @@ class Intention(Agent):
         self.evaluations = 0
         self.last_time = -1.0
         self.episode: int | None = None
-        self.robot_at: dict[str, Pose | None] = {}  # where each person remembers the robot, as of the last frame
         self.cache = ImaginationCache(move_tol=a.move_tol, max_age=a.max_age)
         self.log.info("guessing", size_error=self.size_error, samples=a.samples, threshold=a.risk_threshold)
 
@@ -104,7 +103,7 @@ class Intention(Agent):
         if ctx is None:
             return
         with self.g.batch():
-            self.robot_at = {p.name: remember_robot(self.g, ctx, p.name) for p in ctx.scene.people}
+            robot_at = {p.name: remember_robot(self.g, ctx, p.name) for p in ctx.scene.people}
         if 0.0 <= ctx.scene.time - self.last_time < self.args.period:
             return
         self.last_time = ctx.scene.time
@@ -118,21 +117,21 @@ class Intention(Agent):
                 people.append(p.name)
         if ctx.fallen:
             self.writer.write(self.g, ctx, sorted(ctx.fallen), [])  # the fallen walk nowhere: their guesses end
-        work = [self._evaluate_person(ctx, name) for name in people]
+        work = [self._evaluate_person(ctx, name, robot_at[name]) for name in people]
         self.cache.sweep()
         await asyncio.gather(*work)
         if people:
             self.evaluations += 1
             self.log.debug("evaluated", people=len(people), hits=self.cache.hits, misses=self.cache.misses)
 
-    def _evaluate_person(self, ctx: Context, person: str) -> Awaitable[None]:
-        """Look up ``person``'s imaginations in the cache now; the returned awaitable imagines the rest and writes."""
+    def _evaluate_person(self, ctx: Context, person: str, robot_at: Pose | None) -> Awaitable[None]:
+        """Look up ``person``'s imaginations in the cache now, ``robot_at`` where they remember the robot; the
+        returned awaitable imagines the rest and writes."""
         a = self.args
         uncertainty = Uncertainty(self.size_error, ctx.sigma, a.samples)
         p = ctx.scene.person(person)
         classes = gaze_classes(p, ctx.scene.bodies_around(person))
         known = remember(self.g, ctx, person, classes)
-        robot_at = self.robot_at.get(person)
         now = footing(ctx.scene, person, ctx.sigma)
         items: list[PersonItem] = []
         answers: list[tuple[Answer, float] | None] = []
