@@ -206,15 +206,15 @@ def test_a_move_under_way_holds_while_it_saves_the_person_at_the_gaze_found_risk
     assert not holds(ball_verdict(False, 0.0, fall_in=1, into=None), 0.2, "robot")  # stuck elsewhere
 
 
-def test_a_move_under_way_that_fails_is_given_up_at_once_only_when_it_trips_someone_into_the_robot() -> None:
+def test_a_move_under_way_that_fails_is_given_up_at_once_only_when_it_trips_someone_at_the_gaze_found_risky() -> None:
     too_risky, walks_into_ball = ball_verdict(True, 0.3), ball_verdict(False, 1.0, fall_in=0)
-    into_robot, stuck = (
-        ball_verdict(False, 0.0, fall_in=0, into="robot"),
+    into_robot_elsewhere, stuck_elsewhere = (
+        ball_verdict(False, 0.0, fall_in=1, into="robot"),
         ball_verdict(False, 0.0, fall_in=1, into=None),
     )
-    for failing in (too_risky, walks_into_ball):
+    for failing in (too_risky, walks_into_ball, into_robot_elsewhere, stuck_elsewhere):
         assert not gives_up(failing, False, "robot") and gives_up(failing, True, "robot")
-    for tripping in (into_robot, stuck):
+    for tripping in (ball_verdict(False, 0.0, fall_in=0, into="robot"), ball_verdict(False, 0.0, fall_in=0, into=None)):
         assert gives_up(tripping, False, "robot")
 
 

@@ -77,12 +77,14 @@ def holds(under_way: Verdict, threshold: float, robot: str | None) -> bool:
 def gives_up(under_way: Verdict, failed_before: bool, robot: str | None) -> bool:
     """Whether to look for a move to replace the move under way, which no longer :func:`holds`.
 
-    A move that walks someone into the robot or leaves them stuck is given up at once. Any other only
-    when it also failed on the look before (``failed_before``): one frame's belief may refuse a move that
-    the next frame's clears again, and a robot that switches on every such frame goes back and forth
-    between two poses and reaches neither.
+    A move that walks someone into the robot or leaves them stuck at the gaze class found risky is given
+    up at once. Any other only when it also failed on the look before (``failed_before``): one frame's
+    belief may refuse a move that the next frame's clears again, and a robot that switches on every such
+    frame goes back and forth between two poses and reaches neither. That holds too for a walk into the
+    robot at another gaze class: which class the person is at is what the belief knows least, and a
+    robot that brakes or turns away on one frame's word leaves the person it was saving to fall.
     """
-    return failed_before or under_way.trips(robot)
+    return failed_before or under_way.trips_where_found(robot)
 
 
 def replaces(new: Verdict, under_way: Verdict, samples: int, robot: str | None) -> bool:

@@ -34,6 +34,10 @@ class Fall:
     point: tuple[float, float] | None
     made_worse: bool = False
 
+    def trips(self, robot: str | None) -> bool:
+        """Whether it is a walk into the robot (named ``robot``) or getting stuck."""
+        return self.obstacle is None or self.obstacle == robot
+
     def to_wire(self) -> dict[str, Any]:
         """A msgpack-friendly dict."""
         return {
@@ -89,7 +93,11 @@ class Verdict:
 
     def trips(self, robot: str | None) -> bool:
         """Whether someone, at some gaze, walks into the robot (named ``robot``) or gets stuck with this move."""
-        return any(f.obstacle is None or f.obstacle == robot for f in self.falls)
+        return any(f.trips(robot) for f in self.falls)
+
+    def trips_where_found(self, robot: str | None) -> bool:
+        """:meth:`trips` in the first walk set, the gaze class the danger was found at."""
+        return any(f.trips(robot) and f.walk_set == 0 for f in self.falls)
 
     def in_time(self, time_to_collision: float) -> bool:
         """Whether the robot is imagined at rest at the pose before the predicted collision."""
