@@ -4,12 +4,15 @@ The protocol is pure, so most cases feed it search results made here and check e
 the last runs it to its end on a recorded danger with the real move search, in process.
 """
 
+from dataclasses import replace
 from functools import partial
 
 import pytest
 from recorded_cases import DELAY, EXACT, JUDGING, THRESHOLD, recorded_case
 
 from agents.caregiving.model.candidates import Danger
+from agents.caregiving.model.errors import RequestError
+from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.move_search import search
 from agents.caregiving.model.response import (
     Ask,
@@ -145,16 +148,26 @@ def test_when_no_move_saves_everyone_each_danger_is_searched_alone_most_urgent_f
     ann, bo = danger("ann", 3.0), danger("bo", 1.5)
     rescue = safe(NEW)
     script = Script(Asked(found(falls(NEW, "ball"))), Asked(found(falls(NEW, "ball"))), Asked(found(rescue, chosen=0)))
-    response = script.run(respond(spec(ann, bo), {"ann": 1.0, "bo": 1.0}, None, POLICY))
+    seen_at = {"ann": (1.0, 2.0, 0.0), "bo": (3.0, 1.0, 1.5)}
+    response = script.run(respond(replace(spec(ann, bo), robot_at=seen_at), {"ann": 1.0, "bo": 1.0}, None, POLICY))
     assert response == Send(rescue, unsaved=("bo",))
     assert [a.spec.dangers for a in script.asks[1:]] == [(bo,), (ann,)]
     # Searched alone, the other endangered person still walks, on the walk found risky, their own fall let happen:
-    # no move there saves them, but none may trip them another way, or walk them into the robot.
+    # no move there saves them, but none may trip them another way, or walk them into the robot. They remember
+    # the robot where they did, and each spec is one the simulator takes off the wire.
     for ask, other in zip(script.asks[1:], (ann, bo), strict=True):
         (walk,) = ask.spec.bystanders
-        assert (walk.person, walk.target, walk.gaze) == (other.person, other.target, 0.1)
+        assert (walk.person, walk.target, walk.gaze, walk.robot_at) == (
+            other.person,
+            other.target,
+            0.1,
+            seen_at[other.person],
+        )
+        (searched,) = ask.spec.dangers
+        assert ask.spec.robot_at == {searched.person: seen_at[searched.person]}
         assert ask.spec.falling == {other.person: other.obstacle}
         assert all(walk in walks for walks in ask.spec.walk_sets())
+        assert SearchSpec.from_fields(Fields(ask.spec.to_wire(), "spec", RequestError)) == ask.spec
 
 
 def test_a_head_start_with_no_move_chosen_ends_in_the_braking_the_search_judged() -> None:

@@ -45,8 +45,10 @@ from functools import partial
 
 import numpy as np
 
+from agents.caregiving.model.errors import RequestError
+from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.go_to import GAP, going_to
-from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES
+from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES, SearchItem
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.response import Ask, Asked, Keep, NoMove, Policy, Send, UnderWay, drive, respond
 from agents.caregiving.model.robot_memory import remembered_robot
@@ -211,7 +213,7 @@ def _look(
     def run(ask: Ask) -> Asked:
         nonlocal judged, lead
         delay = setup.delay + setup.judging * judged
-        item = ask.item(delay, uncertainty, setup.threshold, setup.max_moves, setup.judging)
+        item = _as_served(ask.item(delay, uncertainty, setup.threshold, setup.max_moves, setup.judging))
         found = item.run(scene, partial(serve_one, scene), None, (lambda _lead: None) if ask.head_start else None)
         if found.lead is not None and found.lead.move is not None and found.lead_sets_off is not None:
             lead = (now + found.lead_sets_off, found.lead.move)
@@ -243,6 +245,11 @@ def _look(
             loop.retry_after = now + setup.retry
 
 
+def _as_served(item: SearchItem) -> SearchItem:
+    """``item`` as the simulator reads it off the wire: a request it would refuse live fails here too."""
+    return SearchItem.from_fields(Fields(item.to_wire(), "search", RequestError))
+
+
 def _go_to_someone_fallen(loop: Loop, scene: Scene, uncertainty: Uncertainty, now: float, setup: Setup) -> None:
     """Send the robot, at rest, to the first person lying where they fell, as the assist agent does: the first pose
     beside them that harms nobody walking on the belief ``scene`` (the nearest, with nobody walking)."""
@@ -256,7 +263,7 @@ def _go_to_someone_fallen(loop: Loop, scene: Scene, uncertainty: Uncertainty, no
         return
 
     def run(ask: Ask) -> Asked:
-        item = ask.item(setup.delay, uncertainty, setup.threshold, setup.max_moves, setup.judging)
+        item = _as_served(ask.item(setup.delay, uncertainty, setup.threshold, setup.max_moves, setup.judging))
         return Asked(item.run(scene, partial(serve_one, scene)))
 
     found = drive(going_to(spec, moves), run)

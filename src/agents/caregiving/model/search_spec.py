@@ -82,14 +82,17 @@ class SearchSpec:
 
     def alone(self, danger: Danger) -> SearchSpec:
         """The spec protecting ``danger`` alone: the other endangered people walk on beside them as bystanders, on
-        the walk found risky, their own falls let happen (no move here saves them, but none may trip them
-        another way or walk them into the robot)."""
+        the walk found risky and with the robot where they remember it, their own falls let happen (no move here
+        saves them, but none may trip them another way or walk them into the robot)."""
         others = [d for d in self.dangers if d is not danger]
+        mine = danger.person
         return replace(
             self,
             dangers=(danger,),
+            gazes={mine: self.gazes[mine]},
             bystanders=tuple(self._walk(d) for d in others) + self.bystanders,
             falling=self._letting_fall(others),
+            robot_at={p: pose for p, pose in self.robot_at.items() if p == mine},
         )
 
     def letting_dangers_fall(self) -> SearchSpec:
