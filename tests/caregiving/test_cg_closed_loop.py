@@ -8,7 +8,8 @@ under way while each danger is searched alone trips nobody, and with false alarm
 danger Algorithm 1 sees in someone who falls in no truth; on such a false alarm, a head start and braking held
 to the fall just missed leave nobody walking into the robot, or into what they pass, while one that is
 harmless only braked still sets the robot off in time. With the assist agent's answer to a fall on, the
-robot goes to someone lying where they fell, clear of whoever walks on.
+robot goes to someone lying where they fell, clear of whoever walks on. A belief that has someone touching
+already finds no danger to search.
 """
 
 import math
@@ -20,6 +21,7 @@ from recorded_cases import HELD_OUT, JUDGING, THRESHOLD
 
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.scene import Scene
 from bridges.experiment.beliefs import Noise
 from bridges.experiment.closed_loop import Loop, Setup, closed_loop
 from bridges.experiment.oracle import idle_run, world_at
@@ -119,6 +121,29 @@ def test_the_true_gaze_alone_is_what_a_known_gaze_spec_judges_at(office_case) ->
     any_class = spec_on(now.scene(), idle, now, 0.0, Gazes.ANY_CLASS)
     assert any_class is not None
     assert {p: set(g) for p, g in any_class.gazes.items()} == {p: set(g) for p, g in by_class.gazes.items()}
+
+
+@pytest.mark.parametrize("gazes", [Gazes.SOONEST, Gazes.CLASSES])
+def test_a_danger_already_touching_on_the_belief_is_not_searched(gazes: Gazes) -> None:
+    """A belief that has the person 6 cm into the ball (perception's error, at a look close to the touch) finds their
+    walk colliding at once: a danger due, which the action agent no longer searches
+    (``robot_intentions.dangers_in``) and the simulator refuses on the wire. A look from 10 cm farther back finds it."""
+    room = load_scenario("paper_experiment1")
+    planner = GridPlanner(room.scene().bounds)
+    idle, now = idle_run(room, planner), world_at(room, 0.5, planner)
+    ball = next(o.shape for o in now.scene().obstacles if o.name == "ball")
+    person = now.scene().person("person")
+
+    def believed(gap: float) -> Scene:
+        """The scene now with the person ``gap`` metres short of touching the ball, heading for it."""
+        heading = math.atan2(ball.y - person.y, ball.x - person.x)
+        back = ball.r + person.radius + gap
+        there = person.moved(ball.x - back * math.cos(heading), ball.y - back * math.sin(heading), heading)
+        return replace(now.scene(), people=(there,))
+
+    assert spec_on(believed(-0.06), idle, now, 0.05, gazes, ["person"]) is None
+    found = spec_on(believed(0.04), idle, now, 0.05, gazes, ["person"])
+    assert found is not None and found.dangers[0].time_to_collision > 0.0
 
 
 def test_a_head_start_under_way_while_each_danger_is_searched_alone_trips_nobody() -> None:

@@ -72,7 +72,8 @@ def spec_on(
 ) -> SearchSpec | None:
     """The spec of the dangers Algorithm 1 finds on ``scene`` (exact or believed) for the people who fall in ``idle``
     (or for ``people``: on a belief, someone who falls in no truth may seem to, a false alarm), but those who
-    have already fallen by ``now``: they lie where they fell, as perception sees them, and walk nowhere.
+    have already fallen by ``now``: they lie where they fell, as perception sees them, and walk nowhere. Nor is
+    a walk that touches at once on ``scene`` a danger: it is due, and the action agent no longer searches it.
 
     ``idle`` is the trial run to its end with the robot idle, ``now`` the truth at the scene's moment: what each
     person has seen so far, unless ``surely_seen`` says what each has surely seen, and where they remember the
@@ -110,6 +111,8 @@ def spec_on(
                     break
             else:
                 continue
+        if danger.time_to_collision <= 0.0:
+            continue  # touching already on this belief: a danger due, which the action agent no longer searches
         dangers.append(danger)
         if gazes is Gazes.TRUE_GAZE:
             judged_at[name] = (walker.gaze,)
