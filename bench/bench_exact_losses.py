@@ -50,8 +50,10 @@ def refusal(verdict: Verdict, spec: SearchSpec, robot: str | None) -> str:
     fall = verdict.falls[0]
     if fall.person not in {d.person for d in spec.dangers}:
         return "a bystander falls or may"
+    if fall.close_pass:
+        return "passes within the margin round the robot"
     if fall.obstacle == robot:
-        return "passes within the margin round the robot" if fall.point is None else "walks into the robot"
+        return "walks into the robot"
     return "stuck" if fall.obstacle is None else "walks into an obstacle"
 
 

@@ -9,7 +9,8 @@ danger Algorithm 1 sees in someone who falls in no truth; on such a false alarm,
 to the fall just missed leave nobody walking into the robot, or into what they pass, while one that is
 harmless only braked still sets the robot off in time. With the assist agent's answer to a fall on, the
 robot goes to someone lying where they fell, clear of whoever walks on. A belief that has someone touching
-already finds no danger to search.
+already finds no danger to search, and a move under way that passes someone within the margin round the robot
+is doubted once, not braked.
 """
 
 import math
@@ -226,6 +227,18 @@ def test_a_head_start_harmless_only_braked_still_sets_the_robot_off_and_saves_th
     switches to a stand-off that saves the person. Judged from rest without it, no candidate saves her in time."""
     loop = recorded_loop("paper_experiment1", 77031, 44, 0.5499999999999999, 0, false_alarms=False)
     assert loop.idle_fallers == frozenset({"person"}) and loop.responses.get("send", 0) >= 1
+    assert loop.truth.outcome().collisions == ()
+
+
+def test_a_move_under_way_passing_the_person_within_the_margin_is_doubted_once_and_saves_her() -> None:
+    """The paper's room at seed 90311, trial 32, on the exact scene: judged again from where the robot drives, the
+    stand-off sent at the first look has the person pass the robot inside the margin round it, with no touch
+    imagined. Given up at once, no other move was found and the robot braked, and she walked into the ball; kept
+    for one more look, it is replaced by a move that saves her."""
+    room = load_scenario("paper_experiment1")
+    trial, planner = trial_for(room, 90311, 32), GridPlanner(room.scene().bounds)
+    loop = closed_loop(trial, 0.65, planner, (32, 0), replace(setup(False), noise=Noise(0.0, 0.0, 0.0)))
+    assert loop.idle_fallers == frozenset({"person"}) and loop.responses.get("keep_doubted", 0) >= 1
     assert loop.truth.outcome().collisions == ()
 
 

@@ -181,9 +181,13 @@ def test_a_bystanders_sampled_risk_refuses_a_move_the_endangered_persons_does_no
     assert not judge(front, [replace(with_risks(ada=0.14), risks=None)], spec).clear
 
 
-def ball_verdict(clear: bool, risk: float, fall_in: int | None = None, into: str | None = "ball") -> Verdict:
-    """A verdict on a move to the ball (placed by its risk, so that verdicts differ), falling in walk set ``fall_in``."""
-    falls = (Fall(fall_in, "person", into, (0.0, 0.0)),) if fall_in is not None else ()
+def ball_verdict(
+    clear: bool, risk: float, fall_in: int | None = None, into: str | None = "ball", close_pass: bool = False
+) -> Verdict:
+    """A verdict on a move to the ball (placed by its risk, so that verdicts differ), falling in walk set ``fall_in``
+    (with ``close_pass``, passing within the margin round ``into``, the robot, without a touch)."""
+    point = None if close_pass else (0.0, 0.0)
+    falls = (Fall(fall_in, "person", into, point, close_pass=close_pass),) if fall_in is not None else ()
     return Verdict(RobotMove("ball", risk, 0.0, 0.0), clear, risk, 1.0, "", falls)
 
 
@@ -212,7 +216,12 @@ def test_a_move_under_way_that_fails_is_given_up_at_once_only_when_it_trips_some
         ball_verdict(False, 0.0, fall_in=1, into="robot"),
         ball_verdict(False, 0.0, fall_in=1, into=None),
     )
-    for failing in (too_risky, walks_into_ball, into_robot_elsewhere, stuck_elsewhere):
+    close_pass = ball_verdict(False, 1.0, fall_in=0, into="robot", close_pass=True)
+    assert close_pass.trips("robot") and not holds(close_pass, 0.2, "robot")
+    # The action agent reads the verdict off the simulator's reply.
+    sent = replace(close_pass, reason="person passes 4 cm from the robot")
+    assert Verdict.from_fields(Fields(sent.to_wire(), "verdict", ReplyError)) == sent
+    for failing in (too_risky, walks_into_ball, into_robot_elsewhere, stuck_elsewhere, close_pass):
         assert not gives_up(failing, False, "robot") and gives_up(failing, True, "robot")
     for tripping in (ball_verdict(False, 0.0, fall_in=0, into="robot"), ball_verdict(False, 0.0, fall_in=0, into=None)):
         assert gives_up(tripping, False, "robot")

@@ -103,7 +103,7 @@ def judge(
             refused = refused or f"{w.walk.person} walks {what} at gaze {math.degrees(w.walk.gaze):.0f} deg"
             continue
         if margin is not None and (close := next((w for w in a.joint.walks if margin.too_close(w)), None)):
-            falls.append(Fall(k, close.walk.person, margin.robot, None))
+            falls.append(Fall(k, close.walk.person, margin.robot, None, close_pass=True))
             gap = f"{close.robot_clearance * 100:.0f} cm"
             refused = (
                 refused

@@ -82,7 +82,10 @@ def gives_up(under_way: Verdict, failed_before: bool, robot: str | None) -> bool
     belief may refuse a move that the next frame's clears again, and a robot that switches on every such
     frame goes back and forth between two poses and reaches neither. That holds too for a walk into the
     robot at another gaze class: which class the person is at is what the belief knows least, and a
-    robot that brakes or turns away on one frame's word leaves the person it was saving to fall.
+    robot that brakes or turns away on one frame's word leaves the person it was saving to fall. And for
+    a pass within the margin round the robot at the gaze class found risky, where no touch was imagined:
+    a pass of a few centimetres either side of the margin is what one frame's belief of the person's
+    position tells least.
     """
     return failed_before or under_way.trips_where_found(robot)
 

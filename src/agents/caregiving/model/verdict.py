@@ -25,7 +25,9 @@ class Fall:
     """The first fall imagined in one walk set: who, into what (``None``: stuck) and where they touched it.
 
     ``made_worse`` marks a fall imagined in a world where, with the robot as it is, they walk clear: one the
-    robot as it is does not bring, whoever falls at the belief's centre.
+    robot as it is does not bring, whoever falls at the belief's centre. ``close_pass`` marks a pass within the
+    margin round the robot (:class:`~agents.caregiving.model.judging.RobotMargin`): no touch was imagined, but
+    perception's error leaves room for one, so it counts as a walk into the robot.
     """
 
     walk_set: int
@@ -33,6 +35,7 @@ class Fall:
     obstacle: str | None
     point: tuple[float, float] | None
     made_worse: bool = False
+    close_pass: bool = False
 
     def trips(self, robot: str | None) -> bool:
         """Whether it is a walk into the robot (named ``robot``) or getting stuck."""
@@ -46,6 +49,7 @@ class Fall:
             "obstacle": self.obstacle,
             "point": list(self.point) if self.point else None,
             "made_worse": self.made_worse,
+            "close_pass": self.close_pass,
         }
 
     @classmethod
@@ -57,7 +61,14 @@ class Fall:
         obstacle = f.string("obstacle") if f.has("obstacle") else None
         point = f.numbers("point", 2) if f.has("point") else None
         where = (point[0], point[1]) if point else None
-        return cls(int(walk_set), f.string("person"), obstacle, where, f.boolean("made_worse", False))
+        return cls(
+            int(walk_set),
+            f.string("person"),
+            obstacle,
+            where,
+            f.boolean("made_worse", False),
+            f.boolean("close_pass", False),
+        )
 
 
 @dataclass(frozen=True)
@@ -96,8 +107,9 @@ class Verdict:
         return any(f.trips(robot) for f in self.falls)
 
     def trips_where_found(self, robot: str | None) -> bool:
-        """:meth:`trips` in the first walk set, the gaze class the danger was found at."""
-        return any(f.trips(robot) and f.walk_set == 0 for f in self.falls)
+        """:meth:`trips` in the first walk set, the gaze class the danger was found at, by a touch imagined: a pass
+        within the margin round the robot is not one."""
+        return any(f.trips(robot) and not f.close_pass and f.walk_set == 0 for f in self.falls)
 
     def in_time(self, time_to_collision: float) -> bool:
         """Whether the robot is imagined at rest at the pose before the predicted collision."""
