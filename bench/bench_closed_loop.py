@@ -190,6 +190,12 @@ def main() -> None:
         "--retry", type=float, default=0.5, help="seconds before a danger no move removed is looked at again"
     )
     p.add_argument("--first-look-only", action="store_true", help="act on the first look only, and drive its move on")
+    p.add_argument(
+        "--judged-in",
+        type=float,
+        help="seconds a judgement truly takes, the search imagining --judging (default: --judging): an estimate "
+        "that is off, as the action agent's is before it has timed a search",
+    )
     p.add_argument("--no-sampled-risk", action="store_true", help="search without sampling uncertainty")
     p.add_argument(
         "--max-moves",
@@ -247,6 +253,7 @@ def main() -> None:
         false_alarms=args.false_alarms or args.safe_trials,
         max_moves=args.max_moves,
         assist=args.assist,
+        judged_in=args.judged_in,
     )
     found = closed_loops(args.runs, args.draws, setup, people, args.safe_trials)
     benchlib.report_draws(
@@ -256,6 +263,7 @@ def main() -> None:
             "runs": args.runs,
             "delay": args.delay,
             "judging": args.judging,
+            "judged_in": args.judged_in,
             "look": args.look,
             "retry": args.retry,
             "first_look_only": args.first_look_only,

@@ -15,6 +15,8 @@ from recorded_cases import DELAY, EXACT, HELD_OUT, JUDGING, THRESHOLD, recorded_
 
 from agents.caregiving.model import imagine_reply
 from agents.caregiving.model.candidates import candidates, swerves
+from agents.caregiving.model.errors import ReplyError
+from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.imagine_reply import Answer, ImagineReply
 from agents.caregiving.model.imagine_request import JointItem
 from agents.caregiving.model.joint import imagine_joint
@@ -26,7 +28,7 @@ from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.search_spec import SearchSpec
 from agents.caregiving.model.service import item_from_wire, serve_one
 from agents.caregiving.model.uncertainty import Uncertainty
-from agents.caregiving.model.verdict import Verdict
+from agents.caregiving.model.verdict import SearchResult, Verdict
 from agents.caregiving.model.world_model import Walk, run_idle
 from bridges.experiment.oracle import world_at
 from bridges.experiment.perfect_belief import saved_in_truth
@@ -164,6 +166,10 @@ def test_a_head_start_ends_with_its_search_when_no_move_is_found() -> None:
     assert result.halt is not None and result.halt.move is None and not result.halt.trips(scene.robot_name)
     idle = run_idle(trial, planner=planner)
     assert result.judged == len(result.verdicts) + 1
+    # Braking was judged at the search's end: it is not to go out sooner, however soon the search truly ends.
+    assert result.sets_off == pytest.approx(DELAY + JUDGING * (len(result.verdicts) + 1))
+    back = SearchResult.from_fields(Fields(result.to_wire(), "search", ReplyError))
+    assert back.sets_off == result.sets_off and back.halt == result.halt
     world = world_at(trial, 0.6 + DELAY + JUDGING, planner)
     assert world.command_robot(result.lead.move)
     world.advance(0.6 + DELAY + JUDGING * (len(result.verdicts) + 1))

@@ -309,6 +309,8 @@ def test_the_move_chosen_is_to_set_off_when_its_own_judgement_imagined_it_not_wh
             SearchResult.from_fields(Fields(wire, "search", ReplyError))
     with pytest.raises(ReplyError, match="sets_off"):
         SearchResult.from_fields(Fields({**found.to_wire(), "chosen": None}, "search", ReplyError))
+    with pytest.raises(ValueError, match="set-off"):
+        SearchResult(None, found.verdicts, judged=found.judged, sets_off=0.2)
 
 
 def test_a_search_and_its_spec_survive_the_wire(scene: Scene) -> None:

@@ -172,9 +172,9 @@ def test_when_no_move_saves_everyone_each_danger_is_searched_alone_most_urgent_f
 
 def test_a_head_start_with_no_move_chosen_ends_in_the_braking_the_search_judged() -> None:
     halt = safe(None)
-    result = SearchResult(None, (falls(NEW, "ball"),), lead=safe(NEW), halt=halt, judged=2)
+    result = SearchResult(None, (falls(NEW, "ball"),), lead=safe(NEW), halt=halt, judged=2, sets_off=0.3)
     response = Script(Asked(result, led=True)).run(respond(spec(danger("ann", 2.0)), {"ann": 1.0}, None, POLICY))
-    assert response == NoMove(halt)
+    assert response == NoMove(halt, sets_off=0.3)
 
 
 def test_a_head_start_is_the_move_under_way_in_the_searches_alone_and_drives_on_when_they_find_nothing() -> None:

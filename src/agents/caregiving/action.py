@@ -20,7 +20,7 @@ flow of Algorithm 2 and nothing more:
 * the response is written to W; a move whose search ended well before the moment
   it imagined the move setting off is judged once more, to set off now, and sent
   at once if it still does what it was chosen for; otherwise it is held until then
-  (:mod:`agents.caregiving.set_off`).
+  (:mod:`agents.caregiving.set_off`), as is the braking that ends a head start.
 
 The chosen move becomes the robot's ``intention`` node (``move_to``, target,
 final pose, ``status: proposed``, ``in_time``, ``reason``; or ``stop``, its target
@@ -134,6 +134,7 @@ class Action(Agent):
         response, led = await self._respond(ctx, spec, idle_risks, dangers, current, started)
         if isinstance(response, Send) and response.sets_off is not None:
             response = await self._sooner(ctx, spec, max(idle_risks.values()), response, led or current)
+        if isinstance(response, Send | NoMove) and response.sets_off is not None:
             await self.set_off.hold(self.g, ctx.scene.time, response.sets_off, self.log)
             world = self.g.find_node(WORLD)
             if world is None or episode_of(world) != ctx.episode:

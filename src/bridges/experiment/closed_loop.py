@@ -24,7 +24,11 @@ danger showed:
   on the belief, the robot starting :attr:`Setup.delay` seconds after the look and
   :attr:`Setup.judging` seconds later per judgement, and its moves are commanded in
   the ground truth when they would be sent: a head start after its own judgement,
-  the move chosen (or braking) when the response ends;
+  the move chosen (or braking) when the response ends, or when its search imagined
+  it setting off if that is later (a move ending well before that is judged again
+  to set off sooner, as the action agent does). With :attr:`Setup.judged_in`, a
+  judgement truly takes that long while the search imagines ``judging``: what an
+  estimate of a candidate's cost that is off does;
 * it looks on until nobody walks any more (or :data:`HORIZON` has passed): after
   someone falls, at the others, as live. Someone lying where they fell is no
   danger any more, as perception sees them lying;
@@ -50,7 +54,18 @@ from agents.caregiving.model.fields import Fields
 from agents.caregiving.model.go_to import GAP, going_to
 from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES, SearchItem
 from agents.caregiving.model.planner import GridPlanner
-from agents.caregiving.model.response import Ask, Asked, Keep, NoMove, Policy, Send, UnderWay, drive, respond
+from agents.caregiving.model.response import (
+    Ask,
+    Asked,
+    Keep,
+    NoMove,
+    Policy,
+    Send,
+    UnderWay,
+    drive,
+    respond,
+    set_off_sooner,
+)
 from agents.caregiving.model.robot_memory import remembered_robot
 from agents.caregiving.model.robot_moves import RobotMove, moves_beside
 from agents.caregiving.model.scenario import Scenario, SensorSpec
@@ -74,7 +89,8 @@ class Setup:
     """How the loop runs: the robot's start ``delay`` after a look and ``judging`` seconds more per judgement,
     seconds between ``look``s at a danger and before a ``retry`` of one no move removed, whether only the first
     look acts, the belief's ``noise``, the risk ``threshold`` a move must stay under, and the ``max_moves`` a
-    search judges at most. With ``known_gaze``
+    search judges at most; ``judged_in``, the seconds a judgement truly takes (``None``: ``judging``, the
+    search's estimate). With ``known_gaze``
     the search judges each move at the endangered people's true gaze alone (see
     :class:`~bridges.experiment.perfect_belief.Gazes`), which no sensor tells. With ``false_alarms``, Algorithm 1
     looks at everyone still walking, as live, not only at those who fall with the robot idle: anyone whose walk
@@ -91,6 +107,20 @@ class Setup:
     false_alarms: bool = False
     max_moves: int = DEFAULT_MAX_MOVES
     assist: bool = False
+    judged_in: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.judged_in is not None and (self.judged_in < 0.0 or self.judging <= 0.0):
+            raise ValueError("a judgement's true time needs an estimate of it (judging > 0), and is not negative")
+
+    @property
+    def per_judgement(self) -> float:
+        """The seconds a judgement truly takes."""
+        return self.judging if self.judged_in is None else self.judged_in
+
+    def truly(self, at: float, delay: float) -> float:
+        """When a search started ``delay`` after the look truly reaches the moment it imagined ``at`` after it."""
+        return delay + (at - delay) * self.per_judgement / self.judging if self.judging > 0.0 else at
 
 
 @dataclass
@@ -212,37 +242,51 @@ def _look(
 
     def run(ask: Ask) -> Asked:
         nonlocal judged, lead
-        delay = setup.delay + setup.judging * judged
+        delay = setup.delay + setup.per_judgement * judged
         item = _as_served(ask.item(delay, uncertainty, setup.threshold, setup.max_moves, setup.judging))
         found = item.run(scene, partial(serve_one, scene), None, (lambda _lead: None) if ask.head_start else None)
         if found.lead is not None and found.lead.move is not None and found.lead_sets_off is not None:
-            lead = (now + found.lead_sets_off, found.lead.move)
+            lead = (now + setup.truly(found.lead_sets_off, delay), found.lead.move)
         judged += found.judged
         return Asked(found, led=found.lead is not None)
 
     response = drive(respond(spec, {d.person: 1.0 for d in spec.dangers}, loop.under_way, policy), run)
+    if lead is not None:
+        loop.under_way = UnderWay(lead[1], second_look=True)
+    if isinstance(response, Send) and _early(response, judged, setup) > 2 * setup.judging:
+        sooner = replace(spec, current=loop.under_way.move if loop.under_way is not None else None)
+        response = drive(set_off_sooner(response, sooner, 1.0, policy), run)
     loop.judged += judged
-    ended = now + setup.delay + setup.judging * judged
+    ended = now + setup.delay + setup.per_judgement * judged
     kind = type(response).__name__.lower() + ("_doubted" if isinstance(response, Keep) and response.doubted else "")
     loop.responses[kind] = loop.responses.get(kind, 0) + 1
     if lead is not None:
         _command(loop, *lead)
-        loop.under_way = UnderWay(lead[1], second_look=True)
     match response:
         case Keep(doubted=doubted, best_new=None) if loop.under_way is not None:
             loop.under_way = replace(loop.under_way, second_look=doubted)
-        case Send(chosen, braking=braking):
+        case Send(chosen, braking=braking, sets_off=sets_off):
             if not braking and loop.first_risk is None:
                 loop.first_risk = chosen.risk
-            _command(loop, ended, chosen.move)
+            _command(loop, max(ended, now + (sets_off or 0.0)), chosen.move)
             loop.under_way = UnderWay(chosen.move, second_look=False)
             if braking:
                 loop.retry_after = now + setup.retry
-        case NoMove(halt):
+        case NoMove(halt, sets_off):
             if halt is not None and lead is not None:
-                _command(loop, ended, None)
+                _command(loop, max(ended, now + (sets_off or 0.0)), None)
                 loop.under_way = UnderWay(None, second_look=True)
             loop.retry_after = now + setup.retry
+
+
+def _early(send: Send, judged: int, setup: Setup) -> float:
+    """How long before the moment its search imagined ``send`` setting off (after the look) its response ended,
+    ``judged`` judgements in."""
+    return (
+        (send.sets_off or 0.0) - setup.delay - setup.per_judgement * judged
+        if not (send.braking or send.unsaved)
+        else 0.0
+    )
 
 
 def _as_served(item: SearchItem) -> SearchItem:

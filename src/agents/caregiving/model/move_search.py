@@ -92,7 +92,8 @@ def search(
     sent or not (and braking's the second, when judged). The result's ``lead`` is that verdict. A head start lasts
     as long as the search: when no candidate is chosen, braking at the search's end is judged the same way, and the
     result's ``halt`` is that verdict if it is harmless too, or the head start was sent to be braked (the robot then
-    brakes; otherwise it drives the head start on, which harms nobody). The result's ``judged`` counts the slots the
+    brakes, no sooner than the result's ``sets_off``, the moment braking was judged at; otherwise it drives the
+    head start on, which harms nobody). The result's ``judged`` counts the slots the
     search took, and ``lead_sets_off`` when the head start set off.
     """
     verdicts: list[Verdict] = []
@@ -143,6 +144,9 @@ def search(
         braking, _ = judging_.judged_as_lead(lambda: judging_.spec_at(len(verdicts) + 1), None)
         halt = braking if judging_.must_brake or judging_.no_worse.harmless(braking) else None
         slots += 1
+        if halt is not None:
+            at = judging_.spec_at(len(verdicts) + 1)
+            sets_off = at.delay + at.lead_for
     return SearchResult(chosen, tuple(verdicts), judging_.lead, halt, slots, sets_off, judging_.lead_sent().delay)
 
 

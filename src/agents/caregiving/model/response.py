@@ -34,9 +34,10 @@ The steps, in order:
 * a new move replaces the one under way only when it
   :func:`~agents.caregiving.model.move_choice.replaces` it;
 * when none is found: a head start ends in braking (when the search found braking
-  harmless), and a move under way that walks someone into the robot or leaves
-  them stuck is braked if braking, judged with the dangers' own falls let happen
-  (so that whoever it trips after them is seen), ranks clearly above carrying on.
+  harmless; no sooner than the moment it was judged at), and a move under way that
+  walks someone into the robot or leaves them stuck is braked if braking, judged
+  with the dangers' own falls let happen (so that whoever it trips after them is
+  seen), ranks clearly above carrying on.
 
 No search chooses a move whose imagination shows a fall that would not happen
 without it (:class:`~agents.caregiving.model.move_choice.NoWorse`): the robot never
@@ -168,9 +169,12 @@ class Send:
 @dataclass(frozen=True)
 class NoMove:
     """No move removes the danger. ``halt``: braking that ends the head start this response sent, if the search
-    found it harmless (``None``: the head start drives on until a later search replaces it)."""
+    found it harmless (``None``: the head start drives on until a later search replaces it); ``sets_off``, when
+    the search imagined the robot braking, as :attr:`Send.sets_off`: braked sooner, it stops short of where it
+    was judged to."""
 
     halt: Verdict | None = None
+    sets_off: float | None = None
 
 
 #: What :func:`respond` decides.
@@ -224,7 +228,7 @@ def respond(
         if led is not None:
             # Braking was judged at the end of the search that sent the head start; after the searches alone, the
             # robot has driven it on further, to where braking was never judged. Driven on, it harms nobody.
-            return NoMove(None if searched_alone else led.halt)
+            return NoMove() if searched_alone else NoMove(led.halt, led.sets_off)
         if again is not None and again.move is not None and again.trips(policy.robot):
             # Judged going on past the dangers' own falls: braking that walks someone into the robot after them
             # is then seen.

@@ -149,8 +149,9 @@ class SearchResult:
     :func:`agents.caregiving.model.move_search.search`); ``halt``, when none is chosen after it, braking
     at the search's end, judged harmless (``None``: the robot drives the head start on). ``judged`` is how
     many judgements the search took in turn, the head start's and braking's included: its time, in
-    candidate slots. ``sets_off`` is when the chosen move was imagined to set off (switching from the head
-    start, if one was sent), in simulated seconds after the scene: the robot must not set off on it sooner.
+    candidate slots. ``sets_off`` is when the chosen move (or the halt) was imagined to set off (switching from
+    the head start, if one was sent), in simulated seconds after the scene: the robot must not set off on it
+    sooner.
     ``lead_sets_off`` is the same for the head start, once the judgements it waited for are done (``None``: when it
     was sent, as the simulator does the moment it finds one).
     """
@@ -166,8 +167,10 @@ class SearchResult:
     def __post_init__(self) -> None:
         if self.judged < len(self.verdicts):
             raise ValueError(f"a search of {len(self.verdicts)} verdicts took at least as many judgements")
-        if self.sets_off is not None and (self.chosen is None or self.sets_off < 0.0):
-            raise ValueError(f"a set-off time ({self.sets_off}) is for a chosen move, and not before the scene")
+        if self.sets_off is not None and (self.chosen is None and self.halt is None or self.sets_off < 0.0):
+            raise ValueError(
+                f"a set-off time ({self.sets_off}) is for a chosen move or a halt, and not before the scene"
+            )
         if self.lead_sets_off is not None and (self.lead is None or self.lead_sets_off < 0.0):
             raise ValueError(f"a set-off time ({self.lead_sets_off}) is for a head start, and not before the scene")
 
@@ -198,9 +201,10 @@ class SearchResult:
             raise f.fail("judged", f"expected a whole number of judgements, {len(verdicts)} or more, got {judged!r}")
         index = f.optional_number("chosen")
         sets_off = f.optional_number("sets_off")
-        if sets_off is not None and (index is None or sets_off < 0.0):
+        if sets_off is not None and (index is None and halt is None or sets_off < 0.0):
             raise f.fail(
-                "sets_off", f"expected no set-off time before the scene, nor without a chosen move, got {sets_off!r}"
+                "sets_off",
+                f"expected no set-off time before the scene, nor without a chosen move or a halt, got {sets_off!r}",
             )
         lead_sets_off = f.optional_number("lead_sets_off")
         if lead_sets_off is not None and (lead is None or lead_sets_off < 0.0):
@@ -209,7 +213,7 @@ class SearchResult:
                 f"expected no set-off time before the scene, nor without a head start, got {lead_sets_off!r}",
             )
         if index is None:
-            return cls(None, verdicts, lead, halt, int(judged), lead_sets_off=lead_sets_off)
+            return cls(None, verdicts, lead, halt, int(judged), sets_off, lead_sets_off)
         if not index.is_integer() or not 0 <= index < len(verdicts):
             raise f.fail("chosen", f"expected the index of one of {len(verdicts)} verdicts, got {index!r}")
         return cls(verdicts[int(index)], verdicts, lead, halt, int(judged), sets_off, lead_sets_off)
