@@ -68,6 +68,7 @@ from agents.caregiving.model.response import (
 )
 from agents.caregiving.model.robot_memory import remembered_robot
 from agents.caregiving.model.robot_moves import RobotMove, moves_beside
+from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.scenario import Scenario, SensorSpec
 from agents.caregiving.model.scene import Pose, Scene
 from agents.caregiving.model.search_spec import SearchSpec
@@ -120,7 +121,7 @@ class Setup:
 
     def truly(self, at: float, delay: float) -> float:
         """When a search started ``delay`` after the look truly reaches the moment it imagined ``at`` after it."""
-        return delay + (at - delay) * self.per_judgement / self.judging if self.judging > 0.0 else at
+        return at if self.judged_in is None else delay + (at - delay) * self.judged_in / self.judging
 
 
 @dataclass
@@ -281,12 +282,10 @@ def _look(
 
 def _early(send: Send, judged: int, setup: Setup) -> float:
     """How long before the moment its search imagined ``send`` setting off (after the look) its response ended,
-    ``judged`` judgements in."""
-    return (
-        (send.sets_off or 0.0) - setup.delay - setup.per_judgement * judged
-        if not (send.braking or send.unsaved)
-        else 0.0
-    )
+    ``judged`` judgements in, give or take the world's step (:meth:`agents.caregiving.set_off.SetOff.early`)."""
+    if send.braking or send.unsaved or send.sets_off is None:
+        return 0.0
+    return send.sets_off - setup.delay - setup.per_judgement * judged - DT
 
 
 def _as_served(item: SearchItem) -> SearchItem:
