@@ -10,7 +10,8 @@ to the fall just missed leave nobody walking into the robot, or into what they p
 harmless only braked still sets the robot off in time. With the assist agent's answer to a fall on, the
 robot goes to someone lying where they fell, clear of whoever walks on. A belief that has someone touching
 already finds no danger to search, and a move under way that passes someone within the margin round the robot
-is doubted once, not braked.
+is doubted once, not braked. Braking that ends a head start goes out when its search judged it, however soon
+the search truly ends.
 """
 
 import math
@@ -275,3 +276,20 @@ def test_with_assist_the_robot_goes_to_someone_fallen_clear_of_whoever_walks_on(
     assert (loop.gone_to, loop.responses.get("go_to", 0), gained > 2.0) == (
         ("ana", 1, True) if assist else (None, 0, False)
     )
+
+
+def test_braking_that_ends_a_head_start_goes_out_when_judged_however_soon_the_search_truly_ends() -> None:
+    """Face to face (held out) at seed 3, trial 0, on the beliefs of draw 0: no move saves the resident, and the
+    head start sent at the first look is braked when its search ends. The search imagines each judgement taking
+    30 ms, as the action agent does before it has timed one; judgements truly taking 8 ms, the head start goes
+    out sooner, but braking goes out when the search was imagined to end, as with judgements that take the 30 ms:
+    braked when the search truly ended, the robot would stop short of where braking was judged harmless."""
+    room = load_scenario(HELD_OUT / "face_to_face.yaml")
+    trial, planner = trial_for(room, 3, 0), GridPlanner(room.scene().bounds)
+    untimed = replace(setup(False), delay=0.05, judging=0.03)
+    as_estimated = closed_loop(trial, 0.6, planner, (0, 0), untimed)
+    sooner = closed_loop(trial, 0.6, planner, (0, 0), replace(untimed, judged_in=0.008))
+    (lead, *_), (lead_sooner, *_) = as_estimated.commanded, sooner.commanded
+    assert lead[1] == lead_sooner[1] is not None and lead_sooner[0] < lead[0]
+    brake = next(at for at, move in as_estimated.commanded if move is None)
+    assert next(at for at, move in sooner.commanded if move is None) == pytest.approx(brake)

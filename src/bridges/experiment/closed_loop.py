@@ -133,13 +133,19 @@ class Loop:
     under_way: UnderWay | None = None
     retry_after: float = -math.inf
     looks: int = 0
-    commands: int = 0
+    # The commands the robot took: when sent (the world acts on one at its next step), which move (None: braking).
+    commanded: list[tuple[float, RobotMove | None]] = field(default_factory=list)
     judged: int = 0
     responses: dict[str, int] = field(default_factory=dict)
     gone_to: str | None = None  # whom the robot was sent to, lying where they fell
     seen: dict[str, set[str]] = field(default_factory=dict)  # what each person has surely seen, as Algorithm 1 holds
     robot_at: dict[str, Pose] = field(default_factory=dict)  # where each remembers the robot, as Algorithm 1 keeps it
     first_risk: float | None = None  # the sampled risk of the first move a search chose and sent (not braking)
+
+    @property
+    def commands(self) -> int:
+        """How many commands the robot took."""
+        return len(self.commanded)
 
 
 @dataclass(frozen=True)
@@ -320,4 +326,5 @@ def _go_to_someone_fallen(loop: Loop, scene: Scene, uncertainty: Uncertainty, no
 
 def _command(loop: Loop, at: float, move: RobotMove | None) -> None:
     loop.truth.advance(at)
-    loop.commands += loop.truth.command_robot(move)
+    if loop.truth.command_robot(move):
+        loop.commanded.append((at, move))
