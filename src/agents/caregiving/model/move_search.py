@@ -135,8 +135,7 @@ def search(
     slots = len(verdicts) + judging_.lead_judged + judging_.braking_judged - (judging_.read_off is not None)
     sets_off = None
     if chosen is not None:
-        at = judging_.spec_at(next(k for k, v in enumerate(verdicts, start=1) if v is chosen))
-        sets_off = at.delay + at.lead_for
+        sets_off = judging_.spec_at(next(k for k, v in enumerate(verdicts, start=1) if v is chosen)).sets_off
     if judging_.lead is None:
         return SearchResult(chosen, tuple(verdicts), judged=slots, sets_off=sets_off)
     halt = None
@@ -144,9 +143,7 @@ def search(
         braking, _ = judging_.judged_as_lead(lambda: judging_.spec_at(len(verdicts) + 1), None)
         halt = braking if judging_.must_brake or judging_.no_worse.harmless(braking) else None
         slots += 1
-        if halt is not None:
-            at = judging_.spec_at(len(verdicts) + 1)
-            sets_off = at.delay + at.lead_for
+        sets_off = judging_.spec_at(len(verdicts) + 1).sets_off if halt is not None else None
     return SearchResult(chosen, tuple(verdicts), judging_.lead, halt, slots, sets_off, judging_.lead_sent().delay)
 
 

@@ -71,6 +71,12 @@ class SearchSpec:
     keep_clear: float = 0.0
     robot_at: dict[str, Pose] = field(default_factory=dict)
 
+    @property
+    def sets_off(self) -> float:
+        """When the robot sets off on the move this spec judges, in seconds after the scene: ``delay`` on, and
+        ``lead_for`` more when it drives a head start first."""
+        return self.delay + self.lead_for
+
     def falling_in(self, walks: Iterable[Walk]) -> dict[str, str]:
         """The falls that do not refuse a move in a walk set of ``walks``: ``falling``'s, and ``falls_anyway``'s
         where the bystander walks that walk."""
