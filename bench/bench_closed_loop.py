@@ -22,12 +22,15 @@ who passes in the truth is a danger too (by default only those who fall with the
 sends the robot, once nobody is in danger, to someone lying where they fell, as the assist agent does: what
 answering a fall costs the others. ``--safe-trials`` runs instead every trial of every room's runs that the
 run flagged and that is safe with the robot idle, with ``--false-alarms``: every fall there is one the robot
-caused (``tripped``), the live experiments' ``robot_caused_collisions`` on drawn beliefs. The draws are seeded
-per trial, so two versions are compared on the same beliefs. The runs are shared between two processes.
+caused (``tripped``), the live experiments' ``robot_caused_collisions`` on drawn beliefs. ``--judged-in S``
+has each judgement truly take ``S`` seconds while the searches imagine ``--judging``: the action agent's
+estimate of a candidate's cost is off (before it has timed a search, it is 30 ms), and moves are held to, or
+judged again for, the moments their searches imagined, as live. The draws are seeded per trial, so two
+versions are compared on the same beliefs. The runs are shared between two processes.
 
-    python bench/bench_closed_loop.py [--draws N] [--look S] [--retry S] [--first-look-only]
-        [--no-sampled-risk] [--known-gaze] [--false-alarms] [--assist] [--belief-noise KIND] [--json PATH]
-        [--every-room | --people PATH | --safe-trials | RUN ...]
+    python bench/bench_closed_loop.py [--draws N] [--delay S] [--judging S] [--judged-in S] [--look S]
+        [--retry S] [--first-look-only] [--no-sampled-risk] [--known-gaze] [--false-alarms] [--assist]
+        [--belief-noise KIND] [--json PATH] [--every-room | --people PATH | --safe-trials | RUN ...]
 """
 
 from __future__ import annotations
