@@ -114,10 +114,9 @@ class Setup:
         if self.judged_in is not None and (self.judged_in < 0.0 or self.judging <= 0.0):
             raise ValueError("a judgement's true time needs an estimate of it (judging > 0), and is not negative")
 
-    @property
-    def per_judgement(self) -> float:
-        """The seconds a judgement truly takes."""
-        return self.judging if self.judged_in is None else self.judged_in
+    def after(self, judged: int) -> float:
+        """When a response that has made ``judged`` judgements truly ends, in seconds after its look."""
+        return self.delay + (self.judging if self.judged_in is None else self.judged_in) * judged
 
     def truly(self, at: float, delay: float) -> float:
         """When a search started ``delay`` after the look truly reaches the moment it imagined ``at`` after it."""
@@ -249,7 +248,7 @@ def _look(
 
     def run(ask: Ask) -> Asked:
         nonlocal judged, lead
-        delay = setup.delay + setup.per_judgement * judged
+        delay = setup.after(judged)
         item = _as_served(ask.item(delay, uncertainty, setup.threshold, setup.max_moves, setup.judging))
         found = item.run(scene, partial(serve_one, scene), None, (lambda _lead: None) if ask.head_start else None)
         if found.lead is not None and found.lead.move is not None and found.lead_sets_off is not None:
@@ -264,7 +263,7 @@ def _look(
         sooner = replace(spec, current=loop.under_way.move if loop.under_way is not None else None)
         response = drive(set_off_sooner(response, sooner, 1.0, policy), run)
     loop.judged += judged
-    ended = now + setup.delay + setup.per_judgement * judged
+    ended = now + setup.after(judged)
     kind = type(response).__name__.lower() + ("_doubted" if isinstance(response, Keep) and response.doubted else "")
     loop.responses[kind] = loop.responses.get(kind, 0) + 1
     if lead is not None:
@@ -275,15 +274,21 @@ def _look(
         case Send(chosen, braking=braking, sets_off=sets_off):
             if not braking and loop.first_risk is None:
                 loop.first_risk = chosen.risk
-            _command(loop, max(ended, now + (sets_off or 0.0)), chosen.move)
+            _command(loop, _held(now, ended, sets_off), chosen.move)
             loop.under_way = UnderWay(chosen.move, second_look=False)
             if braking:
                 loop.retry_after = now + setup.retry
         case NoMove(halt, sets_off):
             if halt is not None and lead is not None:
-                _command(loop, max(ended, now + (sets_off or 0.0)), None)
+                _command(loop, _held(now, ended, sets_off), None)
                 loop.under_way = UnderWay(None, second_look=True)
             loop.retry_after = now + setup.retry
+
+
+def _held(now: float, ended: float, sets_off: float | None) -> float:
+    """When a move whose response ended at ``ended`` goes out: then, or, if later, at the moment its search imagined
+    it setting off (``sets_off`` after the look at ``now``), as the agents hold their moves."""
+    return max(ended, now + sets_off) if sets_off is not None else ended
 
 
 def _early(send: Send, judged: int, setup: Setup) -> float:
@@ -291,7 +296,7 @@ def _early(send: Send, judged: int, setup: Setup) -> float:
     ``judged`` judgements in, give or take the world's step (:meth:`agents.caregiving.set_off.SetOff.early`)."""
     if send.braking or send.unsaved or send.sets_off is None:
         return 0.0
-    return send.sets_off - setup.delay - setup.per_judgement * judged - DT
+    return send.sets_off - setup.after(judged) - DT
 
 
 def _as_served(item: SearchItem) -> SearchItem:
@@ -319,7 +324,7 @@ def _go_to_someone_fallen(loop: Loop, scene: Scene, uncertainty: Uncertainty, no
     loop.judged += found.judged if found is not None else 0
     if found is None or found.chosen is None:
         return
-    _command(loop, now + setup.delay + setup.judging * found.judged, found.chosen.move)
+    _command(loop, _held(now, now + setup.after(found.judged), found.sets_off), found.chosen.move)
     loop.under_way, loop.gone_to = UnderWay(found.chosen.move, second_look=True), lying[0]
     loop.responses["go_to"] = loop.responses.get("go_to", 0) + 1
 
