@@ -99,10 +99,11 @@ def test_a_stand_off_that_walks_her_into_the_ball_where_the_idle_robot_keeps_her
     """The paper's room at seed 12011, trial 21, in real time: she passes the ball by 2.2 cm with the robot idle
     and is flagged. The stand-off sent before lowered her sampled risk, but in worlds of its own she walked round
     the robot into the ball, and in the truth she did, in every run. It is refused for those worlds, a move is
-    still sent, and nobody falls."""
+    still sent, and nobody falls. Algorithm 1 guesses from 0.3 s into her track, as in the runs the trial was
+    found in: guessing from her first frame, no search of hers refuses a move for those worlds."""
     out, logs = tmp_path / "out.json", tmp_path / "logs"
     done = subprocess.run(
-        [*WM, "experiment", "paper_experiment1", "--seed", "12011", "--rate", "1", "--only", "21"]
+        [*WM, "experiment", "paper_experiment1", "--seed", "12011", "--rate", "1", "--only", "21", "--min-track", "0.3"]
         + ["--json", str(out), "--logs", str(logs), "--record-searches"],
         check=False,
         capture_output=True,

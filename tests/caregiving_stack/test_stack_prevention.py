@@ -1,6 +1,6 @@
-"""Prevention over the real processes: a saveable trial is saved; a move that trips a person is never sent,
-and one already under way is braked; a person who has fallen is seen lying and guessed walking no more, and
-the robot raises an alert and goes to them.
+"""Prevention over the real processes: a saveable trial is flagged from the first frames showing the person,
+and saved; a move that trips a person is never sent, and one already under way is braked; a person who has
+fallen is seen lying and guessed walking no more, and the robot raises an alert and goes to them.
 
 Trials of seed 7 of the box-obstacle room, with exact sensors so that the closed loop sees what the oracle
 sees. The room runs at half speed: these tests check what the search decides, not how fast the pipeline is
@@ -34,7 +34,9 @@ from wm import Event, Graph, Node
 
 SCENARIOS = Path(__file__).parent / "scenarios"
 SCENARIO = str(SCENARIOS / "box_obstacle_exact.yaml")
-SEED, SAVEABLE, UNSAVEABLE = 7, 25, (5, 42)
+SEED, SAVEABLE, UNSAVEABLE = 7, 25, (42,)
+ALGORITHM_1_PERIOD = 0.1  # simulated seconds between Algorithm 1's passes at most (the intention agent's --period)
+FRAME = 0.05  # the world's step: a frame's stamp and the time the robot state then gives
 
 
 @pytest.fixture(scope="module")
@@ -42,12 +44,15 @@ def stack(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Stack]:
     yield from recording_stack(tmp_path_factory, SCENARIO, 0.5)
 
 
-def test_a_saveable_trial_is_saved(stack: Stack) -> None:
+def test_a_saveable_trial_is_flagged_from_the_first_frames_showing_her_and_saved(stack: Stack) -> None:
+    """Algorithm 1 guesses from the first frame perception writes the person: the danger is flagged at its first
+    pass after that frame, no later than its period (and the frame's own step) after it."""
     trial = trial_for(load_scenario(SCENARIO), SEED, SAVEABLE)
     planner = GridPlanner(trial.scene().bounds)
     assert run_idle(trial, planner=planner).collided
     r = run_trial(stack, SCENARIO, SEED, SAVEABLE)
-    assert r.risky is not None and r.action is not None
+    assert r.risky is not None and r.action is not None and r.person_seen_at is not None
+    assert r.risky["at_time"] - r.person_seen_at <= ALGORITHM_1_PERIOD + FRAME + 1e-6
     assert oracle(trial, r.risky["at_time"], planner).saveable
     assert [c for c in r.outcome["commands"] if c["accepted"]]
     assert r.outcome["collisions"] == []

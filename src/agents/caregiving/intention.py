@@ -2,8 +2,9 @@
 
 ``python -m agents.caregiving.intention --graph G --connect EP [--scenario S]``
 
-Whenever a person moves in W: for each person tracked long enough and not
-fallen (someone lying where they fell walks nowhere; their guesses are deleted), the targets
+Whenever a person moves in W: for each person not fallen (someone lying where
+they fell walks nowhere; their guesses are deleted), from the first frame
+perception writes them (a track it has confirmed), the targets
 are the target objects inside their horizontal field of view; the vertical gaze
 range is split exactly into the classes that see the same objects
 (:func:`agents.caregiving.model.visibility.gaze_classes`), which covers every sampled gaze.
@@ -67,7 +68,12 @@ class Intention(Agent):
     def add_arguments(cls, parser: argparse.ArgumentParser) -> None:
         add_risk_arguments(parser)
         add_walking_arguments(parser)
-        parser.add_argument("--min-track", type=float, default=0.3, help="seconds a person is tracked before guessing")
+        parser.add_argument(
+            "--min-track",
+            type=float,
+            default=0.0,
+            help="seconds a person is in W before guessing (default: %(default)s, from perception's confirmed track on)",
+        )
         parser.add_argument("--refresh", type=float, default=0.5, help="simulated seconds between unchanged rewrites")
         parser.add_argument(
             "--period",

@@ -41,6 +41,13 @@ def add_command(commands: Any) -> None:
         "to be served again offline (bench/bench_replay_searches.py)",
     )
     p.add_argument(
+        "--min-track",
+        type=float,
+        default=0.0,
+        help="seconds a person is in W before Algorithm 1 guesses their walks (default: %(default)s, from the "
+        "first frame perception writes them)",
+    )
+    p.add_argument(
         "--compare",
         type=Path,
         help="an earlier run's JSON: the trial figure then shows a trial saved now that collided there",
@@ -87,6 +94,7 @@ def main(args: argparse.Namespace) -> int:
             compare=args.compare,
             only=args.only,
             record_searches=args.record_searches,
+            min_track=args.min_track,
         )
     except (ScenarioError, LaunchError, TrialError) as exc:
         print(f"wm experiment: error: {exc}", file=sys.stderr)

@@ -490,6 +490,7 @@ def trial_json(s: Scored) -> dict[str, Any]:
         "head_start_ms": r.head_start_ms,
         "idle_min_clearance": s.idle_clearance,
         "risk_probability": (r.risky or {}).get("probability"),
+        "person_seen_at": r.person_seen_at,
         "risk_at_time": (r.risky or {}).get("at_time"),
         "time_to_collision": (r.risky or {}).get("time_to_collision"),
         "reaction_ms": r.reaction_ms,
@@ -527,11 +528,13 @@ def experiment(
     compare: Path | None = None,
     only: list[int] | None = None,
     record_searches: bool = False,
+    min_track: float = 0.0,
 ) -> dict[str, Any]:
     """Start the stack, run the trials, print Table I, write the JSON and figures; returns the results.
 
     ``only`` runs those trials of the seed's sequence instead of the first ``trials``. With
-    ``record_searches`` the simulator records its batches of robot moves under ``<logs>/searches``.
+    ``record_searches`` the simulator records its batches of robot moves under ``<logs>/searches``. ``min_track``
+    is how long a person is in W before Algorithm 1 guesses their walks.
     """
     from . import figures as figs
 
@@ -542,7 +545,7 @@ def experiment(
     indices: list[int | None] = [None] if nominal else list(only if only is not None else range(trials))
     started = time.monotonic()
     record = logs / "searches" if record_searches else None
-    with Stack(graph, scenario_path, logs, rate=rate, record=record) as stack:
+    with Stack(graph, scenario_path, logs, rate=rate, record=record, min_track=min_track) as stack:
         console.print(
             f"stack up: {len(stack.names)} processes on {stack.endpoint}, simulated clock x{rate:g}, logs in {logs}"
         )
@@ -557,6 +560,7 @@ def experiment(
         rate=rate,
         sensor_noise=scenario.sensors.enabled,
         wall_s=time.monotonic() - started,
+        min_track=min_track,
         paper=PAPER,
     )
     console.print(table(result))

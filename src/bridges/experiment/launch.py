@@ -71,6 +71,8 @@ class Stack:
     rate: float = 1.0
     #: Where the simulator records its batches of robot moves (None: nowhere).
     record: Path | None = None
+    #: Seconds a person is in W before Algorithm 1 guesses their walks.
+    min_track: float = 0.0
     port: int = 0
     launcher: subprocess.Popen[bytes] | None = None
     names: tuple[str, ...] = field(default=())
@@ -91,6 +93,7 @@ class Stack:
             "rate": f"{self.rate:g}",
             "zenoh": str(config),
             "record": str(self.record) if self.record is not None else "",
+            "min_track": f"{self.min_track:g}",
         }
 
     def start(self, timeout: float = 60.0) -> Self:

@@ -2,8 +2,9 @@
 
 The harness is itself a (passive) replica of W. For each trial it asks the
 world bridge to prepare it, waits until perception and the agents have cleared
-W for it, starts the clock, and records from its replica: whether any intention
-arose, the first risky ``has_intention`` (and each person's first, where they
+W for it, starts the clock, and records from its replica: the stamp of the first
+frame perception wrote a person from, whether any intention arose, the first risky
+``has_intention`` (and each person's first, where they
 stood then), each person's first ``fallen`` mark, and the robot's first ``intention``
 (with the wall-clock stamps their writers put on them), plus a snapshot of W at
 the moment of the action for the figures. The world's record of what really
@@ -71,6 +72,7 @@ class TrialRecord:
     flags: dict[int, Mark] = field(default_factory=dict)  # each person node's first risky intention
     fall_marks: dict[int, Mark] = field(default_factory=dict)  # each person node's first ``fallen`` mark
     answers: dict[str, dict[int, float]] = field(default_factory=dict)  # alert, go_to: person node -> first at_time
+    person_seen_at: float | None = None  # the stamp of the first frame perception wrote a person from
 
     @property
     def set_off(self) -> dict[str, Any] | None:
@@ -183,6 +185,10 @@ class Harness:
             if rec.risky is None:
                 rec.risky, rec.seen_risky_at = dict(edge.attrs), time.time()
                 rec.snapshot = snapshot(self.g, None)
+        elif event.type == PERSON and event.kind.value == "node_added" and rec.person_seen_at is None:
+            node = self.g.find_node(event.id)  # type: ignore[arg-type]
+            if node is not None:
+                rec.person_seen_at = float(node.get("stamp", 0.0))
         elif event.type == PERSON and event.kind.value == "node_updated" and event.id not in rec.fall_marks:
             node = self.g.find_node(event.id)  # type: ignore[arg-type]
             if node is not None and node.get("fallen"):
