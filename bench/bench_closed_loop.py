@@ -25,11 +25,13 @@ run flagged and that is safe with the robot idle, with ``--false-alarms``: every
 caused (``tripped``), the live experiments' ``robot_caused_collisions`` on drawn beliefs. ``--judged-in S``
 has each judgement truly take ``S`` seconds while the searches imagine ``--judging``: the action agent's
 estimate of a candidate's cost is off (before it has timed a search, it is 30 ms), and moves are held to, or
-judged again for, the moments their searches imagined, as live. The draws are seeded per trial, so two
+judged again for, the moments their searches imagined, as live. ``--sooner S`` starts each loop ``S`` seconds
+before the run first saw its danger (one frame in at the earliest): what flagging a danger sooner buys, on runs
+recorded before it was. The draws are seeded per trial, so two
 versions are compared on the same beliefs. The runs are shared between two processes.
 
-    python bench/bench_closed_loop.py [--draws N] [--delay S] [--judging S] [--judged-in S] [--look S]
-        [--retry S] [--first-look-only] [--no-sampled-risk] [--known-gaze] [--false-alarms] [--assist]
+    python bench/bench_closed_loop.py [--draws N] [--delay S] [--judging S] [--judged-in S] [--sooner S]
+        [--look S] [--retry S] [--first-look-only] [--no-sampled-risk] [--known-gaze] [--false-alarms] [--assist]
         [--belief-noise KIND] [--json PATH] [--every-room | --people PATH | --safe-trials | RUN ...]
 """
 
@@ -115,17 +117,36 @@ def what_the_robot_did(draw: Draw) -> str:
     return "a move sent" if draw.responses.get("send") else "head starts only"
 
 
-def run_draws(job: tuple[str, int, Setup, SaveablePeople | None, bool]) -> list[Draw]:
+#: The world's frame period (s): the earliest a loop starts with ``--sooner``.
+FRAME = 0.05
+
+
+@dataclass(frozen=True)
+class Job:
+    """One run's draws: how many per case, the loop's setup, the people some move saves (``people``), whether
+    the cases are the false alarms (``safe``), and how many seconds before the run saw each danger the loops
+    start (``sooner``)."""
+
+    run: str
+    draws: int
+    setup: Setup
+    people: SaveablePeople | None
+    safe: bool
+    sooner: float
+
+
+def run_draws(job: Job) -> list[Draw]:
     """Every draw of every saveable case of one run (with ``people``: every case where some move saves someone;
     with ``safe``: every false alarm)."""
-    run, draws, setup, people, safe = job
+    run, draws, setup, people, safe = job.run, job.draws, job.setup, job.people, job.safe
     found = []
     for case in cases([run], false_alarm if safe else truly_risky):
         saveable = people.get((case.run, case.index), frozenset()) if people is not None else frozenset()
         if not safe and not (saveable if people is not None else case.saveable):
             continue
         for draw in range(draws):
-            loop = closed_loop(case.trial, case.at, case.planner, (case.index, draw), setup)
+            at = max(round(case.at - job.sooner, 6), FRAME)
+            loop = closed_loop(case.trial, at, case.planner, (case.index, draw), setup)
             collisions = loop.truth.outcome().collisions
             fell = {c.person for c in collisions}
             found.append(
@@ -148,13 +169,18 @@ def run_draws(job: tuple[str, int, Setup, SaveablePeople | None, bool]) -> list[
 
 
 def closed_loops(
-    runs: list[str], draws: int, setup: Setup, people: SaveablePeople | None = None, safe: bool = False
+    runs: list[str],
+    draws: int,
+    setup: Setup,
+    people: SaveablePeople | None = None,
+    safe: bool = False,
+    sooner: float = 0.0,
 ) -> dict[str, object]:
     """Every draw of every saveable case in a closed loop (with ``people``: of every case where some move saves
     someone; with ``safe``: of every false alarm), the runs shared between two processes; what came of them."""
     started = time.perf_counter()
     with ProcessPoolExecutor(max_workers=2) as pool:
-        jobs = [(run, draws, setup, people, safe) for run in runs]
+        jobs = [Job(run, draws, setup, people, safe, sooner) for run in runs]
         found = [d for ds in pool.map(run_draws, jobs) for d in ds]
     responses: Counter[str] = Counter()
     for d in found:
@@ -198,6 +224,12 @@ def main() -> None:
         type=float,
         help="seconds a judgement truly takes, the search imagining --judging (default: --judging): an estimate "
         "that is off, as the action agent's is before it has timed a search",
+    )
+    p.add_argument(
+        "--sooner",
+        type=float,
+        default=0.0,
+        help="start each loop this many seconds before the run first saw its danger: what flagging it sooner buys",
     )
     p.add_argument("--no-sampled-risk", action="store_true", help="search without sampling uncertainty")
     p.add_argument(
@@ -258,7 +290,7 @@ def main() -> None:
         assist=args.assist,
         judged_in=args.judged_in,
     )
-    found = closed_loops(args.runs, args.draws, setup, people, args.safe_trials)
+    found = closed_loops(args.runs, args.draws, setup, people, args.safe_trials, args.sooner)
     benchlib.report_draws(
         "Algorithm 2 in a closed loop",
         args.json,
@@ -267,6 +299,7 @@ def main() -> None:
             "delay": args.delay,
             "judging": args.judging,
             "judged_in": args.judged_in,
+            "sooner": args.sooner,
             "look": args.look,
             "retry": args.retry,
             "first_look_only": args.first_look_only,
