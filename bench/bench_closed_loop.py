@@ -46,6 +46,7 @@ from pathlib import Path
 
 import benchlib
 from agents.caregiving.model.move_search import DEFAULT_MAX_MOVES
+from agents.caregiving.model.rollout import DT
 from bench_move_search import RUNS, THRESHOLD, cases, every_room, false_alarm, has_false_alarm, truly_risky
 from bench_move_search_noisy import add_belief_arguments
 from bridges.experiment.beliefs import Noise
@@ -117,10 +118,6 @@ def what_the_robot_did(draw: Draw) -> str:
     return "a move sent" if draw.responses.get("send") else "head starts only"
 
 
-#: The world's frame period (s): the earliest a loop starts with ``--sooner``.
-FRAME = 0.05
-
-
 @dataclass(frozen=True)
 class Job:
     """One run's draws: how many per case, the loop's setup, the people some move saves (``people``), whether
@@ -145,7 +142,7 @@ def run_draws(job: Job) -> list[Draw]:
         if not safe and not (saveable if people is not None else case.saveable):
             continue
         for draw in range(draws):
-            at = max(round(case.at - job.sooner, 6), FRAME)
+            at = max(round(case.at - job.sooner, 6), DT)  # one world step in at the earliest
             loop = closed_loop(case.trial, at, case.planner, (case.index, draw), setup)
             collisions = loop.truth.outcome().collisions
             fell = {c.person for c in collisions}

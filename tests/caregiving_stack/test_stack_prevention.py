@@ -22,6 +22,7 @@ from stack_helpers import GRAPH, recording_stack, run_trial
 
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.recorded_batch import read_batches
+from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.world_model import run_idle
 from agents.caregiving.names import ALERT, GO_TO, HAS, HAS_INTENTION, INTENTION, OBJECT, PERSON, ROBOT, WORLD
@@ -36,7 +37,6 @@ SCENARIOS = Path(__file__).parent / "scenarios"
 SCENARIO = str(SCENARIOS / "box_obstacle_exact.yaml")
 SEED, SAVEABLE, UNSAVEABLE = 7, 25, (42,)
 ALGORITHM_1_PERIOD = 0.1  # simulated seconds between Algorithm 1's passes at most (the intention agent's --period)
-FRAME = 0.05  # the world's step: a frame's stamp and the time the robot state then gives
 
 
 @pytest.fixture(scope="module")
@@ -52,7 +52,7 @@ def test_a_saveable_trial_is_flagged_from_the_first_frames_showing_her_and_saved
     assert run_idle(trial, planner=planner).collided
     r = run_trial(stack, SCENARIO, SEED, SAVEABLE)
     assert r.risky is not None and r.action is not None and r.person_seen_at is not None
-    assert r.risky["at_time"] - r.person_seen_at <= ALGORITHM_1_PERIOD + FRAME + 1e-6
+    assert r.risky["at_time"] - r.person_seen_at <= ALGORITHM_1_PERIOD + DT + 1e-6
     assert oracle(trial, r.risky["at_time"], planner).saveable
     assert [c for c in r.outcome["commands"] if c["accepted"]]
     assert r.outcome["collisions"] == []
