@@ -91,6 +91,8 @@ def test_a_bystander_is_imagined_on_their_guesses_or_when_walking_unguessed_on_e
     assert [x.target for x in bystander_walks(g, ctx, person)[0]] == ["door"]  # standing: the latest only
     slower = Walking(speed=0.6)  # the agents' --moving-speed: at 0.51 m/s the person now stands
     assert [x.target for x in bystander_walks(g, moving, person, slower)[0]] == ["door"]
+    young = replace(ctx, velocity={"person": (0.05, 0.0)}, velocity_sigma={"person": 0.3})
+    assert len(bystander_walks(g, young, person)[0]) == 2  # a track too young to tell: she may be walking
 
 
 def test_someone_fallen_is_in_no_danger_and_walks_nowhere(w: tuple[wm.Graph, Context]) -> None:

@@ -1,9 +1,10 @@
-"""Tracking people: where a person's walk began, from the first second of their track."""
+"""Tracking people: where a person's walk began, from the first second of their track, and whether they walk."""
 
 import math
 
 import numpy as np
 
+from agents.caregiving.model.guesses import Walking
 from agents.caregiving.tracking import Tracker
 
 START, HEADING, SPEED = (1.0, 2.0), math.radians(30), 0.7
@@ -50,3 +51,28 @@ def test_a_person_is_lower_only_when_each_of_their_newest_detections_is() -> Non
         assert not track.lower_than(0.85, 3)  # never three low in a row
     detect(0.4, 0.3)
     assert track.lower_than(0.85, 3) and not track.lower_than(0.85, 4) and not track.lower_than(0.2, 3)
+
+
+def _track_standing_or_walking(speed: float, detections: int, seed: int) -> tuple[float, float]:
+    """The fitted speed and its error after ``detections`` frames of the paper's sensors (15 Hz, 5 cm) of
+    someone walking at ``speed`` m/s."""
+    rng, tracker = np.random.default_rng(seed), Tracker(0.05)
+    for k in range(detections):
+        stamp = k / 15.0
+        x, y = np.array((speed * stamp, 0.0)) + rng.normal(0.0, 0.05, 2)
+        shape = {"type": "circle", "x": float(x), "y": float(y), "r": 0.25}
+        tracker.update(stamp, [{"kind": "person", "shape": shape, "heading": 0.0, "target": False, "height": 1.7}])
+    track = next(iter(tracker.tracks.values()))
+    return math.hypot(track.vx, track.vy), track.velocity_sigma
+
+
+def test_someone_walking_is_taken_to_walk_from_the_first_fit_and_someone_standing_once_the_track_can_tell() -> None:
+    walking = Walking()
+    for detections in (3, 4, 5, 8, 15, 30):
+        fits = [_track_standing_or_walking(0.5, detections, seed) for seed in range(200)]
+        assert all(walking.walks(speed, sigma) for speed, sigma in fits)
+    young = [_track_standing_or_walking(0.5, 4, seed) for seed in range(200)]
+    assert sum(speed <= walking.speed for speed, _ in young) >= 5  # the fitted speed alone says she stands
+    for detections in (15, 30):  # a window of a second
+        fits = [_track_standing_or_walking(0.0, detections, seed) for seed in range(200)]
+        assert not any(walking.walks(speed, sigma) for speed, sigma in fits)

@@ -4,17 +4,18 @@ Perception keeps these in W: a ``world`` node (``room_size``, ``episode``), the
 ``robot`` node, ``person`` and ``object`` nodes, each placed by an RT edge from
 ``world`` (x, y, yaw). :func:`read_context` turns them into the immutable scene
 every imagination runs on, plus what the agents need beside it: node ids, the
-tracked position uncertainty, velocities, the people perception sees fallen and
+tracked position uncertainty, velocities and their errors, the people perception sees fallen and
 the wall time of the newest perception write behind the snapshot.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 from agents.caregiving.model.geometry import Box, Circle, Shape
+from agents.caregiving.model.guesses import Walking
 from agents.caregiving.model.scenario import RoomSpec
 from agents.caregiving.model.scene import Obstacle, PersonState, RobotState, Scene
 from wm import Graph, Node
@@ -36,6 +37,7 @@ class Context:
     velocity: dict[str, tuple[float, float]]
     written_at: float
     fallen: frozenset[str] = frozenset()  # people lying where they fell: they walk nowhere
+    velocity_sigma: dict[str, float] = field(default_factory=dict)  # per axis, m/s; none known: exact
 
     @cached_property
     def names(self) -> dict[int, str]:
@@ -45,6 +47,10 @@ class Context:
     def speed(self, person: str) -> float:
         vx, vy = self.velocity.get(person, (0.0, 0.0))
         return math.hypot(vx, vy)
+
+    def walks(self, person: str, walking: Walking) -> bool:
+        """Whether ``person`` may be walking, by their tracked speed and its error (:meth:`Walking.walks`)."""
+        return walking.walks(self.speed(person), self.velocity_sigma.get(person, 0.0))
 
 
 def node_shape(node: Node, x: float, y: float, yaw: float) -> Shape:
@@ -66,6 +72,7 @@ def read_context(g: Graph) -> Context | None:
     ids: dict[str, int] = {}
     sigma: dict[str, float] = {}
     velocity: dict[str, tuple[float, float]] = {}
+    velocity_sigma: dict[str, float] = {}
     fallen: set[str] = set()
     written = 0.0
     obstacles = list(room.wall_obstacles())
@@ -112,6 +119,7 @@ def read_context(g: Graph) -> Context | None:
         ids[node.name] = node.id
         sigma[node.name] = node.get("position_sigma", 0.0)
         velocity[node.name] = (vx, vy)
+        velocity_sigma[node.name] = node.get("velocity_sigma", 0.0)
         if node.get("fallen", False):
             fallen.add(node.name)
         written = max(written, node.get("written_at", 0.0))
@@ -135,7 +143,7 @@ def read_context(g: Graph) -> Context | None:
     ids[r.name] = r.id
     stamp = max([world.get("sim_time", 0.0)] + [n.get("stamp", 0.0) for n in g.nodes(PERSON)])
     scene = Scene(room.bounds, tuple(obstacles), tuple(people), robot, stamp)
-    return Context(scene, episode_of(world), ids, sigma, velocity, written, frozenset(fallen))
+    return Context(scene, episode_of(world), ids, sigma, velocity, written, frozenset(fallen), velocity_sigma)
 
 
 def episode_of(world: Node | None) -> int:

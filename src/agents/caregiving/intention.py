@@ -23,6 +23,10 @@ The robot is remembered where it was last surely seen, kept at every frame
 
 A walking person's heading tells where they are going: a target whose imagined
 path starts more than ``--heading-gate-deg`` away from it is not their intention.
+Someone tracked too briefly to tell standing from walking is taken to walk
+(:meth:`agents.caregiving.model.guesses.Walking.walks`): in their first frames a
+walker's fitted speed may read near nought, which would let every target in view
+be guessed.
 An intention is risky when the nominal walk collides or the sampled collision
 probability reaches ``--risk-threshold``. The gate and this fold of each target's
 gaze classes are :mod:`agents.caregiving.model.guesses`. Each surviving intention is written as
@@ -158,9 +162,9 @@ class Intention(Agent):
                     {"items": [items[i].to_wire() for i, _ in pending]},
                     decode=imagine_reply.decode,
                 )
-                walking = ctx.speed(person) > a.moving_speed
+                walks = ctx.walks(person, walking(a))
                 for (i, key), res in zip(pending, reply.results, strict=True):
-                    self.cache.store(key, now, res, aside=walking and self._aside(res, p.heading))
+                    self.cache.store(key, now, res, aside=walks and self._aside(res, p.heading))
                     answers[i] = res, 0.0
             found = self._guesses(ctx, items, [x for x in answers if x is not None])
             self.writer.write(self.g, ctx, [person], found)
@@ -174,11 +178,11 @@ class Intention(Agent):
         return bool(path) and heading_error(path, heading) > walking(self.args).aside
 
     def _guesses(self, ctx: Context, items: list[PersonItem], results: list[tuple[Answer, float]]) -> list[Guess]:
-        walking = {p.name: p.heading for p in ctx.scene.people if ctx.speed(p.name) > self.args.moving_speed}
+        headings = {p.name: p.heading for p in ctx.scene.people if ctx.walks(p.name, walking(self.args))}
         found = guesses(
             [item.walk for item in items],
             results,
-            walking,
+            headings,
             math.radians(self.args.heading_gate_deg),
             self.args.risk_threshold,
         )

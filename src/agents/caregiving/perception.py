@@ -42,6 +42,9 @@ from .walking_speed import WalkingSpeed
 
 #: A person is seen fallen when detected lower than this share of the height they stood at ...
 LYING_FRACTION = 0.5
+#: The velocity error (m/s) written for a person whose window holds too few detections to fit a line: W
+#: holds finite numbers only, and this is beyond any walking pace.
+UNFITTED_VELOCITY_SIGMA = 10.0
 #: ... in this many frames in a row (one low frame, a stoop or a bad detection, is not a fall).
 LOW_FRAMES = 3
 
@@ -179,7 +182,7 @@ class Perception(Agent):
         volatile: dict[str, Any] = {"stamp": stamp, "last_seen": stamp, "written_at": now, "position_sigma": t.sigma}
         node = self.nodes.get(t.id)
         if t.kind == PERSON_TRACK:
-            volatile.update(velocity=[t.vx, t.vy])
+            volatile.update(velocity=[t.vx, t.vy], velocity_sigma=min(t.velocity_sigma, UNFITTED_VELOCITY_SIGMA))
             speed = self.speeds[t.id]
             if (pace := speed.observe(t, self.tracker.window)) is not None:
                 volatile.update(speed=pace)

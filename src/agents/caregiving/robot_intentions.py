@@ -93,7 +93,7 @@ def bystander_walks(
         (e for e in g.edges(type=HAS_INTENTION, src=ctx.ids[person.name]) if e.dst in ctx.names),
         key=lambda e: -e.get("updated_at", 0.0),
     )
-    walks = ctx.speed(person.name) > walking.speed
+    walks = ctx.walks(person.name, walking)
     if guessed:
         kept = guessed if walks else guessed[:1]
         return [Walk(person.name, ctx.names[e.dst], e.get("gaze", 0.0)) for e in kept], guessed[0]

@@ -27,6 +27,9 @@ HEADING_PROBE = 0.4
 WALKING_SPEED = 0.2
 #: How far (degrees) a walking person's heading may be from where a walk sets off for it to be theirs.
 HEADING_GATE_DEG = 20.0
+#: How many sigmas of a tracked speed's error must stay under the walking speed for the track to tell
+#: standing from walking: a young track's few detections cannot, and its person is taken to walk.
+SPEED_SIGMAS = 2.0
 
 
 def aside_of(gate_deg: float) -> float:
@@ -45,6 +48,13 @@ class Walking:
 
     speed: float = WALKING_SPEED
     aside: float = ASIDE
+
+    def walks(self, speed: float, speed_sigma: float = 0.0) -> bool:
+        """Whether someone tracked at ``speed`` m/s, with an error of ``speed_sigma`` m/s, may be walking: over
+        :attr:`speed`, or tracked too briefly to tell (:data:`SPEED_SIGMAS` of the error reach :attr:`speed`).
+        Over its first few detections the fitted speed of someone walking may read near nought, and of someone
+        standing, a walker's pace."""
+        return speed > self.speed or SPEED_SIGMAS * speed_sigma >= self.speed
 
 
 #: The intention and action agents' default :class:`Walking`.
