@@ -156,7 +156,9 @@ def test_braking_that_ranks_no_better_is_not_sent_and_judged_once() -> None:
 
 def test_braking_into_a_pass_within_the_margin_ranks_above_driving_on_into_a_touch() -> None:
     again = falls(UNDER_WAY, "robot")
-    close = Verdict(None, False, 1.0, 1.0, "passes 1 cm from the robot", (Fall(0, "ann", "robot", None, close_pass=True),))
+    close = Verdict(
+        None, False, 1.0, 1.0, "passes 1 cm from the robot", (Fall(0, "ann", "robot", None, close_pass=True),)
+    )
     script = Script(Asked(found(again)), Asked(found(close)))
     response = script.run(respond(spec(danger("ann", 2.0)), {"ann": 1.0}, UnderWay(UNDER_WAY, False), POLICY))
     assert response == Send(close, again, braking=True)
