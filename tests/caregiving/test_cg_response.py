@@ -125,43 +125,23 @@ def test_a_new_move_not_clearly_better_leaves_the_move_under_way() -> None:
     assert response == Keep(again, best_new=near)
 
 
-def test_a_move_under_way_walking_someone_into_the_robot_is_braked_before_any_search() -> None:
+def test_a_move_under_way_that_trips_someone_is_braked_when_no_move_is_found() -> None:
     """Braking is judged with the danger's own fall let happen: its imagination goes on past that fall, to
-    whoever braking would walk into the robot after it. It is judged first: the robot does not drive on into
-    someone while a search runs."""
+    whoever braking would walk into the robot after it."""
     again, braking = falls(UNDER_WAY, "robot"), safe(None)
-    script = Script(Asked(found(again)), Asked(found(braking)))
+    script = Script(Asked(found(again)), Asked(found(falls(NEW, "ball"))), Asked(found(braking)))
     response = script.run(respond(spec(danger("ann", 2.0)), {"ann": 1.0}, UnderWay(UNDER_WAY, False), POLICY))
     assert response == Send(braking, again, braking=True)
-    assert script.asks[1].moves == (None,)
-    assert script.asks[1].spec == spec(danger("ann", 2.0)).letting_dangers_fall()
-    assert script.asks[1].spec.falling == {"ann": "ball"}
+    assert script.asks[2].moves == (None,)
+    assert script.asks[2].spec == spec(danger("ann", 2.0)).letting_dangers_fall()
+    assert script.asks[2].spec.falling == {"ann": "ball"}
 
 
-def test_a_walk_into_the_robot_at_another_gaze_class_is_braked_only_when_no_move_is_found() -> None:
-    again, braking = falls(UNDER_WAY, "robot", walk_set=1), safe(None)
-    script = Script(Asked(found(again)), Asked(found(falls(NEW, "ball"))), Asked(found(braking)))
-    response = script.run(respond(spec(danger("ann", 2.0)), {"ann": 1.0}, UnderWay(UNDER_WAY, True), POLICY))
-    assert response == Send(braking, again, braking=True)
-    assert script.asks[1].moves is None and script.asks[2].moves == (None,)
-
-
-def test_braking_that_ranks_no_better_is_not_sent_and_judged_once() -> None:
+def test_braking_that_ranks_no_better_is_not_sent() -> None:
     again = falls(UNDER_WAY, "robot")
-    script = Script(Asked(found(again)), Asked(found(falls(None, "robot"))), Asked(found()))
+    script = Script(Asked(found(again)), Asked(found()), Asked(found(falls(None, "robot"))))
     response = script.run(respond(spec(danger("ann", 2.0)), {"ann": 1.0}, UnderWay(UNDER_WAY, False), POLICY))
     assert response == NoMove()
-    assert [ask.moves for ask in script.asks] == [(UNDER_WAY,), (None,), None]
-
-
-def test_braking_into_a_pass_within_the_margin_ranks_above_driving_on_into_a_touch() -> None:
-    again = falls(UNDER_WAY, "robot")
-    close = Verdict(
-        None, False, 1.0, 1.0, "passes 1 cm from the robot", (Fall(0, "ann", "robot", None, close_pass=True),)
-    )
-    script = Script(Asked(found(again)), Asked(found(close)))
-    response = script.run(respond(spec(danger("ann", 2.0)), {"ann": 1.0}, UnderWay(UNDER_WAY, False), POLICY))
-    assert response == Send(close, again, braking=True)
 
 
 def test_when_no_move_saves_everyone_each_danger_is_searched_alone_most_urgent_first() -> None:

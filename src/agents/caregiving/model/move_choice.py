@@ -49,14 +49,11 @@ def standing(verdict: Verdict, robot: str | None) -> tuple[int, float]:
 
     The classes: clear at every gaze (a safe move is a clear one with a risk under the threshold);
     clear at the gaze found risky only, with falls at others into something other than the robot (as a
-    :class:`NoWorse` move); refused at the gaze found risky; then refused for someone walking into the
-    robot (named ``robot``) or getting stuck at any gaze, a fall the robot itself causes: first where each
-    such fall is a pass within the margin round the robot, which perception's error leaves room for, and
-    last where the imagination shows the touch itself.
+    :class:`NoWorse` move); refused at the gaze found risky; last, refused for someone walking into the
+    robot (named ``robot``) or getting stuck at any gaze, a fall the robot itself causes.
     """
     if verdict.trips(robot):
-        touches = any(f.trips(robot) and not f.close_pass for f in verdict.falls)
-        return (4 if touches else 3), 1.0
+        return 3, 1.0
     if verdict.clear:
         return 0, verdict.risk
     if verdict.clear_where_found:

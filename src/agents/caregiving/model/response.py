@@ -37,11 +37,7 @@ The steps, in order:
   harmless; no sooner than the moment it was judged at), and a move under way that
   walks someone into the robot or leaves them stuck is braked if braking, judged
   with the dangers' own falls let happen (so that whoever it trips after them is
-  seen), ranks clearly above carrying on (a pass within the margin round the robot
-  ranks above a touch imagined). A move under way imagined walking someone into
-  the robot at the gaze class found risky is judged braking that way first, before
-  any search: the robot stops driving into them at once, and the next look searches
-  from where it stopped.
+  seen), ranks clearly above carrying on.
 
 No search chooses a move whose imagination shows a fall that would not happen
 without it (:class:`~agents.caregiving.model.move_choice.NoWorse`): the robot never
@@ -203,7 +199,6 @@ def respond(
     """The response to the dangers of ``spec``; ``idle_risks`` gives each endangered person's probability of
     falling with the robot idle. Every candidate search's verdicts are in :attr:`Asked.found` as they come."""
     again: Verdict | None = None
-    braking_judged = False
     if under_way is not None:
         judged = (yield Ask(spec, 1.0, (under_way.move,))).found
         again = judged.verdicts[0] if judged is not None and judged.verdicts else None
@@ -212,12 +207,6 @@ def respond(
             return Keep(again)
         if not gives_up(again, under_way is not None and under_way.second_look, policy.robot):
             return Keep(again, doubted=True)
-        if again.move is not None and again.trips_where_found(policy.robot):
-            # Driving on into someone while a search runs is the one thing worse than not helping: brake first.
-            braked = yield from _braking(spec, again, policy)
-            if braked is not None:
-                return braked
-            braking_judged = True
     likely = min(idle_risks.values()) >= HEAD_START_RISK
     asked = yield Ask(spec, max(idle_risks.values()), head_start=under_way is None and likely)
     found = asked.found
@@ -240,24 +229,17 @@ def respond(
             # Braking was judged at the end of the search that sent the head start; after the searches alone, the
             # robot has driven it on further, to where braking was never judged. Driven on, it harms nobody.
             return NoMove() if searched_alone else NoMove(led.halt, led.sets_off)
-        if again is not None and again.move is not None and again.trips(policy.robot) and not braking_judged:
-            braked = yield from _braking(spec, again, policy)
-            if braked is not None:
-                return braked
+        if again is not None and again.move is not None and again.trips(policy.robot):
+            # Judged going on past the dangers' own falls: braking that walks someone into the robot after them
+            # is then seen.
+            stopping = (yield Ask(spec.letting_dangers_fall(), 1.0, (None,))).found
+            braking = stopping.verdicts[0] if stopping is not None and stopping.verdicts else None
+            if braking is not None and replaces(braking, again, policy.samples, policy.robot):
+                return Send(braking, again, braking=True, sets_off=stopping.sets_off if stopping else None)
         return NoMove()
     if again is not None and not replaces(chosen, again, policy.samples, policy.robot):
         return Keep(again, best_new=chosen)
     return Send(chosen, again, unsaved, sets_off=found.sets_off if found is not None else None)
-
-
-def _braking(spec: SearchSpec, again: Verdict, policy: Policy) -> Generator[Ask, Asked, Send | None]:
-    """Braking the move under way (judged now as ``again``), if it ranks clearly above carrying on. It is judged
-    going on past the dangers' own falls: braking that walks someone into the robot after them is then seen."""
-    stopping = (yield Ask(spec.letting_dangers_fall(), 1.0, (None,))).found
-    braking = stopping.verdicts[0] if stopping is not None and stopping.verdicts else None
-    if braking is None or not replaces(braking, again, policy.samples, policy.robot):
-        return None
-    return Send(braking, again, braking=True, sets_off=stopping.sets_off if stopping else None)
 
 
 def set_off_sooner(send: Send, spec: SearchSpec, idle_risk: float, policy: Policy) -> Generator[Ask, Asked, Send]:
