@@ -30,8 +30,11 @@ def test_risky_walk_gets_flagged_the_robot_acts_and_nobody_collides(stack) -> No
     assert "robot" in r.snapshot.knows[person["name"]]
     robot = r.snapshot.scene["robot"]  # at rest until it decided: remembered where it stands
     assert r.snapshot.robot_at[person["name"]] == pytest.approx([robot["x"], robot["y"], robot["heading"]])
-    start = trial_for(load_scenario(scenario), seed, index).people[0]
-    assert math.dist(person["origin"], (start.x, start.y)) < 0.1
+    spec = load_scenario(scenario)
+    start = trial_for(spec, seed, index).people[0]
+    # Decided from the first frames, the origin is a line through three or four detections, fitted back to the
+    # first: within about 0.9 of a detection's sigma per axis, three sigmas in 99.6 % of draws.
+    assert math.dist(person["origin"], (start.x, start.y)) < 3 * spec.sensors.position_sigma
 
 
 def test_safe_walk_gives_no_risky_intention_and_no_action(stack) -> None:  # noqa: F811
