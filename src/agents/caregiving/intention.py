@@ -98,6 +98,7 @@ class Intention(Agent):
     async def setup(self) -> None:
         a = self.args
         self.size_error = size_error(a)
+        self.walking = walking(a)
         self.first_seen: dict[int, float] = {}
         self.writer = GuessWriter(a.refresh)
         self.evaluations = 0
@@ -162,7 +163,7 @@ class Intention(Agent):
                     {"items": [items[i].to_wire() for i, _ in pending]},
                     decode=imagine_reply.decode,
                 )
-                walks = ctx.walks(person, walking(a))
+                walks = ctx.walks(person, self.walking)
                 for (i, key), res in zip(pending, reply.results, strict=True):
                     self.cache.store(key, now, res, aside=walks and self._aside(res, p.heading))
                     answers[i] = res, 0.0
@@ -175,10 +176,10 @@ class Intention(Agent):
         """Whether an imagined walk sets off so far from the heading (twice the gate) that it is plainly not taken."""
         r = answer.imagination
         path = r.path if r is not None and r.reachable else ()
-        return bool(path) and heading_error(path, heading) > walking(self.args).aside
+        return bool(path) and heading_error(path, heading) > self.walking.aside
 
     def _guesses(self, ctx: Context, items: list[PersonItem], results: list[tuple[Answer, float]]) -> list[Guess]:
-        headings = {p.name: p.heading for p in ctx.scene.people if ctx.walks(p.name, walking(self.args))}
+        headings = {p.name: p.heading for p in ctx.scene.people if ctx.walks(p.name, self.walking)}
         found = guesses(
             [item.walk for item in items],
             results,

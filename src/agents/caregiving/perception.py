@@ -42,11 +42,11 @@ from .walking_speed import WalkingSpeed
 
 #: A person is seen fallen when detected lower than this share of the height they stood at ...
 LYING_FRACTION = 0.5
+#: ... in this many frames in a row (one low frame, a stoop or a bad detection, is not a fall).
+LOW_FRAMES = 3
 #: The velocity error (m/s) written for a person whose window holds too few detections to fit a line: W
 #: holds finite numbers only, and this is beyond any walking pace.
 UNFITTED_VELOCITY_SIGMA = 10.0
-#: ... in this many frames in a row (one low frame, a stoop or a bad detection, is not a fall).
-LOW_FRAMES = 3
 
 
 class Perception(Agent):
