@@ -5,12 +5,21 @@ from dataclasses import replace
 
 import pytest
 
-from agents.caregiving.model.geometry import Circle
-from agents.caregiving.model.guesses import Guess, guesses, heading_error, summarise, unguessed_walks
+from agents.caregiving.model.geometry import Box, Circle
+from agents.caregiving.model.guesses import (
+    AHEAD_CLEARANCE,
+    AHEAD_STEP,
+    Guess,
+    guesses,
+    heading_error,
+    straight_ahead,
+    summarise,
+    unguessed_walks,
+)
 from agents.caregiving.model.imagine import Imagination, imagine_person
 from agents.caregiving.model.imagine_reply import Answer
 from agents.caregiving.model.planner import GridPlanner
-from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.scenario import RoomSpec, load_scenario
 from agents.caregiving.model.scene import Obstacle, PersonState, Scene
 from agents.caregiving.model.uncertainty import Risk
 from agents.caregiving.model.world_model import Walk
@@ -104,3 +113,24 @@ def test_a_walking_person_not_yet_guessed_walks_to_the_targets_not_plainly_aside
     turned = replace(person, heading=math.radians(100))
     assert [w.target for w in unguessed_walks(turned, room)] == ["aside"]  # none within: the most nearly ahead
     assert [w.target for w in unguessed_walks(person, room, math.radians(20))] == ["ahead"]  # a narrower gate
+
+
+def test_a_walking_person_with_no_target_in_view_walks_straight_ahead_to_short_of_what_is_there() -> None:
+    """Not imagined standing: along their heading, to where anything (a wall too) comes within the clearance."""
+    room = RoomSpec(8.0, 6.0, 2.5, 0.1, ()).wall_obstacles()
+    behind = Obstacle("couch", "couch", Circle(-3.0, 0.0, 0.4), 0.8, target=True)
+    person = PersonState("p", 0.0, 0.0, 0.0, 0.5, 0.25, 1.6, math.radians(120), math.radians(40), 0.1, 0.2)
+    (walk,) = unguessed_walks(person, [*room, behind])
+    assert walk.target == "" and walk.toward is not None and walk.gaze == pytest.approx(0.15)
+    x, y = walk.toward
+    assert y == pytest.approx(0.0)
+    assert short_of(4.0, x, 0.25)  # the east wall's inner face
+    stool = Obstacle("stool", "stool", Box(1.5, 0.0, 0.2, 0.2), 0.4)
+    assert short_of(1.3, straight_ahead(person, [*room, behind, stool])[0], 0.25)
+    against = replace(person, x=3.7)  # closer to the wall than the clearance already: they stay where they are
+    assert straight_ahead(against, room) == (3.7, 0.0)
+
+
+def short_of(face: float, x: float, radius: float) -> bool:
+    """Whether a walk ending at ``x`` stops at the clearance short of ``face``, to within one step."""
+    return -1e-9 <= face - radius - AHEAD_CLEARANCE - x <= AHEAD_STEP + 1e-9

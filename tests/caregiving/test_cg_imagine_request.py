@@ -28,6 +28,7 @@ MOVE = RobotMove("ball", -0.5, 0.1, math.pi)
         PersonItem(Walk("person", "couch", 0.1, ("robot",), (0.5, -1.0, math.pi / 2))),
         JointItem((WALK, Walk("bob", "door", 0.1)), MOVE, RobotMove("couch", 1.0, 2.0, 0.0), 0.3, U),
         JointItem((WALK,), None),
+        JointItem((WALK, Walk("bob", "", 0.1, toward=(1.5, -0.5))), MOVE),
         JointItem((WALK, Walk("bob", "door", 0.1)), MOVE, uncertainty=U, anyway={"bob": 0.25}),
         JointItem(
             (WALK, Walk("bob", "door", 0.1)), MOVE, passing={"bob": Passing("ball"), "person": Passing("ball", 0.03)}
@@ -73,6 +74,12 @@ def _search_wire(**spec: object) -> dict[str, object]:
         ({**JointItem((WALK,), MOVE).to_wire(), "delay": 60.0}, "request.delay"),
         ({**PersonItem(WALK, U).to_wire(), "uncertainty": {"samples": -1}}, "request.uncertainty.samples"),
         ({**PersonItem(WALK).to_wire(), "gaze": 3.0}, "request.gaze: expected a pitch"),
+        ({**PersonItem(WALK).to_wire(), "toward": [1.0, 0.0]}, "request.toward: Algorithm 1 imagines walks to targets"),
+        ({**JointItem((WALK,), MOVE).to_wire(), "walks": [{"person": "bob", "gaze": 0.1}]}, "request.walks[0].target"),
+        (
+            {**JointItem((WALK,), MOVE).to_wire(), "walks": [{"person": "bob", "gaze": 0.1, "toward": [1.0, "x"]}]},
+            "request.walks[0].toward[1]: expected a number",
+        ),
         ({**PersonItem(WALK).to_wire(), "robot_at": [0.5, -1.0]}, "request.robot_at: expected a list of 3 numbers"),
         ({**PersonItem(WALK).to_wire(), "robot_at": [0.5, "x", 0.0]}, "request.robot_at[1]: expected a number"),
         (_search_wire(robot_at={"bob": [0.0, 0.0, 0.0]}), "request.spec.robot_at.bob: expected one of the endangered"),

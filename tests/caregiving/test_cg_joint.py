@@ -68,6 +68,20 @@ def test_a_robot_crossing_the_path_causes_the_collision_it_predicts() -> None:
     assert not joint.safe and joint.walks[0].collision_object == "robot"
 
 
+def test_someone_walking_with_no_target_known_walks_straight_to_their_point_and_into_a_robot_crossing() -> None:
+    """A walk ``toward`` a point: the person arrives there with the robot idle, and walks into it crossing their way
+    as into any robot; it goes over the wire as it came."""
+    scene = load_scenario("safe_walk").scene()
+    ahead = Walk("person", "", GAZE, toward=(1.0, 0.0))
+    idle = imagine_joint(scene, [ahead], None)
+    (walk,) = idle.walks
+    assert walk.status == "arrived" and walk.track[-1] == pytest.approx((1.0, 0.0), abs=1e-6)
+    assert all(abs(y) < 1e-6 for _, y in walk.track)  # straight along the way
+    crossing = imagine_joint(scene, [ahead], RobotMove("couch", -1.0, 0.6, -math.pi / 2))
+    assert crossing.walks[0].collision_object == "robot"
+    assert JointImagination.from_wire(msgpack.unpackb(msgpack.packb(crossing.to_wire()))) == crossing
+
+
 def test_the_robot_keeps_its_current_move_during_the_delay() -> None:
     scene = load_scenario("safe_walk").scene()
     aside = RobotMove("couch", 2.0, -2.0, 0.0)

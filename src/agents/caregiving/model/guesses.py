@@ -13,7 +13,9 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from .geometry import resample_by_distance
+import numpy as np
+
+from .geometry import aabb, resample_by_distance, signed_distance
 from .imagine import Imagination
 from .imagine_reply import Answer
 from .scene import Obstacle, PersonState
@@ -30,6 +32,11 @@ HEADING_GATE_DEG = 20.0
 #: How many sigmas of a tracked speed's error must stay under the walking speed for the track to tell
 #: standing from walking: a young track's few detections cannot, and its person is taken to walk.
 SPEED_SIGMAS = 2.0
+#: Metres kept clear of anything by a walk straight ahead where it ends (the walking planner's margin and a
+#: grid cell's reach beyond it, so that its end is a free cell).
+AHEAD_CLEARANCE = 0.15
+#: Metres between the points along a heading checked for a walk straight ahead.
+AHEAD_STEP = 0.05
 
 
 def aside_of(gate_deg: float) -> float:
@@ -151,8 +158,29 @@ def guesses(
 def unguessed_walks(person: PersonState, obstacles: Sequence[Obstacle], aside: float = ASIDE) -> tuple[Walk, ...]:
     """The walks a walking person may be on before any is guessed, at the middle of their gaze range: to every
     target in their view not plainly aside (its centre's bearing from their heading within ``aside`` rad), the
-    one most nearly ahead first; with none, to the one most nearly ahead."""
+    one most nearly ahead first; with none, to the one most nearly ahead; with no target in view at all,
+    straight ahead (:func:`straight_ahead`)."""
     gaze = (person.gaze_min + person.gaze_max) / 2
     ahead = sorted(((off_heading(person, o), o) for o in candidate_targets(person, obstacles)), key=lambda x: x[0])
+    if not ahead:
+        return (Walk(person.name, "", gaze, toward=straight_ahead(person, obstacles)),)
     kept = [o for off, o in ahead if off <= aside] or [o for _, o in ahead[:1]]
     return tuple(Walk(person.name, o.name, gaze) for o in kept)
+
+
+def straight_ahead(person: PersonState, obstacles: Sequence[Obstacle]) -> tuple[float, float]:
+    """Where someone walking with no target known is imagined to go: along their heading to the last point
+    before anything (a wall included) comes within :data:`AHEAD_CLEARANCE` of their body; where they stand
+    when something is that close already."""
+    if not obstacles:
+        return person.x, person.y
+    reach = max(
+        math.hypot(max(abs(x0 - person.x), abs(x1 - person.x)), max(abs(y0 - person.y), abs(y1 - person.y)))
+        for x0, y0, x1, y1 in (aabb(o.shape) for o in obstacles)
+    )
+    steps = np.arange(AHEAD_STEP, reach + AHEAD_STEP, AHEAD_STEP)
+    points = np.column_stack((person.x + steps * math.cos(person.heading), person.y + steps * math.sin(person.heading)))
+    room = np.min([signed_distance(o.shape, points) for o in obstacles], axis=0)
+    blocked = np.flatnonzero(room < person.radius + AHEAD_CLEARANCE)
+    last = (int(blocked[0]) if blocked.size else len(steps)) - 1
+    return (person.x, person.y) if last < 0 else (float(points[last, 0]), float(points[last, 1]))

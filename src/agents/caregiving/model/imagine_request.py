@@ -67,7 +67,10 @@ class PersonItem:
     @classmethod
     def from_fields(cls, f: Fields) -> PersonItem:
         """Parse :meth:`to_wire` output."""
-        return cls(walk_from_fields(f), optional_uncertainty(f))
+        walk = walk_from_fields(f)
+        if walk.toward is not None:
+            raise f.fail("toward", "Algorithm 1 imagines walks to targets: give a target")
+        return cls(walk, optional_uncertainty(f))
 
 
 @dataclass(frozen=True)

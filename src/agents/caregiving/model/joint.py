@@ -223,11 +223,20 @@ def worst_risk(risks: Mapping[str, Risk], anyway: Mapping[str, float] | None = N
 
 
 def walk_from_fields(f: Fields) -> Walk:
-    """A guessed intent from a wire dict ``{person, target, gaze, known?, robot_at?: [x, y, heading]}``."""
+    """A guessed intent from a wire dict ``{person, target | toward: [x, y], gaze, known?, robot_at?: [x, y,
+    heading]}``."""
     gaze = f.number("gaze")
     if not -math.pi / 2 <= gaze <= math.pi / 2:
         raise f.fail("gaze", f"expected a pitch in [-pi/2, pi/2] rad, got {gaze!r}")
-    return Walk(f.string("person"), f.string("target"), gaze, f.strings("known", ()), optional_pose(f, "robot_at"))
+    toward = f.numbers("toward", 2) if f.has("toward") else None
+    return Walk(
+        f.string("person"),
+        "" if toward is not None else f.string("target"),
+        gaze,
+        f.strings("known", ()),
+        optional_pose(f, "robot_at"),
+        (toward[0], toward[1]) if toward is not None else None,
+    )
 
 
 def optional_pose(f: Fields, key: str) -> Pose | None:
@@ -240,7 +249,11 @@ def optional_pose(f: Fields, key: str) -> Pose | None:
 
 def walk_to_wire(w: Walk) -> dict[str, Any]:
     """The wire form :func:`walk_from_fields` reads."""
-    out: dict[str, Any] = {"person": w.person, "target": w.target, "gaze": w.gaze, "known": list(w.known)}
+    out: dict[str, Any] = {"person": w.person, "gaze": w.gaze, "known": list(w.known)}
+    if w.toward is not None:
+        out["toward"] = list(w.toward)
+    else:
+        out["target"] = w.target
     if w.robot_at is not None:
         out["robot_at"] = list(w.robot_at)
     return out
@@ -271,7 +284,8 @@ def imagine_joint(
         raise RequestError("the scene has no robot")
     for w in walks:
         scene.person(w.person)
-        scene.obstacle(w.target)
+        if w.toward is None:
+            scene.obstacle(w.target)
     world = World(scene, walks, planner=planner or planner_for(scene.bounds), passing=passing)
     start = scene.time
     if current is not None:

@@ -89,6 +89,7 @@ class Walk:
 
     ``robot_at`` is the pose ``(x, y, heading)`` where they remember the robot, if they know it: a robot that has
     moved since they last saw it is planned around where it stood then. ``None``: where it stands now.
+    ``toward``: for someone walking with no target known, the point they walk to instead (``target`` empty).
     """
 
     person: str
@@ -96,6 +97,7 @@ class Walk:
     gaze: float
     known: tuple[str, ...] = ()
     robot_at: Pose | None = None
+    toward: tuple[float, float] | None = None
 
 
 def _remembered(body: Obstacle, robot: RobotState, robot_at: Pose | None) -> Obstacle:
@@ -127,6 +129,7 @@ class _Walker:
     target: str
     gaze: float
     known: dict[str, Obstacle]
+    toward: tuple[float, float] | None = None
     route: Polyline | None = None
     walked: float = 0.0
     status: str = "walking"  # walking | arrived | collided | stuck
@@ -195,6 +198,7 @@ class World:
                     for o in bodies
                     if o.kind == WALL_KIND or o.name in intents[p.name].known and o.name != p.name
                 },
+                intents[p.name].toward,
                 track=[(p.x, p.y)],
             )
             for p in scene.people
@@ -481,8 +485,15 @@ class World:
         return bool((signed_distance(shape, ahead) < reach).any())
 
     def _replan(self, w: _Walker) -> None:
-        target = next(o for o in self._static if o.name == w.target)
         known = list(w.known.values())
+        if w.toward is not None:
+            plan = self.planner.plan_to_point((w.state.x, w.state.y), w.toward, known, w.state.radius)
+            if plan.reachable:
+                w.route, w.walked = Polyline.of(plan.path), 0.0
+            elif w.route is None:  # nowhere known to go, and the way ahead blocked: they stop where they are
+                w.status, w.arrival = "arrived", self.time
+            return
+        target = next(o for o in self._static if o.name == w.target)
         if w.route is None:  # the walk they were on when the world began: the rest of the route planned at its origin
             plan = self.planner.plan_walk((w.state.x, w.state.y), w.state.origin, target, known, w.state.radius)
         else:
