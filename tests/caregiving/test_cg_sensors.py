@@ -4,10 +4,14 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from recorded_cases import HELD_OUT
 
+from agents.caregiving.model.geometry import segment_crosses_box
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.world_model import World
 from bridges.world.sensors import LYING_HEIGHT, Sensors
+
+STEPPING_OUT = str(HELD_OUT / "stepping_out.yaml")
 
 
 def run(sensors: Sensors, world: World, seconds: float) -> list:
@@ -82,3 +86,35 @@ def test_a_person_who_has_fallen_is_seen_lying() -> None:
     assert world.fallen() == {"person"}
     assert {d.height for d in standing if d.kind == "person"} == {s.people[0].eye_height}
     assert lying.height == LYING_HEIGHT
+
+
+def test_with_occlusion_a_wall_hides_what_lies_behind_it_from_the_robot() -> None:
+    """Sensors riding on the robot: someone behind the partition is not detected until they step out past its
+    end; the things in the open are, every frame."""
+    s = load_scenario(STEPPING_OUT)
+    assert s.sensors.occlusion
+    world = World.from_scenario(s)
+    frames = {}
+    for d in run(Sensors(replace(s.sensors, dropout=0.0), np.random.default_rng(0)), world, 4.0):
+        frames.setdefault(d.name, []).append(d.stamp)
+    assert frames["ann"][0] == 0.0 and frames["ball"][0] == 0.0
+    ben = min(frames["ben"])
+    assert 0.3 < ben < 4.0, f"Ben seen first at {ben} s"
+    walls = [o for o in s.scene().obstacles[4:] if o.kind == "wall"]
+    track = World.from_scenario(s)
+    while track.time < ben - 0.1 - 1e-9:
+        track.step()
+    scene = track.scene()
+    robot, hidden = scene.robot, scene.person("ben")
+    assert robot is not None and any(
+        segment_crosses_box(w.shape, (robot.x, robot.y), (hidden.x, hidden.y)) for w in walls
+    ), "Ben is behind the partition until then"
+    unhidden = replace(s.sensors, occlusion=False)
+    assert (
+        min(
+            d.stamp
+            for d in run(Sensors(unhidden, np.random.default_rng(0)), World.from_scenario(s), 1.0)
+            if d.name == "ben"
+        )
+        == 0.0
+    )

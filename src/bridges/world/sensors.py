@@ -7,7 +7,10 @@ people), is dropped with probability ``dropout``, and becomes available
 misjudged by a factor drawn once per object, uniform within +/- ``size_error``:
 shape error is a bias the robot lives with, not noise that averages away. A
 person who has fallen lies on the floor and is seen :data:`LYING_HEIGHT` high.
-With ``enabled: false`` the detections are exact and immediate.
+With ``occlusion: true`` the sensors ride on the robot, and whatever a wall stands
+between it and the robot is not detected: someone comes into W only as they step
+out from behind it. With ``enabled: false`` the detections are exact and immediate
+(occlusion still applies).
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from agents.caregiving.model.geometry import Box, Circle, Shape
+from agents.caregiving.model.geometry import Box, Circle, Shape, segment_crosses_box
 from agents.caregiving.model.scenario import SensorSpec
 from agents.caregiving.model.scene import PERSON_KIND, Scene
 from agents.caregiving.model.visibility import WALL_KIND
@@ -86,6 +89,8 @@ class Sensors:
             )
             for p in scene.people
         ]
+        if self.spec.occlusion:
+            dets = [d for d in dets if not _behind_a_wall(scene, d.shape)]
         if not self.spec.enabled:
             return dets
         return [self._noisy(d) for d in dets if self._rng.uniform() >= self.spec.dropout]
@@ -106,3 +111,15 @@ class Sensors:
         else:
             shape = Box(s.x + dx, s.y + dy, s.hx * scale, s.hy * scale, s.theta)
         return Detection(d.stamp, d.name, d.kind, shape, d.heading, d.height * scale, d.target)
+
+
+def _behind_a_wall(scene: Scene, shape: Shape) -> bool:
+    """Whether a wall stands between the robot and the centre of ``shape``."""
+    robot = scene.robot
+    if robot is None:
+        return False
+    return any(
+        isinstance(o.shape, Box) and segment_crosses_box(o.shape, (robot.x, robot.y), (shape.x, shape.y))
+        for o in scene.obstacles
+        if o.kind == WALL_KIND
+    )

@@ -196,6 +196,22 @@ def segment_fraction(a: Sequence[float], b: Sequence[float], x: float, y: float)
     return 0.0 if norm == 0.0 else min(max(((x - a[0]) * dx + (y - a[1]) * dy) / norm, 0.0), 1.0)
 
 
+def segment_crosses_box(box: Box, a: Sequence[float], b: Sequence[float]) -> bool:
+    """Whether the segment from ``a`` to ``b`` passes through ``box`` (touching its boundary counts)."""
+    (ax, ay), (bx, by) = _to_local(box, as_points([a, b]))
+    t0, t1 = 0.0, 1.0
+    for start, delta, half in ((ax, bx - ax, box.hx), (ay, by - ay, box.hy)):
+        if abs(delta) < 1e-12:
+            if abs(start) > half:
+                return False
+            continue
+        near, far = sorted(((-half - start) / delta, (half - start) / delta))
+        t0, t1 = max(t0, near), min(t1, far)
+        if t0 > t1:
+            return False
+    return True
+
+
 def polyline_distance(points: FloatArray, x: float, y: float) -> float:
     """Distance from ``(x, y)`` to the nearest point of the polyline through ``points`` (an ``(N, 2)`` array)."""
     return nearest_segment(points, x, y)[1]

@@ -152,7 +152,8 @@ class RobotSpec:
 
 @dataclass(frozen=True)
 class SensorSpec:
-    """Detection noise: rate, position sigma, size error fraction, drop-out rate, latency."""
+    """Detection noise: rate, position sigma, size error fraction, drop-out rate, latency; and whether walls hide
+    what lies behind them from the robot (``occlusion``)."""
 
     enabled: bool
     rate_hz: float
@@ -161,6 +162,7 @@ class SensorSpec:
     size_error: float
     dropout: float
     latency: float
+    occlusion: bool = False
 
 
 @dataclass(frozen=True)
@@ -370,7 +372,9 @@ def _robot(f: Fields) -> RobotSpec:
 
 def _sensors(f: Fields) -> SensorSpec:
     f.reject_unknown(
-        frozenset({"enabled", "rate_hz", "position_sigma", "heading_sigma_deg", "size_error", "dropout", "latency"})
+        frozenset(
+            {"enabled", "rate_hz", "position_sigma", "heading_sigma_deg", "size_error", "dropout", "latency", "occlusion"}
+        )
     )
     return SensorSpec(
         f.boolean("enabled", True),
@@ -380,6 +384,7 @@ def _sensors(f: Fields) -> SensorSpec:
         f.number("size_error", non_negative=True, at_most=0.9),
         f.number("dropout", non_negative=True, at_most=0.99),
         f.number("latency", non_negative=True),
+        f.boolean("occlusion", False),
     )
 
 
