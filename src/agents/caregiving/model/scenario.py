@@ -373,7 +373,16 @@ def _robot(f: Fields) -> RobotSpec:
 def _sensors(f: Fields) -> SensorSpec:
     f.reject_unknown(
         frozenset(
-            {"enabled", "rate_hz", "position_sigma", "heading_sigma_deg", "size_error", "dropout", "latency", "occlusion"}
+            {
+                "enabled",
+                "rate_hz",
+                "position_sigma",
+                "heading_sigma_deg",
+                "size_error",
+                "dropout",
+                "latency",
+                "occlusion",
+            }
         )
     )
     return SensorSpec(
