@@ -26,6 +26,7 @@ from agents.caregiving.model.response import (
     Send,
     UnderWay,
     drive,
+    judged_again,
     respond,
     set_off_sooner,
 )
@@ -235,6 +236,19 @@ def test_a_move_that_no_longer_does_what_it_was_chosen_for_sooner_stays_held(aga
     judged = SearchResult(chosen, (again,), judged=1, sets_off=0.1 if chosen else None)
     assert drive(set_off_sooner(held, spec(danger("ann", 2.0)), 1.0, POLICY), Script(Asked(judged))) is held
     assert drive(set_off_sooner(held, spec(danger("ann", 2.0)), 1.0, POLICY), Script(Asked(None))) is held
+    # Judged again on a W that someone has come into since, it is not sent at all.
+    assert drive(judged_again(held, spec(danger("ann", 2.0)), 1.0, POLICY), Script(Asked(judged))) is None
+
+
+def test_a_move_that_walks_someone_new_into_the_robot_is_not_sent_and_one_that_still_saves_is() -> None:
+    """A move chosen on a W without someone who has come into it since is judged once more with them: it goes out,
+    as judged now, when it still saves; a walk into the robot (a worse standing) keeps it from going out."""
+    held = Send(safe(NEW, risk=0.1), sets_off=0.3)
+    now = spec(danger("ann", 2.0))
+    tripping = Verdict(NEW, False, 1.0, 1.0, "bob walks into robot", (Fall(0, "bob", "robot", (1.0, 1.0)),))
+    assert drive(judged_again(held, now, 1.0, POLICY), Script(Asked(SearchResult(None, (tripping,), judged=1)))) is None
+    still = SearchResult(safe(NEW, risk=0.1), (safe(NEW, risk=0.1),), judged=1, sets_off=0.0)
+    assert drive(judged_again(held, now, 1.0, POLICY), Script(Asked(still))) == Send(still.chosen, sets_off=0.0)
 
 
 def test_a_first_search_timed_too_slow_sends_its_move_sooner_and_it_still_saves_the_person() -> None:

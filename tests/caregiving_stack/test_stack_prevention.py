@@ -20,10 +20,12 @@ from typing import Any
 import pytest
 from stack_helpers import GRAPH, recording_stack, run_trial
 
+from agents.caregiving.model.move_search import SearchItem
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.recorded_batch import read_batches
 from agents.caregiving.model.rollout import DT
 from agents.caregiving.model.scenario import load_scenario
+from agents.caregiving.model.service import item_from_wire
 from agents.caregiving.model.world_model import run_idle
 from agents.caregiving.names import ALERT, GO_TO, HAS, HAS_INTENTION, INTENTION, OBJECT, PERSON, ROBOT, WORLD
 from bridges.experiment.falls_seen import falls_seen
@@ -125,6 +127,77 @@ async def run_with_a_move_into_the_way(stack: Stack, scenario: str, pose: tuple[
             )
             g.insert_or_assign_edge(robot.id, move, HAS, {"status": "proposed", "updated_at": time.time()})
         return await run
+
+
+def test_a_move_under_way_is_judged_again_when_someone_new_comes_into_w(stack: Stack) -> None:
+    """As soon as the robot's move for the saveable trial is in W, someone new is written into W, as a person
+    tracked by another sensor would be: walking across the robot's way ahead of it. The action agent judges the
+    move under way again, with them walking on (straight ahead when no target is in their view), without waiting
+    for a danger of theirs to be flagged."""
+    searched_before = len(read_batches(stack.logdir / "searches"))
+    logged_before = len((stack.logdir / "action.log").read_text())
+    move = asyncio.run(run_with_someone_new_in_the_way(stack, SCENARIO))
+    judged_with_them = [
+        item.spec
+        for batch in read_batches(stack.logdir / "searches")[searched_before:]
+        for item in map(item_from_wire, batch.items)
+        if isinstance(item, SearchItem)
+        and item.moves is not None
+        and [(m.x, m.y) for m in item.moves if m is not None] == [move]
+        and any(w.person == "someone_new" for w in item.spec.bystanders)
+    ]
+    assert judged_with_them, "the move under way was never judged with the newcomer"
+    looks = (stack.logdir / "action.log").read_text()[logged_before:]
+    assert "move under way judged again: someone or a target new in W" in looks
+
+
+async def run_with_someone_new_in_the_way(stack: Stack, scenario: str) -> tuple[float, float]:
+    """Run the saveable trial, writing a walker across the robot's first move as soon as it is in W; return where
+    that move ends."""
+    async with open_harness(stack.endpoint, GRAPH, name="test-harness") as harness:
+        g = harness.g
+        before = episode(g)
+        run = asyncio.create_task(harness.run(SEED, SAVEABLE, timeout=60.0, scenario=scenario))
+        while not (running_after(g, before) and [n for n in g.nodes(INTENTION) if n.get("action") == "move_to"]):
+            await asyncio.sleep(0.005)
+        intention = max(
+            (n for n in g.nodes(INTENTION) if n.get("action") == "move_to"), key=lambda n: n.get("created_at", 0.0)
+        )
+        (person,) = g.nodes(PERSON)
+        rx, ry, _ = g.rt.pose2d(WORLD, g.nodes(ROBOT)[0].id)
+        fx, fy, _ = intention.get("final_pose")
+        cx, cy = rx + 2 * (fx - rx) / 3, ry + 2 * (fy - ry) / 3  # two thirds of the way, crossed square to it
+        way = math.atan2(fy - ry, fx - rx)
+        starts = [(cx - 1.2 * math.cos(h), cy - 1.2 * math.sin(h), h) for h in (way + math.pi / 2, way - math.pi / 2)]
+        sx, sy, across = max(starts, key=lambda start: targets_off_heading(g, *start))
+        with g.batch():
+            walker = g.insert_node(
+                PERSON,
+                "someone_new",
+                {
+                    **person.attrs,
+                    "velocity": [0.6 * math.cos(across), 0.6 * math.sin(across)],
+                    "velocity_sigma": 0.05,
+                    "speed": 0.6,
+                    "origin": [sx, sy],
+                },
+            )
+            g.rt.set_pose2d(WORLD, walker, sx, sy, across)
+        await run
+        return fx, fy
+
+
+def targets_off_heading(g: Graph, x: float, y: float, heading: float) -> float:
+    """How far (rad) from ``heading`` the target object nearest to it in bearing lies, seen from ``(x, y)``."""
+    return min(
+        (
+            abs(math.remainder(math.atan2(oy - y, ox - x) - heading, 2 * math.pi))
+            for n in g.nodes(OBJECT)
+            if n.get("is_target")
+            for ox, oy, _ in [g.rt.pose2d(WORLD, n.id)]
+        ),
+        default=math.pi,
+    )
 
 
 def test_a_person_who_has_fallen_is_seen_lying_and_guessed_walking_no_more(stack: Stack) -> None:

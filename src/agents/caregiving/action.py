@@ -2,8 +2,9 @@
 
 ``python -m agents.caregiving.action --graph G --connect EP [--scenario S]``
 
-Triggered by each risky ``has_intention`` edge as it lands in W, the agent is the
-flow of Algorithm 2 and nothing more:
+Triggered by each risky ``has_intention`` edge as it lands in W, and by someone (or a
+target) coming into W after the move under way was judged, who was never imagined
+beside it, the agent is the flow of Algorithm 2 and nothing more:
 
 * :mod:`agents.caregiving.robot_intentions` turns W into the search's input (each
   endangered person's most urgent danger, their gaze classes and what they know,
@@ -20,7 +21,10 @@ flow of Algorithm 2 and nothing more:
 * the response is written to W; a move whose search ended well before the moment
   it imagined the move setting off is judged once more, to set off now, and sent
   at once if it still does what it was chosen for; otherwise it is held until then
-  (:mod:`agents.caregiving.set_off`), as is the braking that ends a head start.
+  (:mod:`agents.caregiving.set_off`), as is the braking that ends a head start;
+* someone who came into W during a search holds back its head start, and has the
+  move it chose judged once more with them before it is sent; a move that no longer
+  does what it was chosen for is not sent, and the dangers are searched again.
 
 The chosen move becomes the robot's ``intention`` node (``move_to``, target,
 final pose, ``status: proposed``, ``in_time``, ``reason``; or ``stop``, its target
@@ -44,6 +48,7 @@ from agents.caregiving.model.response import (
     Response,
     Send,
     UnderWay,
+    judged_again,
     respond,
     set_off_sooner,
 )
@@ -54,7 +59,7 @@ from wm import Event, Node
 
 from ..runtime import Agent, main, on
 from .context import Context, episode_of, read_context
-from .names import GO_TO, HAS_INTENTION, WORLD
+from .names import GO_TO, HAS_INTENTION, PERSON, WORLD
 from .odometry import OdometryClock
 from .risk_options import add_risk_arguments, add_walking_arguments, size_error, walking
 from .robot_intentions import (
@@ -94,22 +99,31 @@ class Action(Agent):
         self.names = count(1)
         self.searches = SearchClient(self.ask, keys.imagine(self.args.graph), self.log)
         self.pending: set[tuple[int, int]] = set()
+        self.arrived: set[int] = set()  # people new to W since the last pass
         self.clock = OdometryClock()
         self.set_off = SetOff(self.clock, self.args.dispatch)
         self.new_episode = True
         self.failed: dict[int, float] = {}  # person node id -> simulated time their last search found no move
         self.doubted: str | None = None  # the move under way that failed its last judgement, if it did
+        self.judged_in: frozenset[int] = frozenset()  # the people and objects in W at the last response's start
         self.log.info("acting", size_error=self.size_error)
 
-    @on(kind=["edge_added", "edge_updated", "node_added", "node_updated"], type=[HAS_INTENTION, WORLD], coalesce=True)
+    @on(
+        kind=["edge_added", "edge_updated", "node_added", "node_updated"],
+        type=[HAS_INTENTION, WORLD, PERSON],
+        coalesce=True,
+    )
     async def search(self, events: list[Event]) -> None:
-        """Protect every person whose risky intention landed since the last search."""
+        """Protect every person whose risky intention landed since the last search; judge the move under way
+        again when someone, or a target, new to W since it was judged has come in."""
         for e in events:
             if e.type == HAS_INTENTION and e.src is not None and e.dst is not None:
                 self.pending.add((e.src, e.dst))
             elif e.type == WORLD and "episode" in e.attrs:
                 self.new_episode = True
-        if not self.pending and not self.new_episode:
+            elif e.type == PERSON and e.kind == "node_added" and e.id is not None:
+                self.arrived.add(e.id)
+        if not self.pending and not self.arrived and not self.new_episode:
             return
         self.new_episode = False
         ctx = read_context(self.g)
@@ -120,19 +134,33 @@ class Action(Agent):
             self.episode = ctx.episode
             self.failed.clear()
             self.doubted = None
+            self.judged_in = frozenset()
             self.clock.reset()
         landed = [self.g.find_edge(src, dst, HAS_INTENTION) for src, dst in self.pending]
+        current = move_under_way(self.g)
+        if current is not None and self._judged_without_some(current):
+            self.log.info("move under way judged again: someone or a target new in W", under_way=current.name)
+            landed = self.g.edges(type=HAS_INTENTION)  # every danger still flagged
         self.pending.clear()
+        self.arrived.clear()
         risky = [e for e in landed if e is not None and e.get("risky")]
         dangers = dangers_in(ctx, risky, self.failed, self.args.retry)
         if not dangers:
             return
+        self.judged_in = frozenset(ctx.ids.values())
         started = time.perf_counter()
-        current = move_under_way(self.g)
         spec = search_spec(self.g, ctx, dangers, current, walking(self.args))
         idle_risks = {p: e.get("probability", 1.0) for p, (e, _) in dangers.items()}
         response, led = await self._respond(ctx, spec, idle_risks, dangers, current, started)
-        if isinstance(response, Send) and response.sets_off is not None:
+        if isinstance(response, Send) and not (response.braking or response.unsaved) and self._joined_since(ctx):
+            now = read_context(self.g)
+            judged = await self._judged_now(now, dangers, response, led or current) if now is not None else None
+            if now is None or judged is None:
+                self.pending |= {(e.src, e.dst) for e, _ in dangers.values()}  # searched again, with them
+                return
+            response, ctx = judged, now
+            self.judged_in = frozenset(ctx.ids.values())
+        elif isinstance(response, Send) and response.sets_off is not None:
             response = await self._sooner(ctx, spec, max(idle_risks.values()), response, led or current)
         if isinstance(response, Send | NoMove) and response.sets_off is not None:
             await self.set_off.hold(self.g, ctx.scene.time, response.sets_off, self.log)
@@ -140,6 +168,26 @@ class Action(Agent):
             if world is None or episode_of(world) != ctx.episode:
                 return  # the trial ended while the move was held
         self._act(ctx, dangers, response, led or current, led, started)
+
+    def _judged_without_some(self, under_way: Node) -> bool:
+        """Whether someone, or a target of a guess just landed, has come into W since ``under_way`` was last
+        judged (during or after its search): that move was never imagined with them."""
+        new = self.arrived | {n for edge in self.pending for n in edge}
+        return under_way.get("action") != GO_TO and not new <= self.judged_in
+
+    def _joined_since(self, ctx: Context) -> bool:
+        """Whether someone has come into W since ``ctx`` was read: a move decided on it never imagined them."""
+        known = set(ctx.ids.values())
+        return any(n.id not in known for n in self.g.nodes(PERSON))
+
+    async def _judged_now(self, ctx: Context, dangers: Dangers, send: Send, under_way: Node | None) -> Send | None:
+        """``send``'s move :func:`judged_again` on ``ctx``, W now, with whoever came into it during the search;
+        ``None`` when it does not hold there."""
+        spec = search_spec(self.g, ctx, dangers, under_way, walking(self.args))
+        idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
+        judged = await self.searches.run(judged_again(send, spec, idle_risk, self._policy(ctx)), self._terms(ctx))
+        self.log.info("move judged again with someone new in W", sent=judged is not None)
+        return judged
 
     async def _sooner(
         self, ctx: Context, spec: SearchSpec, idle_risk: float, send: Send, under_way: Node | None
@@ -178,6 +226,9 @@ class Action(Agent):
             nonlocal led
             if move_under_way(self.g) is not None:  # a move came under way since: the lead was judged from rest
                 self.log.info("head start dropped", because="a move came under way during the search")
+                return
+            if self._joined_since(ctx):
+                self.log.info("head start dropped", because="someone came into W during the search")
                 return
             if self._write(ctx, verdict, dangers, None, None, "", started, head_start=True):
                 led = move_under_way(self.g)

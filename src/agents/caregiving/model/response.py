@@ -242,26 +242,32 @@ def respond(
     return Send(chosen, again, unsaved, sets_off=found.sets_off if found is not None else None)
 
 
-def set_off_sooner(send: Send, spec: SearchSpec, idle_risk: float, policy: Policy) -> Generator[Ask, Asked, Send]:
-    """``send``'s move judged again to set off as soon as one judgement allows, for a search that ended well
-    before the moment it imagined the move setting off (its estimate of a candidate's cost was too high, as
-    it is before any search has been timed).
-
-    ``spec`` is the search's, with the robot's move under way now as its ``current`` (a head start sent on the
-    way, if one was). The move goes out sooner, with its new verdict and set-off time, when it is still chosen
-    (:func:`~agents.caregiving.model.move_choice.choose`), safe if it was safe, and of no worse a
-    :func:`~agents.caregiving.model.move_choice.standing`; otherwise ``send`` stands, to be held as it was.
-    """
+def judged_again(send: Send, spec: SearchSpec, idle_risk: float, policy: Policy) -> Generator[Ask, Asked, Send | None]:
+    """``send``'s move judged again on ``spec``, to set off as soon as one judgement allows: with its new verdict
+    and set-off time when it is still chosen (:func:`~agents.caregiving.model.move_choice.choose`), safe if it
+    was safe, and of no worse a :func:`~agents.caregiving.model.move_choice.standing`; otherwise ``None``."""
     chosen = send.chosen
     found = (yield Ask(spec, idle_risk, (chosen.move,))).found
-    sooner = found.chosen if found is not None else None
-    if found is None or sooner is None or found.sets_off is None:
-        return send
-    if chosen.safe(policy.threshold) and not sooner.safe(policy.threshold):
-        return send
-    if standing(sooner, policy.robot)[0] > standing(chosen, policy.robot)[0]:
-        return send
-    return replace(send, chosen=sooner, sets_off=found.sets_off)
+    again = found.chosen if found is not None else None
+    if found is None or again is None or found.sets_off is None:
+        return None
+    if chosen.safe(policy.threshold) and not again.safe(policy.threshold):
+        return None
+    if standing(again, policy.robot)[0] > standing(chosen, policy.robot)[0]:
+        return None
+    return replace(send, chosen=again, sets_off=found.sets_off)
+
+
+def set_off_sooner(send: Send, spec: SearchSpec, idle_risk: float, policy: Policy) -> Generator[Ask, Asked, Send]:
+    """``send``'s move :func:`judged_again` to set off sooner, for a search that ended well before the moment it
+    imagined the move setting off (its estimate of a candidate's cost was too high, as it is before any search
+    has been timed); where it is not still as good, ``send`` stands, to be held as it was.
+
+    ``spec`` is the search's, with the robot's move under way now as its ``current`` (a head start sent on the
+    way, if one was).
+    """
+    sooner = yield from judged_again(send, spec, idle_risk, policy)
+    return sooner or send
 
 
 T = TypeVar("T")
