@@ -27,6 +27,7 @@ from agents.caregiving.model.response import (
     UnderWay,
     drive,
     judged_again,
+    judged_with_newcomers,
     respond,
     set_off_sooner,
 )
@@ -240,15 +241,25 @@ def test_a_move_that_no_longer_does_what_it_was_chosen_for_sooner_stays_held(aga
     assert drive(judged_again(held, spec(danger("ann", 2.0)), 1.0, POLICY), Script(Asked(judged))) is None
 
 
-def test_a_move_that_walks_someone_new_into_the_robot_is_not_sent_and_one_that_still_saves_is() -> None:
-    """A move chosen on a W without someone who has come into it since is judged once more with them: it goes out,
-    as judged now, when it still saves; a walk into the robot (a worse standing) keeps it from going out."""
+def test_a_move_chosen_before_someone_came_into_w_is_not_sent_only_when_it_harms_them() -> None:
+    """Judged once more with a newcomer the search never imagined: a walk of theirs into the robot keeps the move
+    from going out; a refusal over someone the search did imagine does not (one frame's belief against
+    another's), and the move goes out as it was; a move still as good goes out as judged now."""
     held = Send(safe(NEW, risk=0.1), sets_off=0.3)
     now = spec(danger("ann", 2.0))
-    tripping = Verdict(NEW, False, 1.0, 1.0, "bob walks into robot", (Fall(0, "bob", "robot", (1.0, 1.0)),))
-    assert drive(judged_again(held, now, 1.0, POLICY), Script(Asked(SearchResult(None, (tripping,), judged=1)))) is None
+
+    def refused_over(person: str) -> Asked:
+        fall = Fall(0, person, "robot", (1.0, 1.0))
+        return Asked(
+            SearchResult(None, (Verdict(NEW, False, 1.0, 1.0, f"{person} walks into robot", (fall,)),), judged=1)
+        )
+
+    newcomers = frozenset({"bob"})
+    assert drive(judged_with_newcomers(held, now, 1.0, POLICY, newcomers), Script(refused_over("bob"))) is None
+    assert drive(judged_with_newcomers(held, now, 1.0, POLICY, newcomers), Script(refused_over("cy"))) is held
     still = SearchResult(safe(NEW, risk=0.1), (safe(NEW, risk=0.1),), judged=1, sets_off=0.0)
-    assert drive(judged_again(held, now, 1.0, POLICY), Script(Asked(still))) == Send(still.chosen, sets_off=0.0)
+    sent = drive(judged_with_newcomers(held, now, 1.0, POLICY, newcomers), Script(Asked(still)))
+    assert sent == Send(still.chosen, sets_off=0.0)
 
 
 def test_a_first_search_timed_too_slow_sends_its_move_sooner_and_it_still_saves_the_person() -> None:

@@ -23,8 +23,8 @@ beside it, the agent is the flow of Algorithm 2 and nothing more:
   at once if it still does what it was chosen for; otherwise it is held until then
   (:mod:`agents.caregiving.set_off`), as is the braking that ends a head start;
 * someone who came into W during a search holds back its head start, and has the
-  move it chose judged once more with them before it is sent; a move that no longer
-  does what it was chosen for is not sent, and the dangers are searched again.
+  move it chose judged once more with them before it is sent; a move that harms them
+  is not sent, and the dangers are searched again.
 
 The chosen move becomes the robot's ``intention`` node (``move_to``, target,
 final pose, ``status: proposed``, ``in_time``, ``reason``; or ``stop``, its target
@@ -48,7 +48,7 @@ from agents.caregiving.model.response import (
     Response,
     Send,
     UnderWay,
-    judged_again,
+    judged_with_newcomers,
     respond,
     set_off_sooner,
 )
@@ -154,12 +154,13 @@ class Action(Agent):
         response, led = await self._respond(ctx, spec, idle_risks, dangers, current, started)
         if isinstance(response, Send) and not (response.braking or response.unsaved) and self._joined_since(ctx):
             now = read_context(self.g)
-            judged = await self._judged_now(now, dangers, response, led or current) if now is not None else None
+            judged = await self._judged_now(ctx, now, dangers, response, led or current) if now is not None else None
             if now is None or judged is None:
                 self.pending |= {(e.src, e.dst) for e, _ in dangers.values()}  # searched again, with them
                 return
-            response, ctx = judged, now
-            self.judged_in = frozenset(ctx.ids.values())
+            if judged is not response:  # judged on W now, and sent as judged then
+                response, ctx = judged, now
+            self.judged_in = frozenset(now.ids.values())
         elif isinstance(response, Send) and response.sets_off is not None:
             response = await self._sooner(ctx, spec, max(idle_risks.values()), response, led or current)
         if isinstance(response, Send | NoMove) and response.sets_off is not None:
@@ -180,13 +181,17 @@ class Action(Agent):
         known = set(ctx.ids.values())
         return any(n.id not in known for n in self.g.nodes(PERSON))
 
-    async def _judged_now(self, ctx: Context, dangers: Dangers, send: Send, under_way: Node | None) -> Send | None:
-        """``send``'s move :func:`judged_again` on ``ctx``, W now, with whoever came into it during the search;
-        ``None`` when it does not hold there."""
-        spec = search_spec(self.g, ctx, dangers, under_way, walking(self.args))
+    async def _judged_now(
+        self, searched: Context, now: Context, dangers: Dangers, send: Send, under_way: Node | None
+    ) -> Send | None:
+        """``send``'s move, chosen on ``searched``, judged again on ``now``, with whoever came into W since
+        (:func:`judged_with_newcomers`); ``None`` when it harms one of them."""
+        spec = search_spec(self.g, now, dangers, under_way, walking(self.args))
         idle_risk = max(e.get("probability", 1.0) for e, _ in dangers.values())
-        judged = await self.searches.run(judged_again(send, spec, idle_risk, self._policy(ctx)), self._terms(ctx))
-        self.log.info("move judged again with someone new in W", sent=judged is not None)
+        newcomers = frozenset(p.name for p in now.scene.people) - {p.name for p in searched.scene.people}
+        judging = judged_with_newcomers(send, spec, idle_risk, self._policy(now), newcomers)
+        judged = await self.searches.run(judging, self._terms(now))
+        self.log.info("move judged again with someone new in W", sent=judged is not None, newcomers=sorted(newcomers))
         return judged
 
     async def _sooner(

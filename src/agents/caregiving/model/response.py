@@ -243,19 +243,40 @@ def respond(
 
 
 def judged_again(send: Send, spec: SearchSpec, idle_risk: float, policy: Policy) -> Generator[Ask, Asked, Send | None]:
-    """``send``'s move judged again on ``spec``, to set off as soon as one judgement allows: with its new verdict
-    and set-off time when it is still chosen (:func:`~agents.caregiving.model.move_choice.choose`), safe if it
-    was safe, and of no worse a :func:`~agents.caregiving.model.move_choice.standing`; otherwise ``None``."""
-    chosen = send.chosen
-    found = (yield Ask(spec, idle_risk, (chosen.move,))).found
+    """``send``'s move judged again on ``spec``, to set off as soon as one judgement allows (:func:`as_good`)."""
+    found = (yield Ask(spec, idle_risk, (send.chosen.move,))).found
+    return as_good(send, found, policy)
+
+
+def as_good(send: Send, found: SearchResult | None, policy: Policy) -> Send | None:
+    """``send`` with the verdict and set-off time of ``found``, its move judged again, when it is still chosen
+    (:func:`~agents.caregiving.model.move_choice.choose`), safe if it was safe, and of no worse a
+    :func:`~agents.caregiving.model.move_choice.standing`; otherwise ``None``."""
     again = found.chosen if found is not None else None
     if found is None or again is None or found.sets_off is None:
         return None
-    if chosen.safe(policy.threshold) and not again.safe(policy.threshold):
+    if send.chosen.safe(policy.threshold) and not again.safe(policy.threshold):
         return None
-    if standing(again, policy.robot)[0] > standing(chosen, policy.robot)[0]:
+    if standing(again, policy.robot)[0] > standing(send.chosen, policy.robot)[0]:
         return None
     return replace(send, chosen=again, sets_off=found.sets_off)
+
+
+def judged_with_newcomers(
+    send: Send, spec: SearchSpec, idle_risk: float, policy: Policy, newcomers: frozenset[str]
+) -> Generator[Ask, Asked, Send | None]:
+    """``send``'s move judged again on ``spec``, which holds ``newcomers``, people the search that chose it never
+    imagined. ``None`` when it harms one of them: walks them into the robot, leaves them stuck, or brings a fall
+    the robot as it is does not. Otherwise ``send`` as judged now when it is still :func:`as_good`, or as it was:
+    a refusal over someone the search did imagine is one frame's belief against another's, and the looks that
+    follow judge it as they judge any move under way."""
+    found = (yield Ask(spec, idle_risk, (send.chosen.move,))).found
+    verdict = found.verdicts[0] if found is not None and found.verdicts else None
+    if verdict is not None and any(
+        f.person in newcomers and (f.trips(policy.robot) or f.made_worse) for f in verdict.falls
+    ):
+        return None
+    return as_good(send, found, policy) or send
 
 
 def set_off_sooner(send: Send, spec: SearchSpec, idle_risk: float, policy: Policy) -> Generator[Ask, Asked, Send]:
