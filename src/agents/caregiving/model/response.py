@@ -242,12 +242,6 @@ def respond(
     return Send(chosen, again, unsaved, sets_off=found.sets_off if found is not None else None)
 
 
-def judged_again(send: Send, spec: SearchSpec, idle_risk: float, policy: Policy) -> Generator[Ask, Asked, Send | None]:
-    """``send``'s move judged again on ``spec``, to set off as soon as one judgement allows (:func:`as_good`)."""
-    found = (yield Ask(spec, idle_risk, (send.chosen.move,))).found
-    return as_good(send, found, policy)
-
-
 def as_good(send: Send, found: SearchResult | None, policy: Policy) -> Send | None:
     """``send`` with the verdict and set-off time of ``found``, its move judged again, when it is still chosen
     (:func:`~agents.caregiving.model.move_choice.choose`), safe if it was safe, and of no worse a
@@ -280,15 +274,16 @@ def judged_with_newcomers(
 
 
 def set_off_sooner(send: Send, spec: SearchSpec, idle_risk: float, policy: Policy) -> Generator[Ask, Asked, Send]:
-    """``send``'s move :func:`judged_again` to set off sooner, for a search that ended well before the moment it
-    imagined the move setting off (its estimate of a candidate's cost was too high, as it is before any search
-    has been timed); where it is not still as good, ``send`` stands, to be held as it was.
+    """``send``'s move judged again to set off as soon as one judgement allows, for a search that ended well
+    before the moment it imagined the move setting off (its estimate of a candidate's cost was too high, as it is
+    before any search has been timed): it goes out sooner when it is still :func:`as_good`; otherwise ``send``
+    stands, to be held as it was.
 
     ``spec`` is the search's, with the robot's move under way now as its ``current`` (a head start sent on the
     way, if one was).
     """
-    sooner = yield from judged_again(send, spec, idle_risk, policy)
-    return sooner or send
+    found = (yield Ask(spec, idle_risk, (send.chosen.move,))).found
+    return as_good(send, found, policy) or send
 
 
 T = TypeVar("T")

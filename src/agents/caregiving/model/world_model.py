@@ -486,20 +486,20 @@ class World:
 
     def _replan(self, w: _Walker) -> None:
         known = list(w.known.values())
+        start = (w.state.x, w.state.y)
         if w.toward is not None:
-            plan = self.planner.plan_to_point((w.state.x, w.state.y), w.toward, known, w.state.radius)
-            if plan.reachable:
-                w.route, w.walked = Polyline.of(plan.path), 0.0
-            elif w.route is None:  # nowhere known to go, and the way ahead blocked: they stop where they are
-                w.status, w.arrival = "arrived", self.time
-            return
-        target = next(o for o in self._static if o.name == w.target)
-        if w.route is None:  # the walk they were on when the world began: the rest of the route planned at its origin
-            plan = self.planner.plan_walk((w.state.x, w.state.y), w.state.origin, target, known, w.state.radius)
+            plan = self.planner.plan_to_point(start, w.toward, known, w.state.radius)
         else:
-            plan = self.planner.plan_to_object((w.state.x, w.state.y), target, known, w.state.radius)
+            target = next(o for o in self._static if o.name == w.target)
+            plan = (  # the walk they were on when the world began: the rest of the route planned at its origin
+                self.planner.plan_walk(start, w.state.origin, target, known, w.state.radius)
+                if w.route is None
+                else self.planner.plan_to_object(start, target, known, w.state.radius)
+            )
         if plan.reachable:
             w.route, w.walked = Polyline.of(plan.path), 0.0
+        elif w.route is None and w.toward is not None:  # nowhere known to go, the way ahead blocked: they stop
+            w.status, w.arrival = "arrived", self.time
         elif w.route is None:
             w.status = "stuck"
 
