@@ -4,7 +4,8 @@
 time Algorithm 1 rewrites the danger while it lasts, and keeps, doubts or replaces the move under way. This
 bench runs :func:`bridges.experiment.closed_loop.closed_loop` (where the loop is described) on ``--draws``
 draws of every saveable trial, from the moment the run first saw its danger, and counts the draws where nobody
-touches anything (``saved``), those where someone walks into the robot (``into_robot``), the looks, the
+touches anything (``saved``), those where someone walks into the robot once it has been commanded (``into_robot``;
+a walk into the robot where the scene parked it, before its first command, happens with it idle too), the looks, the
 commands sent to the robot, the candidates judged and the responses by kind, and, by the sampled risk of the
 first move a search chose and sent, those draws and how many of them were lost (``first_sent_by_risk``: how
 well the imagination's risk foretells the truth), and the lost draws by what the robot did in them
@@ -38,6 +39,7 @@ versions are compared on the same beliefs. The runs are shared between two proce
 from __future__ import annotations
 
 import json
+import math
 import time
 from collections import Counter
 from concurrent.futures import ProcessPoolExecutor
@@ -82,7 +84,7 @@ class Draw:
     people_saveable: int
     people_saved: int
     tripped: int  # people who fell only with the robot acting
-    into_robot: bool
+    into_robot: bool  # someone walked into the robot after its first command
     looks: int
     commands: int
     judged: int
@@ -145,6 +147,8 @@ def run_draws(job: Job) -> list[Draw]:
             at = max(round(case.at - job.sooner, 6), DT)  # one world step in at the earliest
             loop = closed_loop(case.trial, at, case.planner, (case.index, draw), setup)
             collisions = loop.truth.outcome().collisions
+            robot = loop.truth.scene().robot_name
+            moved_at = loop.commanded[0][0] if loop.commanded else math.inf
             fell = {c.person for c in collisions}
             found.append(
                 Draw(
@@ -153,7 +157,7 @@ def run_draws(job: Job) -> list[Draw]:
                     len(saveable),
                     len(saveable - fell),
                     len(fell - loop.idle_fallers),
-                    any(c.obstacle == loop.truth.scene().robot_name for c in collisions),
+                    any(c.obstacle == robot and c.time > moved_at for c in collisions),
                     loop.looks,
                     loop.commands,
                     loop.judged,
