@@ -2,17 +2,22 @@
 perception's errors in positions and sizes allow."""
 
 import json
+from collections.abc import Mapping
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
 
 import pytest
 
-from agents.caregiving.model.judging import RobotMargin, judge_move
+from agents.caregiving.model.imagine_reply import Answer
+from agents.caregiving.model.imagine_request import JointItem
+from agents.caregiving.model.joint import JointImagination
+from agents.caregiving.model.judging import Misses, RobotMargin, judge_move
 from agents.caregiving.model.move_search import SearchItem
 from agents.caregiving.model.robot_moves import RobotMove
 from agents.caregiving.model.scene import Scene
 from agents.caregiving.model.service import item_from_wire, serve_one
+from agents.caregiving.model.world_model import Passing
 
 DATA = Path(__file__).parent / "data"
 #: A search recorded live: crossing hall, seed 8521, trial 3, 5.0 s into the trial, on perception's belief.
@@ -49,6 +54,34 @@ def test_a_move_that_walks_someone_just_missing_a_fall_let_happen_into_the_robot
     assert not any(v.clear_where_found for v in found.verdicts if v.move is not None and v.move.target == "cabinet_8")
     if found.chosen is not None:
         assert "person_12 walks into robot" not in found.chosen.reason
+
+
+def test_a_search_imagines_the_robot_as_it_is_once_for_the_candidates_that_let_the_same_falls_happen(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The search for a pose beside Ana, fallen (below), holds each pose to Ben just missing her. The robot as it
+    is, imagined to the end with him passing her, is the same at every candidate's set-off, so the search
+    imagines it once for both poses, and the answer is the one imagined at the candidate's own set-off."""
+    scene, item = recorded_search(GOING_TO)
+    wanted: list[JointItem] = []
+    robot_as_it_is = Misses.robot_as_it_is
+
+    def wanting(misses: Misses, passing: Mapping[str, Passing]) -> JointImagination | None:
+        wanted.append(misses.item)
+        return robot_as_it_is(misses, passing)
+
+    monkeypatch.setattr(Misses, "robot_as_it_is", wanting)
+    imagined: list[JointItem] = []
+
+    def imagine(joint: JointItem) -> Answer:
+        if joint.move == joint.current and joint.passing and joint.uncertainty is None:
+            imagined.append(joint)
+        return serve_one(scene, joint)
+
+    item.run(scene, imagine)
+    assert len(imagined) == 1 and len(wanted) == 2, "both poses let Ben's same fall happen"
+    at_its_own = replace(imagined[0], delay=wanted[-1].delay)
+    assert wanted[-1].delay > 0.0 and serve_one(scene, at_its_own).joint == serve_one(scene, imagined[0]).joint
 
 
 def test_a_fall_let_happen_that_goes_deeper_than_perceptions_error_is_not_imagined_missed() -> None:

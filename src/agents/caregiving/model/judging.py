@@ -225,11 +225,38 @@ class Misses:
         return self._to_the_end(self.item, passing)
 
     def robot_as_it_is(self, passing: Mapping[str, Passing]) -> JointImagination | None:
-        """The robot going on with the move under way (or resting), imagined with ``passing``."""
-        return self._to_the_end(replace(self.item, move=self.item.current, lead=None, lead_for=0.0), passing)
+        """The robot going on with the move under way (or resting), imagined with ``passing``.
+
+        The robot going on as it is drives the same whatever the delay, so the item is asked at none: every
+        candidate of a search that lets the same people fall asks the same one (see :func:`sharing_as_it_is`).
+        """
+        as_it_is = replace(self.item, move=self.item.current, lead=None, lead_for=0.0, delay=0.0)
+        return self._to_the_end(as_it_is, passing)
 
     def _to_the_end(self, item: JointItem, passing: Mapping[str, Passing]) -> JointImagination | None:
         return self.imagine(replace(item, until_first_fall=False, uncertainty=None, passing=passing)).joint
+
+
+def sharing_as_it_is(imagine: Imagine) -> Imagine:
+    """``imagine``, answering from memory an imagination of the robot as it is run to the end with no risk
+    sampled (:meth:`Misses.robot_as_it_is`) that it has answered before: an answer is a function of its item,
+    and a search's candidates each ask the same one when they let the same people fall."""
+    answered: dict[tuple[object, ...], Answer] = {}
+
+    def answer(item: JointItem) -> Answer:
+        if item.uncertainty is not None or item.until_first_fall or item.move != item.current or item.lead is not None:
+            return imagine(item)
+        key = (
+            item.walks,
+            item.move,
+            item.delay,
+            *(tuple(sorted(m.items())) for m in (item.falling, item.anyway, item.passing)),
+        )
+        if key not in answered:
+            answered[key] = imagine(item)
+        return answered[key]
+
+    return answer
 
 
 def _judged_in_turn(

@@ -23,7 +23,7 @@ from .fields import Fields
 from .imagine import imagine_person
 from .imagine_reply import Answer
 from .imagine_request import MAX_DELAY, uncertainty_from_fields, uncertainty_to_wire
-from .judging import Imagine, as_it_is, driven_on, judge_lead, judge_move
+from .judging import Imagine, as_it_is, driven_on, judge_lead, judge_move, sharing_as_it_is
 from .move_choice import SETTLE_AFTER_CLEAR, NoWorse, Settles, choose
 from .robot_moves import RobotMove
 from .scene import Scene
@@ -96,6 +96,7 @@ def search(
     head start on, which harms nobody). The result's ``judged`` counts the slots the
     search took, and ``lead_sets_off`` when the head start set off.
     """
+    imagine = sharing_as_it_is(imagine)
     verdicts: list[Verdict] = []
     generated = candidates(scene, spec.dangers, verdicts, spec.delay, judging)
     pool: Iterator[RobotMove | None] = islice(generated if moves is None else iter(moves), max_moves)
