@@ -91,6 +91,11 @@ def recorded_scenario(recorded: dict[str, Any]) -> Scenario:
     return load_scenario(name)
 
 
+def room_of(recorded: dict[str, Any]) -> str:
+    """The room a recorded run ran: its scenario file's stem."""
+    return Path(str(recorded.get("scenario_file", recorded.get("scenario")))).stem
+
+
 def has_saveable(recorded: dict[str, Any]) -> bool:
     """Whether a recorded run holds a trial the oracle found saveable."""
     return any(t.get("saveable") for t in recorded["per_trial"])
@@ -105,7 +110,7 @@ def every_room(keep: Callable[[dict[str, Any]], bool] = has_saveable) -> list[st
         trials = recorded.get("per_trial") if isinstance(recorded, dict) else None
         if not trials or "seed" not in recorded or not keep(recorded):
             continue
-        room = Path(str(recorded.get("scenario_file", recorded.get("scenario")))).stem
+        room = room_of(recorded)
         runs.setdefault((room, int(recorded["seed"])), str(path.relative_to(RECORDED).with_suffix("")))
     return [runs[k] for k in sorted(runs)]
 

@@ -14,11 +14,10 @@ from __future__ import annotations
 
 import json
 from collections import Counter
-from pathlib import Path
 from typing import Any
 
 import benchlib
-from bench_move_search import RECORDED, every_room
+from bench_move_search import RECORDED, every_room, room_of
 
 #: The counts summed per room, as each run's JSON names them (``None`` or absent counts 0).
 COUNTS = (
@@ -38,11 +37,6 @@ COUNTS = (
 def scored(recorded: dict[str, Any]) -> bool:
     """Whether a recorded run was scored against the physical oracle."""
     return "oracle_saveable" in recorded
-
-
-def room_of(recorded: dict[str, Any]) -> str:
-    """The room a run ran: its scenario file's stem."""
-    return Path(str(recorded.get("scenario_file", recorded.get("scenario")))).stem
 
 
 def by_room(runs: list[str]) -> dict[str, Counter[str]]:
