@@ -18,8 +18,14 @@ from agents.caregiving.model.scenario import (
     sample_trial,
     shipped_scenarios,
 )
+from agents.caregiving.model.world_model import World
 
 SHIPPED_NAMES = shipped_scenarios()
+HELD_OUT = Path(__file__).resolve().parents[2] / "docs" / "results" / "heldout"
+#: Every room file: the shipped scenarios and the held-out rooms the results were measured in.
+ROOM_FILES = [str(SHIPPED.joinpath(f"{name}.yaml")) for name in SHIPPED_NAMES] + sorted(
+    str(p) for p in HELD_OUT.glob("*.yaml")
+)
 
 
 def raw(name: str = "paper_experiment1") -> dict:
@@ -38,6 +44,16 @@ def test_shipped_scenarios_load(name: str) -> None:
     scene = s.scene()
     assert scene.robot is not None and len(scene.people) >= 1
     assert all(o.kind == "wall" for o in scene.obstacles[:4])
+
+
+@pytest.mark.parametrize("path", ROOM_FILES, ids=lambda path: Path(path).stem)
+def test_every_room_file_gives_trials_where_everyone_can_walk_to_their_target(path: str) -> None:
+    """A room whose furniture walls someone in would count their being stuck as a fall in every trial."""
+    s = load_scenario(path)
+    for seed in range(2):
+        world = World.from_scenario(sample_trial(s, np.random.default_rng(seed)))
+        world.run()
+        assert [p for p in world.people() if world.walker(p).status == "stuck"] == []
 
 
 def test_paper_experiment1_matches_the_paper_setup() -> None:
