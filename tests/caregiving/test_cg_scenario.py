@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from recorded_cases import HELD_OUT
 
 from agents.caregiving.model.errors import ScenarioError
 from agents.caregiving.model.geometry import shapes_overlap
@@ -21,7 +22,6 @@ from agents.caregiving.model.scenario import (
 from agents.caregiving.model.world_model import World
 
 SHIPPED_NAMES = shipped_scenarios()
-HELD_OUT = Path(__file__).resolve().parents[2] / "docs" / "results" / "heldout"
 #: Every room file: the shipped scenarios and the held-out rooms the results were measured in.
 ROOM_FILES = [str(SHIPPED.joinpath(f"{name}.yaml")) for name in SHIPPED_NAMES] + sorted(
     str(p) for p in HELD_OUT.glob("*.yaml")

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from recorded_cases import HELD_OUT
 
 from agents.caregiving.model.joint import imagine_joint
 from agents.caregiving.model.robot_moves import RobotMove, standoff_moves, travel_time
@@ -16,7 +17,6 @@ from agents.caregiving.model.world_model import Passing, Walk, World, _Walker, r
 from bridges.world.bridge import trial_for
 
 STACK_SCENARIOS = Path(__file__).parents[1] / "caregiving_stack" / "scenarios"
-HELD_OUT = Path(__file__).resolve().parents[2] / "docs" / "results" / "heldout"
 
 
 def test_paper_default_person_does_not_see_the_ball_and_collides() -> None:
