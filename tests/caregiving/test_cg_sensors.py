@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from recorded_cases import HELD_OUT
 
-from agents.caregiving.model.geometry import segment_crosses_box
+from agents.caregiving.model.geometry import segment_exits
 from agents.caregiving.model.scenario import load_scenario
 from agents.caregiving.model.world_model import World
 from bridges.world.sensors import LYING_HEIGHT, Sensors
@@ -107,7 +107,7 @@ def test_with_occlusion_a_wall_hides_what_lies_behind_it_from_the_robot() -> Non
     scene = track.scene()
     robot, hidden = scene.robot, scene.person("ben")
     assert robot is not None and any(
-        segment_crosses_box(w.shape, (robot.x, robot.y), (hidden.x, hidden.y)) for w in walls
+        not np.isnan(segment_exits(w.shape, (robot.x, robot.y), [(hidden.x, hidden.y)])[0]) for w in walls
     ), "Ben is behind the partition until then"
     unhidden = replace(s.sensors, occlusion=False)
     assert (

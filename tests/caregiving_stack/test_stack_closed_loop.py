@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 from stack_helpers import run_trial, stack  # noqa: F401 - the fixture
@@ -10,6 +11,7 @@ from stack_helpers import run_trial, stack  # noqa: F401 - the fixture
 from agents.caregiving.model.scenario import load_scenario
 from bridges.world.bridge import trial_for
 
+SCENARIOS = Path(__file__).parent / "scenarios"
 #: Trial 6 of seed 7: the ball is on the person's way, below their gaze, and the robot can get there in time.
 RISKY = ("paper_experiment1", 7, 6)
 
@@ -56,3 +58,13 @@ def test_robot_too_far_to_help_sends_nothing_and_makes_nothing_worse(stack) -> N
     assert r.risky is not None and r.risky["risky"] is True
     assert r.action is None and r.outcome["commands"] == []
     assert [c["obstacle"] for c in r.outcome["collisions"]] == ["ball"]
+
+
+def test_someone_behind_a_wardrobe_comes_into_w_only_as_they_step_out_and_is_flagged_after(stack) -> None:  # noqa: F811
+    """The sensors ride on the robot: the resident, hidden behind a tall wardrobe at first, is written into W
+    from the first frame she is in the robot's line of sight, and her danger is flagged after that."""
+    scenario = str(SCENARIOS / "behind_the_wardrobe.yaml")
+    r = run_trial(stack, scenario)
+    assert r.person_seen_at is not None and r.person_seen_at > 1.0, f"seen at {r.person_seen_at}"
+    assert r.risky is not None and r.risky["at_time"] >= r.person_seen_at
+    assert [c["obstacle"] for c in r.outcome["collisions"]] == ["footstool"]

@@ -185,10 +185,11 @@ class Harness:
             if rec.risky is None:
                 rec.risky, rec.seen_risky_at = dict(edge.attrs), time.time()
                 rec.snapshot = snapshot(self.g, None)
-        elif event.type == PERSON and event.kind.value == "node_added" and rec.person_seen_at is None:
+        elif event.type == PERSON and rec.person_seen_at is None and event.kind.value in ("node_added", "node_updated"):
+            # The stamp is volatile: it may reach this replica after the node itself.
             node = self.g.find_node(event.id)  # type: ignore[arg-type]
-            if node is not None:
-                rec.person_seen_at = float(node.get("stamp", 0.0))
+            if node is not None and (stamp := node.get("stamp")) is not None:
+                rec.person_seen_at = float(stamp)
         elif event.type == PERSON and event.kind.value == "node_updated" and event.id not in rec.fall_marks:
             node = self.g.find_node(event.id)  # type: ignore[arg-type]
             if node is not None and node.get("fallen"):

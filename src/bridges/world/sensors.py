@@ -7,9 +7,12 @@ people), is dropped with probability ``dropout``, and becomes available
 misjudged by a factor drawn once per object, uniform within +/- ``size_error``:
 shape error is a bias the robot lives with, not noise that averages away. A
 person who has fallen lies on the floor and is seen :data:`LYING_HEIGHT` high.
-With ``occlusion: true`` the sensors ride on the robot, and whatever a wall stands
-between it and the robot is not detected: someone comes into W only as they step
-out from behind it. With ``enabled: false`` the detections are exact and immediate
+With ``occlusion: true`` the sensors ride on the robot, at its top, and detect only
+what is in their line of sight (:mod:`bridges.world.line_of_sight`): a wall hides
+whatever lies behind it, and furniture and people hide what is lower than the line
+passing over them, so someone comes into W only as they step out from behind a
+partition or a wardrobe, and a toy on the floor behind a bed only once the robot
+sees over it. With ``enabled: false`` the detections are exact and immediate
 (occlusion still applies).
 """
 
@@ -17,14 +20,16 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from agents.caregiving.model.geometry import Box, Circle, Shape, segment_crosses_box
+from agents.caregiving.model.geometry import Box, Circle, Shape
 from agents.caregiving.model.scenario import SensorSpec
-from agents.caregiving.model.scene import PERSON_KIND, Scene
+from agents.caregiving.model.scene import PERSON_KIND, Obstacle, Scene
 from agents.caregiving.model.visibility import WALL_KIND
+
+from .line_of_sight import in_view
 
 #: Metres: how high a person who has fallen is seen (a body lying on the floor).
 LYING_HEIGHT = 0.3
@@ -89,8 +94,10 @@ class Sensors:
             )
             for p in scene.people
         ]
-        if self.spec.occlusion:
-            dets = [d for d in dets if not _behind_a_wall(scene, d.shape)]
+        if self.spec.occlusion and scene.robot is not None:
+            robot = scene.robot
+            seen = in_view((robot.x, robot.y, robot.height), _bodies(scene, fallen))
+            dets = [d for d in dets if d.name in seen]
         if not self.spec.enabled:
             return dets
         return [self._noisy(d) for d in dets if self._rng.uniform() >= self.spec.dropout]
@@ -113,13 +120,9 @@ class Sensors:
         return Detection(d.stamp, d.name, d.kind, shape, d.heading, d.height * scale, d.target)
 
 
-def _behind_a_wall(scene: Scene, shape: Shape) -> bool:
-    """Whether a wall stands between the robot and the centre of ``shape``."""
-    robot = scene.robot
-    if robot is None:
-        return False
-    return any(
-        isinstance(o.shape, Box) and segment_crosses_box(o.shape, (robot.x, robot.y), (shape.x, shape.y))
-        for o in scene.obstacles
-        if o.kind == WALL_KIND
-    )
+def _bodies(scene: Scene, fallen: frozenset[str]) -> list[Obstacle]:
+    """Everything in the room but the robot, as the sensors' lines of sight meet it: the people ``fallen`` names
+    lying on the floor."""
+    people = [p.body() for p in scene.people]
+    lying = [replace(b, height=LYING_HEIGHT) if b.name in fallen else b for b in people]
+    return [*scene.obstacles, *lying]

@@ -196,20 +196,37 @@ def segment_fraction(a: Sequence[float], b: Sequence[float], x: float, y: float)
     return 0.0 if norm == 0.0 else min(max(((x - a[0]) * dx + (y - a[1]) * dy) / norm, 0.0), 1.0)
 
 
-def segment_crosses_box(box: Box, a: Sequence[float], b: Sequence[float]) -> bool:
-    """Whether the segment from ``a`` to ``b`` passes through ``box`` (touching its boundary counts)."""
-    (ax, ay), (bx, by) = _to_local(box, as_points([a, b]))
-    t0, t1 = 0.0, 1.0
-    for start, delta, half in ((ax, bx - ax, box.hx), (ay, by - ay, box.hy)):
-        if abs(delta) < 1e-12:
-            if abs(start) > half:
-                return False
-            continue
-        near, far = sorted(((-half - start) / delta, (half - start) / delta))
-        t0, t1 = max(t0, near), min(t1, far)
-        if t0 > t1:
-            return False
-    return True
+def segment_exits(shape: Shape, origin: Sequence[float], ends: ArrayLike) -> FloatArray:
+    """Where each segment from ``origin`` to a row of ``ends`` (an ``(N, 2)`` array) leaves ``shape`` for good, as a
+    fraction of its length from 0 to 1 (1: it ends inside); ``nan`` where it never touches it (touching its
+    boundary counts)."""
+    pts = as_points(ends)
+    if isinstance(shape, Circle):
+        d = pts - origin
+        f = np.asarray(origin, dtype=np.float64) - (shape.x, shape.y)
+        a = np.einsum("ij,ij->i", d, d)
+        b = 2.0 * (d @ f)
+        c = float(f @ f) - shape.r * shape.r
+        disc = b * b - 4.0 * a * c
+        with np.errstate(divide="ignore", invalid="ignore"):
+            root = np.sqrt(np.maximum(disc, 0.0))
+            enter, leave = (-b - root) / (2.0 * a), (-b + root) / (2.0 * a)
+        still = a == 0.0  # a segment of no length is inside or not, where it stands
+        enter, leave = np.where(still, 0.0, enter), np.where(still, 1.0, leave)
+        hits = np.where(still, c <= 0.0, (disc >= 0.0) & (leave >= 0.0) & (enter <= 1.0))
+        return np.where(hits, np.clip(leave, 0.0, 1.0), np.nan)
+    start = _to_local(shape, as_points(origin))[0]
+    delta = _to_local(shape, pts) - start
+    half = np.array([shape.hx, shape.hy])
+    still = np.abs(delta) < 1e-12  # parallel to a side: inside that slab all along, or never
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lo, hi = (-half - start) / delta, (half - start) / delta
+    in_slab = np.abs(start) <= half
+    near = np.where(still, np.where(in_slab, -np.inf, np.inf), np.minimum(lo, hi))
+    far = np.where(still, np.where(in_slab, np.inf, -np.inf), np.maximum(lo, hi))
+    enter = np.maximum(near.max(axis=1), 0.0)
+    leave = np.minimum(far.min(axis=1), 1.0)
+    return np.where(enter <= leave, leave, np.nan)
 
 
 def polyline_distance(points: FloatArray, x: float, y: float) -> float:

@@ -152,8 +152,8 @@ class RobotSpec:
 
 @dataclass(frozen=True)
 class SensorSpec:
-    """Detection noise: rate, position sigma, size error fraction, drop-out rate, latency; and whether walls hide
-    what lies behind them from the robot (``occlusion``)."""
+    """Detection noise: rate, position sigma, size error fraction, drop-out rate, latency; and whether the sensors
+    ride on the robot and see only what is in their line of sight (``occlusion``)."""
 
     enabled: bool
     rate_hz: float
