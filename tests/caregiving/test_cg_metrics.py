@@ -6,7 +6,7 @@ import pytest
 from outcomes import fall
 
 from bridges.experiment.experiment import Scored, metrics, pipeline_delay, prevention_line
-from bridges.experiment.fallers import Mark
+from bridges.experiment.fallers import Faller, Mark
 from bridges.experiment.falls_seen import falls_seen
 from bridges.experiment.trials import TrialRecord
 
@@ -155,3 +155,15 @@ def test_each_person_marked_fallen_is_answered_with_an_alert_and_the_robot_sent_
     m = metrics([Scored(record, NOBODY)])
     assert (m["fall_marks"], m["falls_alerted"], m["fallen_gone_to"]) == (2, 2, 1)
     assert m["alert_after_mark_s_max"] == pytest.approx(0.1)
+
+
+def test_a_fall_in_a_trial_discarded_for_want_of_any_intention_counts_as_never_flagged() -> None:
+    """Trial 0 has no intention at all (the person came into view too late): Table I's figures leave it out, as
+    the paper does, but the person who fell there counts against the recall by person and is shown apart."""
+    unseen = Scored(TrialRecord(0, intentions=0), FELL, falls=(Faller("p", 3.0, None, True),))
+    flagged = Scored(
+        TrialRecord(1, intentions=1, risky={"probability": 1.0}), FELL, falls=(Faller("p", 4.0, 2.5, True),)
+    )
+    m = metrics([unseen, flagged])
+    assert (m["discarded"], m["discarded_truly_risky"], m["valid"], m["recall"]) == (1, 1, 1, 1.0)
+    assert (m["people_at_risk"], m["person_recall"]) == (2, 0.5)

@@ -11,7 +11,9 @@ trials: accuracy, precision, recall, F1, F2 and the false-positive and
 false-negative rates (shares of valid trials, as the paper's Table I). A trial
 of several people can be predicted for a false alarm about one person while
 another falls unflagged, so each fall with the robot idle is also scored on its
-own (:mod:`bridges.experiment.fallers`): ``people_at_risk`` counts them,
+own (:mod:`bridges.experiment.fallers`), in every trial, a discarded one too
+(``discarded_truly_risky`` counts those: a person the sensors saw too late for
+any intention is a fall never flagged): ``people_at_risk`` counts them,
 ``person_recall`` is the share whose own risky intention was written at or
 before their fall, and ``flag_lead_s_p50`` and ``_min`` say how long before it;
 ``people_saved`` and ``person_prevention_rate`` count those who did not fall with
@@ -207,10 +209,11 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
     delay = pipeline_delay(scored)
     late = [s for s in risky if s.saveable_after_delay]
     saved_late = sum(not s.record.collided for s in late)
-    falls = [f for s in valid for f in s.falls]
+    # Every fall counts here, a trial discarded for want of any intention included: it is a fall never flagged.
+    falls = [f for s in scored for f in s.falls]
     leads = finite([f.lead for f in falls])
     saved = sum(not f.fell_acting for f in falls)
-    saveable_falls = [f for s in valid for f in s.falls if f.person in s.saveable_people]
+    saveable_falls = [f for s in scored for f in s.falls if f.person in s.saveable_people]
     saved_saveable = sum(not f.fell_acting for f in saveable_falls)
     seen = [s.seen for s in scored]
     alerted = answered(scored, ALERT)
@@ -218,6 +221,7 @@ def metrics(scored: list[Scored]) -> dict[str, Any]:
     return {
         "trials": len(scored),
         "discarded": len(scored) - len(valid),
+        "discarded_truly_risky": sum(s.truly_risky for s in scored if s.discarded),
         "valid": len(valid),
         "tp": tp,
         "fp": fp,
@@ -321,6 +325,7 @@ def _fmt(key: str, value: Any) -> str:
 ROWS = [
     ("Total experiments", "trials"),
     ("Experiments discarded", "discarded"),
+    ("... of them truly risky (a fall never flagged)", "discarded_truly_risky"),
     ("Valid experiments", "valid"),
     ("Accuracy rate", "accuracy"),
     ("False positives", "fp_rate"),
