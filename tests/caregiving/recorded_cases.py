@@ -17,6 +17,8 @@ from bridges.world.bridge import trial_for
 EXACT = Uncertainty(0.0, {}, 1)
 DELAY, JUDGING, THRESHOLD = 0.05, 0.02, 0.2
 HELD_OUT = Path(__file__).resolve().parents[2] / "docs" / "results" / "heldout"
+#: The scenario files of the multi-process stack tests.
+STACK_SCENARIOS = Path(__file__).resolve().parents[1] / "caregiving_stack" / "scenarios"
 
 
 def recorded_case(

@@ -19,7 +19,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
-from recorded_cases import HELD_OUT, JUDGING, THRESHOLD
+from recorded_cases import HELD_OUT, JUDGING, STACK_SCENARIOS, THRESHOLD
 
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import load_scenario
@@ -262,9 +262,7 @@ def test_someone_who_has_fallen_is_no_danger_any_more() -> None:
 def test_with_assist_the_robot_goes_to_someone_fallen_clear_of_whoever_walks_on(assist: bool) -> None:
     """Ana falls into the ball out of the robot's reach; Ben walks on for four seconds more. With the assist on, the
     first look that finds no danger sends the robot to her, and Ben walks on untouched."""
-    scenario = load_scenario(
-        Path(__file__).parents[1] / "caregiving_stack" / "scenarios" / "one_falls_one_walks_on.yaml"
-    )
+    scenario = load_scenario(STACK_SCENARIOS / "one_falls_one_walks_on.yaml")
     trial, planner = trial_for(scenario, 0, None), GridPlanner(scenario.scene().bounds)
     exact = Noise(0.0, 0.0, 0.0)
     setup = Setup(delay=0.05, judging=0.008, look=0.5, retry=0.5, first_look_only=False, noise=exact, assist=assist)

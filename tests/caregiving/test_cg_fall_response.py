@@ -3,6 +3,8 @@
 from dataclasses import replace
 from pathlib import Path
 
+from recorded_cases import STACK_SCENARIOS
+
 import wm
 from agents.caregiving.context import Context
 from agents.caregiving.fall_response import (
@@ -79,9 +81,7 @@ def test_a_risky_walk_keeps_the_robot_from_going_unless_it_is_of_someone_fallen(
 def test_a_move_to_someone_fallen_imagines_whoever_is_up_setting_off_though_nothing_is_guessed_of_them() -> None:
     """Two people: one lying there, one standing with no walk guessed (or tracked too briefly to tell). The spec
     a move to the fallen is judged with imagines the one standing on the walks ahead of them, not standing still."""
-    g, ctx = w(
-        Path(__file__).parents[1] / "caregiving_stack" / "scenarios" / "one_falls_one_walks_on.yaml", frozenset({"ana"})
-    )
+    g, ctx = w(STACK_SCENARIOS / "one_falls_one_walks_on.yaml", frozenset({"ana"}))
     spec = going_spec(g, ctx)
     assert spec.dangers == () and spec.bystanders and {w.person for w in spec.bystanders} == {"ben"}
     assert {w.target for w in spec.bystanders} <= {o.name for o in ctx.scene.obstacles if o.target}

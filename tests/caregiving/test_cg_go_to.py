@@ -3,9 +3,9 @@
 import math
 from dataclasses import replace
 from functools import partial
-from pathlib import Path
 
 import pytest
+from recorded_cases import STACK_SCENARIOS
 
 from agents.caregiving.model.errors import RequestError
 from agents.caregiving.model.geometry import point_distance
@@ -21,7 +21,6 @@ from agents.caregiving.model.uncertainty import Uncertainty
 from agents.caregiving.model.verdict import SearchResult
 from agents.caregiving.model.world_model import Walk
 
-STACK_SCENARIOS = Path(__file__).parents[1] / "caregiving_stack" / "scenarios"
 EXACT = Uncertainty(0.0, {}, 1)
 BEN = Walk("ben", "couch", math.radians(8))
 

@@ -2,11 +2,10 @@
 
 import math
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
-from recorded_cases import HELD_OUT
+from recorded_cases import HELD_OUT, STACK_SCENARIOS
 
 from agents.caregiving.model.joint import imagine_joint
 from agents.caregiving.model.robot_moves import RobotMove, standoff_moves, travel_time
@@ -15,8 +14,6 @@ from agents.caregiving.model.scene import Obstacle
 from agents.caregiving.model.visibility import can_see
 from agents.caregiving.model.world_model import Passing, Walk, World, _Walker, run_idle
 from bridges.world.bridge import trial_for
-
-STACK_SCENARIOS = Path(__file__).parents[1] / "caregiving_stack" / "scenarios"
 
 
 def test_paper_default_person_does_not_see_the_ball_and_collides() -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
@@ -11,6 +12,8 @@ from bridges.experiment.launch import Stack
 from bridges.experiment.trials import TrialRecord, open_harness
 
 GRAPH = "stacktest"
+#: The scenario files the stack tests run.
+SCENARIOS = Path(__file__).parent / "scenarios"
 
 
 @pytest.fixture(scope="module")

@@ -11,10 +11,9 @@ at the first, and the robot sends it and saves her.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
-from stack_helpers import recording_stack, run_trial
+from stack_helpers import SCENARIOS, recording_stack, run_trial
 
 from agents.caregiving.model.planner import GridPlanner
 from agents.caregiving.model.scenario import load_scenario
@@ -22,7 +21,7 @@ from agents.caregiving.model.world_model import run_idle
 from bridges.experiment.launch import Stack
 from bridges.world.bridge import trial_for
 
-SCENARIO = str(Path(__file__).parent / "scenarios" / "cafe_tables_exact.yaml")
+SCENARIO = str(SCENARIOS / "cafe_tables_exact.yaml")
 SEED, INDEX = 90210, 0
 
 

@@ -3,15 +3,13 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import pytest
-from stack_helpers import run_trial, stack  # noqa: F401 - the fixture
+from stack_helpers import SCENARIOS, run_trial, stack  # noqa: F401 - the fixture
 
 from agents.caregiving.model.scenario import load_scenario
 from bridges.world.bridge import trial_for
 
-SCENARIOS = Path(__file__).parent / "scenarios"
 #: Trial 6 of seed 7: the ball is on the person's way, below their gaze, and the robot can get there in time.
 RISKY = ("paper_experiment1", 7, 6)
 

@@ -14,11 +14,10 @@ import asyncio
 import math
 import time
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import pytest
-from stack_helpers import GRAPH, recording_stack, run_trial
+from stack_helpers import GRAPH, SCENARIOS, recording_stack, run_trial
 
 from agents.caregiving.model.move_search import SearchItem
 from agents.caregiving.model.planner import GridPlanner
@@ -35,7 +34,6 @@ from bridges.experiment.trials import TrialRecord, open_harness
 from bridges.world.bridge import trial_for
 from wm import Event, Graph, Node
 
-SCENARIOS = Path(__file__).parent / "scenarios"
 SCENARIO = str(SCENARIOS / "box_obstacle_exact.yaml")
 SEED, SAVEABLE, UNSAVEABLE = 7, 25, (42,)
 ALGORITHM_1_PERIOD = 0.1  # simulated seconds between Algorithm 1's passes at most (the intention agent's --period)
